@@ -1,0 +1,1 @@
+"""Ground-control side of gcs: command line, MAVLink links, fleet monitoring, MQTT, logging."""

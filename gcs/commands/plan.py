@@ -1,0 +1,99 @@
+"""`gcs plan`: run the closed search (DTSCS) and write the plan."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from tqdm import tqdm
+
+from gcs.atomic import write_json_atomic
+from gcs.errors import UserError
+from gcs.plan_file import plan_to_dict
+from planner.dtscs import RETURN_PLANNERS, ClosedSearch, MissionConfig
+from planner.environment import Sensor
+from planner.motion import constraint_by_name
+from planner.plan import Plan
+from planner.scenario import SCENARIOS, Scenario
+from planner.search import STRATEGIES
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("plan", help="plan closed search trajectories for every UAV",
+                       formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
+    p.add_argument("--scenario", default="paper", help=f"built-in scenario ({', '.join(SCENARIOS)})")
+    p.add_argument("--seed", type=int, default=0, help="seed for targets, sensor draws and optimisers")
+    p.add_argument("--np", dest="np_steps", type=int, default=5, help="Np, steps of look-ahead (Definition 4)")
+    p.add_argument("--oc", default="3", help="orientation constraint: 3, 4, 5 or 8")
+    p.add_argument("--range", dest="range_steps", type=int, default=130, help="range T_i of every UAV, in steps")
+    p.add_argument("--strategy", default="exhaustive", help=f"search strategy ({', '.join(sorted(STRATEGIES))})")
+    p.add_argument("--return", dest="return_planner", default="exact", help=f"return planner ({', '.join(RETURN_PLANNERS)})")
+    p.add_argument("--reserve", type=int, default=0, help="steps of range kept in reserve by every range check")
+    p.add_argument("--range-aware-search", action="store_true",
+                   help="prune search moves by range (eq. 8) instead of the paper's switch (Algorithm 3)")
+    p.add_argument("--pc", type=float, default=0.9, help="sensor detection probability")
+    p.add_argument("--pf", type=float, default=0.1, help="sensor false-alarm rate")
+    p.add_argument("--footprint", type=int, default=0, help="sensor footprint radius in cells (0: the cell below)")
+    p.add_argument("--out", default="runs/plan.json", help="plan JSON file, or a folder to hold plan.json")
+    p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    p.set_defaults(func=run)
+
+
+def plan_path(out: str) -> Path:
+    path = Path(out)
+    return path if path.suffix == ".json" else path / "plan.json"
+
+
+def build_search(args: argparse.Namespace) -> ClosedSearch:
+    """Scenario, configuration and search from the arguments; bad values raise UserError."""
+    if args.scenario not in SCENARIOS:
+        raise UserError(f"unknown scenario {args.scenario!r} (choose from {', '.join(SCENARIOS)})")
+    try:
+        sensor = Sensor(args.pc, args.pf, args.footprint)
+        config = MissionConfig(np_steps=args.np_steps, oc=constraint_by_name(args.oc), strategy=args.strategy,
+                               return_planner=args.return_planner, reserve_steps=args.reserve,
+                               range_aware_search=args.range_aware_search)
+        if args.range_steps < 1:
+            raise ValueError(f"range must be at least 1 step, got {args.range_steps}")
+        scenario: Scenario = SCENARIOS[args.scenario](seed=args.seed, range_steps=args.range_steps, sensor=sensor)
+        return ClosedSearch(scenario, config, seed=args.seed)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def fly_with_progress(search: ClosedSearch, quiet: bool) -> Plan:
+    horizon = max(u.range_steps for u in search.uavs.values())
+    with tqdm(total=horizon, unit="step", desc="planning", disable=quiet or None, leave=False,
+              file=sys.stderr) as bar:
+        for record in search.run():
+            bar.update(1)
+            bar.set_postfix(found=sum(s is not None for s in search.found_step))
+    return search.plan()
+
+
+def summary_table(plan: Plan) -> str:
+    found_by: dict[int, int] = {}
+    for t in plan.targets:
+        if t.found_by is not None:
+            found_by[t.found_by] = found_by.get(t.found_by, 0) + 1
+    rows = [f"{'UAV':>3}  {'airport':>9}  {'search':>6}  {'return':>6}  {'range':>5}  {'eta':>6}  {'found':>5}  return reason"]
+    for u in plan.uavs:
+        airport = f"({u.airport[0] + 1},{u.airport[1] + 1})"
+        reason = u.return_reason.value if u.return_reason else "-"
+        rows.append(f"{u.uav_id:>3}  {airport:>9}  {u.search_steps:>6}  {u.return_steps:>6}  {u.range_steps:>5}  "
+                    f"{u.eta:>6.1%}  {found_by.get(u.uav_id, 0):>5}  {reason}")
+    rows.append(f"targets found {plan.targets_found}/{len(plan.targets)}, false alarms {plan.false_alarms}, "
+                f"mean eta {plan.mean_eta:.1%}")
+    return "\n".join(rows)
+
+
+def run(args: argparse.Namespace) -> int:
+    search = build_search(args)
+    plan = fly_with_progress(search, args.quiet)
+    out = plan_path(args.out)
+    write_json_atomic(out, plan_to_dict(plan, seed=args.seed))
+    if not args.quiet:
+        print(summary_table(plan))
+        print(f"plan written to {out}")
+    return 0

@@ -1,0 +1,369 @@
+"""The dynamic two-stage closed search (DTSCS) scheme of Section 5, Algorithm 3.
+
+Every UAV searches while one more search step still leaves it able to get home within its range
+(eq. 23, read as T_i1(k) + T_i2(k) <= T_i), and switches to the return stage at the last step
+that does (eq. 24). Return orders and range changes may arrive at any step.
+
+`ClosedSearch` is a step-by-step state machine: each `step()` returns a `StepRecord` that
+loggers and live front-ends read; `run()` flies to the end and returns the `Plan`."""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from planner.environment import sense
+from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
+from planner.plan import Plan, ReturnReason, Stage, TargetOutcome, TrajectoryPoint, UavPlan
+from planner.return_exact import UNREACHABLE, follow_table, return_table, space_time_return
+from planner.return_st import st_return
+from planner.reward import RewardWeights, airport_reward_map
+from planner.scenario import Scenario, UavSpec
+from planner.search import SearchStrategy, make_strategy
+from planner.search.problem import Decision, Searcher, StepProblem
+
+RETURN_PLANNERS = ("exact", "st")
+
+
+@dataclass(frozen=True)
+class MissionConfig:
+    """Settings of one closed search. `reserve_steps` is kept back from every range check.
+
+    The switch follows Algorithm 3: the strategy picks its best path, and when that path's first
+    step would leave the UAV unable to get home (eq. 24) the UAV returns now. With
+    `range_aware_search` the range check instead prunes candidates (eq. 8), so the UAV keeps
+    searching among the moves that still get it home and its return stage shrinks to the last
+    forced steps: more cells searched, but no distinct return leg."""
+
+    np_steps: int = 5
+    oc: OrientationConstraint = OC3
+    weights: RewardWeights = field(default_factory=RewardWeights)
+    strategy: str = "exhaustive"
+    return_planner: str = "exact"
+    reserve_steps: int = 0
+    range_aware_search: bool = False
+    st_tracker: str = "exhaustive"
+
+    def __post_init__(self) -> None:
+        if self.np_steps < 1:
+            raise ValueError(f"Np must be at least 1, got {self.np_steps}")
+        if self.np_steps > 12:
+            raise ValueError(f"Np above 12 is not supported (got {self.np_steps})")
+        if self.return_planner not in RETURN_PLANNERS:
+            raise ValueError(f"unknown return planner {self.return_planner!r} (choose from exact, st)")
+        if self.reserve_steps < 0:
+            raise ValueError("reserve steps must be >= 0")
+
+
+@dataclass(frozen=True)
+class RangeStatus:
+    """The return trigger's inputs for one UAV after a step (all in steps)."""
+
+    range_left: int
+    return_cost: int
+    margin: int
+
+
+@dataclass
+class ReturnEvent:
+    uav_id: int
+    step: int
+    reason: ReturnReason
+    return_steps: int
+    conflict: bool
+
+
+@dataclass
+class StepRecord:
+    """What happened in one step. `tep` and `eu` are the live maps: copy them to keep them."""
+
+    step: int
+    poses: dict[int, tuple[int, int, int, Stage]]
+    decisions: dict[int, Decision]
+    returns: list[ReturnEvent]
+    reports: np.ndarray
+    found: list[tuple[int, int]]
+    ranges: dict[int, RangeStatus]
+    tep: np.ndarray
+    eu: np.ndarray
+
+
+@dataclass
+class _Uav:
+    spec: UavSpec
+    table: np.ndarray
+    x: int
+    y: int
+    heading: int
+    range_steps: int
+    stage: Stage = Stage.SEARCH
+    search_steps: int = 0
+    return_steps: int = 0
+    return_reason: ReturnReason | None = None
+    return_step: int | None = None
+    return_plan: deque = field(default_factory=deque)
+    predicted: np.ndarray | None = None
+    tracking_efficiency: float | None = None
+    return_conflict: bool = False
+    trajectory: list[TrajectoryPoint] = field(default_factory=list)
+
+    @property
+    def steps_flown(self) -> int:
+        return self.search_steps + self.return_steps
+
+    @property
+    def home_cost(self) -> int:
+        return int(self.table[self.heading, self.x, self.y])
+
+
+def first_step_feasible(table: np.ndarray, successors: np.ndarray, blocked: np.ndarray, pose: tuple[int, int, int],
+                        steps_flown: int, range_steps: int) -> bool:
+    """Whether any next step keeps steps_flown + 1 + (steps home) within the range: eq. (23) at k+1."""
+    x, y, h = pose
+    nx, ny = blocked.shape
+    for g in successors[h]:
+        if g < 0:
+            break
+        qx, qy = x + HEADING_DX[g], y + HEADING_DY[g]
+        if 0 <= qx < nx and 0 <= qy < ny and not blocked[qx, qy]:
+            if steps_flown + 1 + table[g, qx, qy] <= range_steps:
+                return True
+    return False
+
+
+class ClosedSearch:
+    """The DTSCS scheme flown step by step over a scenario (Algorithm 3)."""
+
+    def __init__(self, scenario: Scenario, config: MissionConfig | None = None, seed: int = 0,
+                 strategy: SearchStrategy | None = None) -> None:
+        self.scenario = scenario
+        self.config = config or MissionConfig()
+        self.strategy = strategy or make_strategy(self.config.strategy)
+        self.map = scenario.search_map.copy()
+        self.successors = self.config.oc.successors
+        self.target_grid = scenario.target_grid()
+        airports = np.array([u.airport for u in scenario.uavs], dtype=np.int64)
+        self.fa_map = airport_reward_map(self.map.shape, airports)
+        self.weights = self.config.weights.as_array()
+        seeds = np.random.SeedSequence(seed).spawn(2)
+        self.sensor_rng = np.random.default_rng(seeds[0])
+        self.strategy_rng = np.random.default_rng(seeds[1])
+        self.step_index = 0
+        self.false_alarms = 0
+        self.found_step: list[int | None] = [None] * len(scenario.targets)
+        self.found_by: list[int | None] = [None] * len(scenario.targets)
+        self._orders: set[int] = set()
+        self.uavs: dict[int, _Uav] = {}
+        for spec in scenario.uavs:
+            table = return_table(self.map.no_fly, spec.airport, self.config.oc)
+            pose = (spec.airport[0], spec.airport[1], spec.heading)
+            if not first_step_feasible(table, self.successors, self.map.no_fly, pose, 0,
+                                       spec.range_steps - self.config.reserve_steps):
+                raise ValueError(f"UAV {spec.uav_id}: range {spec.range_steps} steps is too short to leave "
+                                 f"its airport ({spec.airport[0] + 1}, {spec.airport[1] + 1}) and come back "
+                                 f"under {self.config.oc.name}")
+            uav = _Uav(spec, table, spec.airport[0], spec.airport[1], spec.heading, spec.range_steps)
+            uav.trajectory.append(TrajectoryPoint(0, uav.x, uav.y, uav.heading, Stage.SEARCH))
+            self.uavs[spec.uav_id] = uav
+
+    @property
+    def done(self) -> bool:
+        return all(u.stage is Stage.LANDED for u in self.uavs.values())
+
+    def order_return(self, uav_id: int) -> None:
+        """A return order: the UAV turns home at the next step."""
+        self._uav(uav_id)
+        self._orders.add(uav_id)
+
+    def set_range(self, uav_id: int, range_steps: int) -> None:
+        """Change a UAV's range T_i mid-task; a cut below what the way home needs sends it home."""
+        if range_steps < 1:
+            raise ValueError("range must be at least 1 step")
+        self._uav(uav_id).range_steps = int(range_steps)
+
+    def _uav(self, uav_id: int) -> _Uav:
+        if uav_id not in self.uavs:
+            raise ValueError(f"unknown UAV {uav_id}")
+        return self.uavs[uav_id]
+
+    def _future(self, uav: _Uav, start: int = 0) -> np.ndarray:
+        """A returning UAV's committed cells for the next Np steps."""
+        out = np.full((self.config.np_steps, 2), -1, dtype=np.int64)
+        for q, pose in enumerate(list(uav.return_plan)[start: start + self.config.np_steps]):
+            out[q] = pose[:2]
+        return out
+
+    def _reservations(self, exclude: int, first_steps: dict[int, tuple[int, int, int]]) -> dict[int, list[tuple[int, int]]]:
+        """Every other vehicle's known cells from the next step on (returns, and searchers'
+        decided next cells)."""
+        out: dict[int, list[tuple[int, int]]] = {}
+        for uid, u in self.uavs.items():
+            if uid == exclude or u.stage is Stage.LANDED:
+                continue
+            if u.stage is Stage.RETURN:
+                out[uid] = [(p[0], p[1]) for p in u.return_plan]
+            elif uid in first_steps:
+                out[uid] = [first_steps[uid][:2]]
+        return out
+
+    def _start_return(self, uav: _Uav, reason: ReturnReason, first_steps: dict[int, tuple[int, int, int]]) -> ReturnEvent:
+        k = self.step_index
+        reserved = self._reservations(uav.spec.uav_id, first_steps)
+        budget = uav.range_steps - uav.steps_flown
+        pose = (uav.x, uav.y, uav.heading)
+        path = None
+        if self.config.return_planner == "st":
+            st = st_return(self.map.no_fly, pose, uav.spec.airport, self.successors, uav.table, self.config.np_steps,
+                           budget, make_strategy(self.config.st_tracker).best_path, reserved, k)
+            if st is not None:
+                path = st.path
+                uav.tracking_efficiency = st.tracking_efficiency
+        if path is None:
+            flat = {(k + 1 + i, c[0], c[1]) for rows in reserved.values() for i, c in enumerate(rows)}
+            path = space_time_return(uav.table, pose, k, max(budget, uav.home_cost), self.successors,
+                                     self.map.no_fly, flat)
+        conflict = path is None
+        if path is None:
+            path = follow_table(uav.table, pose, self.successors, self.map.no_fly)
+        uav.stage = Stage.RETURN
+        uav.return_reason = reason
+        uav.return_step = k
+        uav.return_plan = deque(path)
+        uav.return_conflict = conflict
+        return ReturnEvent(uav.spec.uav_id, k, reason, len(path), conflict)
+
+    def _can_get_home_after(self, uav: _Uav, pose: tuple[int, int, int]) -> bool:
+        """Eq. (23) one step ahead: T_i1(k+1) + T_i2(k+1) <= T_i (less the reserve)."""
+        x, y, h = pose
+        return uav.steps_flown + 1 + int(uav.table[h, x, y]) <= uav.range_steps - self.config.reserve_steps
+
+    def _problem(self, searchers: list[_Uav]) -> StepProblem:
+        committed = {uid: self._future(u) for uid, u in self.uavs.items() if u.stage is Stage.RETURN}
+        predicted = {}
+        for u in searchers:
+            if u.predicted is not None:
+                predicted[u.spec.uav_id] = u.predicted
+        prune = self.config.range_aware_search
+        states = [Searcher(u.spec.uav_id, u.x, u.y, u.heading, u.steps_flown,
+                           u.range_steps - self.config.reserve_steps if prune else -1, u.table) for u in searchers]
+        return StepProblem(self.map.tep, self.map.eu, self.map.no_fly, self.fa_map, self.weights, self.successors,
+                           self.config.np_steps, states, committed, predicted)
+
+    def step(self) -> StepRecord:
+        """Fly every UAV one step (Algorithm 3, one iteration of k)."""
+        if self.done:
+            raise RuntimeError("the mission is over")
+        returns: list[ReturnEvent] = []
+        for uid, u in self.uavs.items():
+            if u.stage is not Stage.SEARCH:
+                continue
+            if uid in self._orders:
+                returns.append(self._start_return(u, ReturnReason.ORDER, {}))
+            elif u.steps_flown + u.home_cost > u.range_steps - self.config.reserve_steps:
+                returns.append(self._start_return(u, ReturnReason.RANGE_CUT, {}))
+        self._orders.clear()
+
+        searchers = [u for u in self.uavs.values() if u.stage is Stage.SEARCH]
+        decisions: dict[int, Decision] = {}
+        if searchers:
+            answers = self.strategy.decide(self._problem(searchers), self.strategy_rng)
+            first_steps = {uid: d.first_step() for uid, d in answers.items() if d is not None}
+            for u in searchers:
+                d = answers.get(u.spec.uav_id)
+                if d is not None and not self._can_get_home_after(u, d.first_step()):
+                    first_steps.pop(u.spec.uav_id, None)
+                    returns.append(self._start_return(u, ReturnReason.RANGE, first_steps))
+                elif d is None:
+                    feasible = first_step_feasible(u.table, self.successors, self.map.no_fly, (u.x, u.y, u.heading),
+                                                   u.steps_flown, u.range_steps - self.config.reserve_steps)
+                    reason = ReturnReason.BOXED_IN if feasible else ReturnReason.RANGE
+                    returns.append(self._start_return(u, reason, first_steps))
+                else:
+                    decisions[u.spec.uav_id] = d
+
+        self.step_index += 1
+        k = self.step_index
+        moved = []
+        for uid, u in self.uavs.items():
+            if u.stage is Stage.LANDED:
+                continue
+            if u.stage is Stage.SEARCH:
+                u.x, u.y, u.heading = decisions[uid].first_step()
+                u.search_steps += 1
+                rest = decisions[uid].path[1:, :2]
+                u.predicted = np.full((self.config.np_steps, 2), -1, dtype=np.int64)
+                u.predicted[: len(rest)] = rest
+            elif u.return_plan:
+                u.x, u.y, u.heading = u.return_plan.popleft()
+                u.return_steps += 1
+            else:
+                u.stage = Stage.LANDED
+                continue
+            moved.append((u.x, u.y))
+            u.trajectory.append(TrajectoryPoint(k, u.x, u.y, u.heading, u.stage))
+            if u.stage is Stage.RETURN and not u.return_plan:
+                u.stage = Stage.LANDED
+
+        reports = sense(self.map, self.target_grid, np.array(moved, dtype=np.int64).reshape(-1, 2),
+                        self.scenario.sensor, self.sensor_rng) if moved else np.zeros((0, 4), dtype=np.int64)
+        found = self._score_reports(reports, k)
+        ranges = {uid: RangeStatus(u.range_steps - u.steps_flown, u.home_cost,
+                                   u.range_steps - u.steps_flown - u.home_cost)
+                  for uid, u in self.uavs.items()}
+        poses = {uid: (u.x, u.y, u.heading, u.stage) for uid, u in self.uavs.items()}
+        return StepRecord(k, poses, decisions, returns, reports, found, ranges, self.map.tep, self.map.eu)
+
+    def _score_reports(self, reports: np.ndarray, k: int) -> list[tuple[int, int]]:
+        """Count false alarms and first finds; returns (target index, uav id) of new finds."""
+        positions = {(u.x, u.y): uid for uid, u in self.uavs.items() if u.trajectory[-1].step == k}
+        radius = self.scenario.sensor.footprint_radius
+        found = []
+        for x, y, reported, present in reports:
+            if not reported:
+                continue
+            if not present:
+                self.false_alarms += 1
+                continue
+            for i, (tx, ty) in enumerate(self.scenario.targets):
+                if (tx, ty) == (x, y) and self.found_step[i] is None:
+                    self.found_step[i] = k
+                    self.found_by[i] = self._observer(x, y, radius, positions)
+                    found.append((i, self.found_by[i]))
+        return found
+
+    @staticmethod
+    def _observer(x: int, y: int, radius: int, positions: dict[tuple[int, int], int]) -> int | None:
+        for (px, py), uid in positions.items():
+            if abs(px - x) <= radius and abs(py - y) <= radius:
+                return uid
+        return None
+
+    def run(self, max_steps: int | None = None):
+        """Yield every step's record until all UAVs have landed."""
+        limit = max_steps or (max(u.range_steps for u in self.uavs.values()) + 1)
+        while not self.done:
+            if self.step_index > limit:
+                raise RuntimeError("the mission did not end within the range")
+            yield self.step()
+
+    def plan(self) -> Plan:
+        """The closed trajectories and outcomes so far."""
+        uavs = [UavPlan(u.spec.uav_id, u.spec.airport, u.spec.heading, u.range_steps, list(u.trajectory),
+                        u.search_steps, u.return_steps, u.return_reason, u.return_step, u.tracking_efficiency,
+                        u.return_conflict) for u in self.uavs.values()]
+        targets = [TargetOutcome(int(x), int(y), self.found_step[i], self.found_by[i])
+                   for i, (x, y) in enumerate(self.scenario.targets)]
+        settings = {"np": self.config.np_steps, "oc": self.config.oc.name, "strategy": self.strategy.name,
+                    "return_planner": self.config.return_planner, "reserve_steps": self.config.reserve_steps}
+        return Plan(self.scenario.name, *self.map.shape, self.map.no_fly.copy(), uavs, targets, self.false_alarms,
+                    settings)
+
+
+def fly(scenario: Scenario, config: MissionConfig | None = None, seed: int = 0) -> Plan:
+    """Run the whole closed search and return the plan."""
+    search = ClosedSearch(scenario, config, seed)
+    for _ in search.run():
+        pass
+    return search.plan()

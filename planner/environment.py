@@ -1,0 +1,124 @@
+"""Environment model of Section 2.1: target existence probability (TEP), environmental
+uncertainty (EU), no-fly mask, the airborne sensor and its Bayesian map updates.
+
+Arrays are indexed [x, y] (x east, y north, 0-based)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.config import njit
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """Downward sensor: detection probability `pc`, false-alarm rate `pf`, and a square
+    footprint of `footprint_radius` cells around the vehicle's cell (0 = the cell only)."""
+
+    pc: float = 0.9
+    pf: float = 0.1
+    footprint_radius: int = 0
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.pf < self.pc <= 1.0):
+            raise ValueError(f"sensor needs 0 <= pf < pc <= 1, got pc={self.pc}, pf={self.pf}")
+        if self.footprint_radius < 0:
+            raise ValueError("sensor footprint radius must be >= 0")
+
+
+@dataclass
+class SearchMap:
+    """The shared probability map: TEP `tep`, EU `eu`, visit counts and the no-fly mask."""
+
+    tep: np.ndarray
+    eu: np.ndarray
+    no_fly: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.tep = np.ascontiguousarray(self.tep, dtype=np.float64)
+        self.eu = np.ascontiguousarray(self.eu, dtype=np.float64)
+        self.no_fly = np.ascontiguousarray(self.no_fly, dtype=np.bool_)
+        if not (self.tep.shape == self.eu.shape == self.no_fly.shape) or self.tep.ndim != 2:
+            raise ValueError("tep, eu and no_fly must be 2-D arrays of one shape")
+        if self.tep.min(initial=0) < 0 or self.tep.max(initial=0) > 1:
+            raise ValueError("tep must lie in [0, 1]")
+        if self.eu.min(initial=0) < 0 or self.eu.max(initial=0) > 1:
+            raise ValueError("eu must lie in [0, 1]")
+        self.visits = np.zeros(self.tep.shape, dtype=np.int64)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.tep.shape  # type: ignore[return-value]
+
+    def copy(self) -> "SearchMap":
+        out = SearchMap(self.tep.copy(), self.eu.copy(), self.no_fly.copy())
+        out.visits = self.visits.copy()
+        return out
+
+
+@njit
+def tep_after_report(p, pc, pf):
+    """Eq. (2): TEP after the sensor reported a target."""
+    return p * pc / ((pc - pf) * p + pf)
+
+
+@njit
+def tep_after_no_report(p, pc, pf):
+    """Eq. (3): TEP after the sensor reported nothing."""
+    return p * (1.0 - pc) / ((pf - pc) * p + 1.0 - pf)
+
+
+@njit
+def eu_after_visit(chi):
+    """Eq. (4) for one visit: each visit halves the EU, so after Nf visits chi = chi0 / 2^Nf."""
+    return 0.5 * chi
+
+
+@njit
+def _sense(tep, eu, visits, target_grid, cells, draws, radius, pc, pf, reports):
+    """Update the map for every observed cell of `cells` (k x 2) and record its report.
+
+    `draws` holds one uniform number per observed cell, in the same order, so a caller and a
+    reference implementation see the same randomness. `target_grid[x, y]` counts targets."""
+    nx, ny = tep.shape
+    n = 0
+    for i in range(cells.shape[0]):
+        cx = cells[i, 0]
+        cy = cells[i, 1]
+        for x in range(cx - radius, cx + radius + 1):
+            for y in range(cy - radius, cy + radius + 1):
+                if x < 0 or y < 0 or x >= nx or y >= ny:
+                    continue
+                present = target_grid[x, y] > 0
+                reported = draws[n] < (pc if present else pf)
+                reports[n, 0] = x
+                reports[n, 1] = y
+                reports[n, 2] = 1 if reported else 0
+                reports[n, 3] = 1 if present else 0
+                if reported:
+                    tep[x, y] = tep_after_report(tep[x, y], pc, pf)
+                else:
+                    tep[x, y] = tep_after_no_report(tep[x, y], pc, pf)
+                eu[x, y] = eu_after_visit(eu[x, y])
+                visits[x, y] += 1
+                n += 1
+    return n
+
+
+def footprint_size(radius: int) -> int:
+    return (2 * radius + 1) ** 2
+
+
+def sense(search_map: SearchMap, target_grid: np.ndarray, cells: np.ndarray, sensor: Sensor,
+          rng: np.random.Generator) -> np.ndarray:
+    """Observe `cells` (k x 2, one per vehicle), update the map in place and return the reports
+    as rows (x, y, reported, target_present)."""
+    cells = np.ascontiguousarray(cells, dtype=np.int64).reshape(-1, 2)
+    capacity = cells.shape[0] * footprint_size(sensor.footprint_radius)
+    draws = rng.random(capacity)
+    reports = np.zeros((capacity, 4), dtype=np.int64)
+    n = _sense(search_map.tep, search_map.eu, search_map.visits, target_grid, cells, draws,
+               sensor.footprint_radius, sensor.pc, sensor.pf, reports)
+    return reports[:n]

@@ -1,0 +1,162 @@
+"""Reward J1 of eq. (7)-(11) over Np-step-ahead predicted paths (Definition 4), with the
+constraints of eq. (8) pruning them.
+
+A candidate path is encoded as Np turn choices: choice c at step q takes heading
+`successors[h, c]` from the current heading h. Every optimiser (exhaustive, PIO, CPIO, PSO, GA,
+ST tracking) scores its paths with `score_paths`, so they share one fitness."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.config import njit
+
+SQRT2 = np.sqrt(2.0)
+COLLISION_PENALTY = -100.0
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """w1..w4 of eq. (7) (Table 1: 0.3, 0.3, 0.3, 0.1)."""
+
+    tep: float = 0.3
+    eu: float = 0.3
+    separation: float = 0.3
+    airport: float = 0.1
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.tep, self.eu, self.separation, self.airport], dtype=np.float64)
+
+
+def airport_reward_map(shape: tuple[int, int], airports: np.ndarray) -> np.ndarray:
+    """F_a of eq. (11) for every cell: exp(-1 / d_sum), d_sum = sum of distances to all airports."""
+    xs, ys = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
+    d_sum = np.zeros(shape)
+    for ax, ay in np.asarray(airports).reshape(-1, 2):
+        d_sum += np.hypot(xs - ax, ys - ay)
+    with np.errstate(divide="ignore"):
+        return np.where(d_sum > 0, np.exp(-1.0 / np.where(d_sum > 0, d_sum, 1.0)), 0.0)
+
+
+@njit
+def separation_reward(d_min):
+    """F_r of eq. (10)."""
+    if d_min <= 1.4142135623730951:
+        return -100.0
+    return np.exp(-1.0 / d_min)
+
+
+@njit
+def score_paths(choices, x0, y0, h0, successors, tep, eu, blocked, fa_map, others, others_hard,
+                weights, steps_flown, range_steps, home_table, tep_once, scores, depths, cells):
+    """Score every row of `choices` (n x Np turn choices) from pose (x0, y0, h0).
+
+    Writes `scores[i]` = J1 of the path's valid prefix, `depths[i]` = that prefix's length and
+    `cells[i, q]` = (x, y, heading) of step q+1. A path stops (eq. 8) where it leaves the grid,
+    enters a blocked cell or a pose with no way home at all (a dead end of the OC), or meets a vehicle whose path is hard (`others_hard`) on the same
+    cell at the same step; its first step must also leave the range feasible:
+    steps_flown + 1 + home_table[h1, x1, y1] <= range_steps (range_steps < 0 disables the check).
+    `others[j, q]` = (x, y) of vehicle j at step q+1, x < 0 where unknown.
+    EU term: the reduction chi/2 of a visit, halved again for each earlier visit on the same path.
+    With `tep_once`, a cell's TEP counts only at its first visit on the path (ST tracking)."""
+    n, np_steps = choices.shape
+    nx, ny = tep.shape
+    n_others = others.shape[0]
+    w1 = weights[0]
+    w2 = weights[1]
+    w3 = weights[2]
+    w4 = weights[3]
+    for i in range(n):
+        x = x0
+        y = y0
+        h = h0
+        total = 0.0
+        depth = 0
+        for q in range(np_steps):
+            c = choices[i, q]
+            if c < 0 or c >= successors.shape[1]:
+                break
+            g = successors[h, c]
+            if g < 0:
+                break
+            if g == 0:
+                qx = x; qy = y + 1
+            elif g == 1:
+                qx = x + 1; qy = y + 1
+            elif g == 2:
+                qx = x + 1; qy = y
+            elif g == 3:
+                qx = x + 1; qy = y - 1
+            elif g == 4:
+                qx = x; qy = y - 1
+            elif g == 5:
+                qx = x - 1; qy = y - 1
+            elif g == 6:
+                qx = x - 1; qy = y
+            else:
+                qx = x - 1; qy = y + 1
+            if qx < 0 or qy < 0 or qx >= nx or qy >= ny or blocked[qx, qy]:
+                break
+            if home_table[g, qx, qy] >= 1073741824:
+                break
+            if q == 0 and range_steps >= 0:
+                if steps_flown + 1 + home_table[g, qx, qy] > range_steps:
+                    break
+            d_min = 1e300
+            clash = False
+            for j in range(n_others):
+                ox = others[j, q, 0]
+                if ox < 0:
+                    continue
+                oy = others[j, q, 1]
+                if ox == qx and oy == qy and others_hard[j]:
+                    clash = True
+                    break
+                d = np.sqrt((ox - qx) ** 2 + (oy - qy) ** 2)
+                if d < d_min:
+                    d_min = d
+            if clash:
+                break
+            earlier = 0
+            for r in range(q):
+                if cells[i, r, 0] == qx and cells[i, r, 1] == qy:
+                    earlier += 1
+            chi = eu[qx, qy] / (2.0 ** earlier)
+            p = tep[qx, qy]
+            if tep_once and earlier > 0:
+                p = 0.0
+            total += w1 * p + w2 * 0.5 * chi + w4 * fa_map[qx, qy]
+            if n_others > 0 and d_min < 1e299:
+                total += w3 * separation_reward(d_min)
+            elif w3 != 0.0:
+                total += w3
+            cells[i, q, 0] = qx
+            cells[i, q, 1] = qy
+            cells[i, q, 2] = g
+            x = qx
+            y = qy
+            h = g
+            depth += 1
+        scores[i] = total
+        depths[i] = depth
+    return 0
+
+
+@njit
+def best_two(scores, depths):
+    """Indices of the best and runner-up paths: the deepest valid prefix first, then the highest
+    score (ties to the lower index, so results do not depend on anything but the inputs).
+    -1 where there is none (depth 0 paths are not candidates)."""
+    best = -1
+    second = -1
+    for i in range(scores.shape[0]):
+        if depths[i] == 0:
+            continue
+        if best < 0 or depths[i] > depths[best] or (depths[i] == depths[best] and scores[i] > scores[best]):
+            second = best
+            best = i
+        elif second < 0 or depths[i] > depths[second] or (depths[i] == depths[second] and scores[i] > scores[second]):
+            second = i
+    return best, second
