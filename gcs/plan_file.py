@@ -1,6 +1,8 @@
 """The plan JSON file: the planner's `Plan` with the paper's 1-based cell numbers.
 
-The schema is `gcs/schemas/plan.schema.json`; `plan_to_dict` output always validates."""
+The schema is `gcs/schemas/plan.schema.json`; `plan_to_dict` output always validates. Plans made
+from an area file (`gcs plan --area`) also carry the grid's geo-reference (`grid.georef`), the
+latitude/longitude of every trajectory step's cell centre, and each UAV's mission waypoints."""
 
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ from importlib import resources
 import jsonschema
 import numpy as np
 
+from planner.area_grid import AreaGrid
 from planner.plan import Plan
 
 SCHEMA_VERSION = 1
@@ -21,9 +24,40 @@ def plan_schema() -> dict:
     return json.loads(resources.files("gcs").joinpath("schemas/plan.schema.json").read_text())
 
 
-def plan_to_dict(plan: Plan, seed: int | None = None) -> dict:
-    """The JSON form of a plan (cells 1-based, x east, y north)."""
+def georef_dict(area: AreaGrid) -> dict:
+    """Where the grid lies on the Earth: cell (x, y) (1-based) has its centre at local
+    (east0 + (x - 0.5) * cell, north0 + (y - 0.5) * cell) metres in `projection`."""
+    return {
+        "crs": "EPSG:4326",
+        "projection": area.frame.proj_string,
+        "origin": {"lat": area.frame.lat0_deg, "lon": area.frame.lon0_deg},
+        "cell_size_m": area.grid.cell_size_m,
+        "east0_m": area.grid.east0_m,
+        "north0_m": area.grid.north0_m,
+        "margin_m": area.margin_m,
+        "edge_blocked_cells": area.edge_blocked,
+    }
+
+
+def plan_to_dict(plan: Plan, seed: int | None = None, area: AreaGrid | None = None,
+                 uav_extra: dict[int, dict] | None = None) -> dict:
+    """The JSON form of a plan (cells 1-based, x east, y north). With `area`, the grid's
+    geo-reference and every step's lat/lon are added; `uav_extra[uav_id]` adds members to a UAV."""
     no_fly = [[int(x) + 1, int(y) + 1] for x, y in np.argwhere(plan.no_fly)]
+    data = _core_dict(plan, seed, no_fly)
+    if area is not None:
+        data["grid"]["georef"] = georef_dict(area)
+        for uav, u in zip(data["uavs"], plan.uavs):
+            latlon = area.cells_lonlat(np.array([(p.x, p.y) for p in u.trajectory]))
+            for point, (lat, lon) in zip(uav["trajectory"], latlon):
+                point["lat"] = round(float(lat), 9)
+                point["lon"] = round(float(lon), 9)
+    for uav in data["uavs"]:
+        uav.update((uav_extra or {}).get(uav["id"], {}))
+    return data
+
+
+def _core_dict(plan: Plan, seed: int | None, no_fly: list[list[int]]) -> dict:
     return {
         "schema_version": SCHEMA_VERSION,
         "scenario": plan.scenario,

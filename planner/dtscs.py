@@ -9,6 +9,7 @@ loggers and live front-ends read; `run()` flies to the end and returns the `Plan
 
 from __future__ import annotations
 
+import itertools
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -44,7 +45,7 @@ class MissionConfig:
     return_planner: str = "exact"
     reserve_steps: int = 0
     range_aware_search: bool = False
-    st_tracker: str = "exhaustive"
+    st_tracker: str = "pio"
 
     def __post_init__(self) -> None:
         if self.np_steps < 1:
@@ -195,22 +196,14 @@ class ClosedSearch:
             out[q] = pose[:2]
         return out
 
-    def _reservations(self, exclude: int, first_steps: dict[int, tuple[int, int, int]]) -> dict[int, list[tuple[int, int]]]:
-        """Every other vehicle's known cells from the next step on (returns, and searchers'
-        decided next cells)."""
-        out: dict[int, list[tuple[int, int]]] = {}
-        for uid, u in self.uavs.items():
-            if uid == exclude or u.stage is Stage.LANDED:
-                continue
-            if u.stage is Stage.RETURN:
-                out[uid] = [(p[0], p[1]) for p in u.return_plan]
-            elif uid in first_steps:
-                out[uid] = [first_steps[uid][:2]]
-        return out
+    def _reservations(self, exclude: int) -> dict[int, list[tuple[int, int]]]:
+        """Every other returning vehicle's cells from the next step on."""
+        return {uid: [(p[0], p[1]) for p in u.return_plan] for uid, u in self.uavs.items()
+                if uid != exclude and u.stage is Stage.RETURN}
 
-    def _start_return(self, uav: _Uav, reason: ReturnReason, first_steps: dict[int, tuple[int, int, int]]) -> ReturnEvent:
+    def _start_return(self, uav: _Uav, reason: ReturnReason) -> ReturnEvent:
         k = self.step_index
-        reserved = self._reservations(uav.spec.uav_id, first_steps)
+        reserved = self._reservations(uav.spec.uav_id)
         budget = uav.range_steps - uav.steps_flown
         pose = (uav.x, uav.y, uav.heading)
         path = None
@@ -221,9 +214,10 @@ class ClosedSearch:
                 path = st.path
                 uav.tracking_efficiency = st.tracking_efficiency
         if path is None:
-            flat = {(k + 1 + i, c[0], c[1]) for rows in reserved.values() for i, c in enumerate(rows)}
             path = space_time_return(uav.table, pose, k, max(budget, uav.home_cost), self.successors,
-                                     self.map.no_fly, flat)
+                                     self.map.no_fly, self._reserved_cells(uav.spec.uav_id))
+        if path is None:
+            path = self._give_way_to(uav, pose, max(budget, uav.home_cost))
         conflict = path is None
         if path is None:
             path = follow_table(uav.table, pose, self.successors, self.map.no_fly)
@@ -234,10 +228,96 @@ class ClosedSearch:
         uav.return_conflict = conflict
         return ReturnEvent(uav.spec.uav_id, k, reason, len(path), conflict)
 
+    def _decide_searchers(self, returns: list[ReturnEvent]) -> dict[int, Decision]:
+        """The strategy's decisions for every searcher. A searcher whose best step would break
+        eq. (23), or that has no feasible step, turns home; its way home is planned against the
+        returns already committed, and the remaining searchers decide again around it, so a
+        UAV on its way home never has to give way."""
+        while True:
+            searchers = [u for u in self.uavs.values() if u.stage is Stage.SEARCH]
+            if not searchers:
+                return {}
+            answers = self.strategy.decide(self._problem(searchers), self.strategy_rng)
+            turning = []
+            for u in searchers:
+                d = answers.get(u.spec.uav_id)
+                if d is not None and self._can_get_home_after(u, d.first_step()):
+                    continue
+                if d is not None:
+                    turning.append((u, ReturnReason.RANGE))
+                elif first_step_feasible(u.table, self.successors, self.map.no_fly, (u.x, u.y, u.heading),
+                                         u.steps_flown, u.range_steps - self.config.reserve_steps):
+                    turning.append((u, ReturnReason.BOXED_IN))
+                else:
+                    turning.append((u, ReturnReason.RANGE))
+            if not turning:
+                return {uid: d for uid, d in answers.items() if d is not None}
+            returns.extend(self._start_returns(turning))
+
+    def _start_returns(self, turning: list[tuple[_Uav, ReturnReason]]) -> list[ReturnEvent]:
+        """Plan the ways home of UAVs turning at the same step, trying each order of planning
+        (prioritised planning) until one leaves no two of them in one cell at one step."""
+        saved = {uid: (u.stage, u.return_plan.copy(), u.return_reason, u.return_step, u.return_conflict,
+                       u.tracking_efficiency) for uid, u in self.uavs.items()}
+        orders = itertools.permutations(turning) if len(turning) <= 4 else [tuple(turning)]
+        first: list[ReturnEvent] | None = None
+        for order in orders:
+            events = [self._start_return(u, reason) for u, reason in order]
+            if not any(e.conflict for e in events):
+                return events
+            if first is None:
+                first = events
+                first_state = {uid: (u.stage, u.return_plan.copy(), u.return_reason, u.return_step,
+                                     u.return_conflict, u.tracking_efficiency) for uid, u in self.uavs.items()}
+            self._restore(saved)
+        self._restore(first_state)
+        return first
+
+    def _restore(self, state: dict) -> None:
+        for uid, (stage, plan, reason, step, conflict, phi) in state.items():
+            u = self.uavs[uid]
+            u.stage, u.return_plan, u.return_reason, u.return_step = stage, plan.copy(), reason, step
+            u.return_conflict, u.tracking_efficiency = conflict, phi
+
     def _can_get_home_after(self, uav: _Uav, pose: tuple[int, int, int]) -> bool:
-        """Eq. (23) one step ahead: T_i1(k+1) + T_i2(k+1) <= T_i (less the reserve)."""
+        """Eq. (23) one step ahead: T_i1(k+1) + T_i2(k+1) <= T_i (less the reserve), where the
+        way home from the next pose must also avoid the cells of UAVs already returning."""
         x, y, h = pose
-        return uav.steps_flown + 1 + int(uav.table[h, x, y]) <= uav.range_steps - self.config.reserve_steps
+        budget = uav.range_steps - self.config.reserve_steps - uav.steps_flown - 1
+        if int(uav.table[h, x, y]) > budget:
+            return False
+        reserved = self._reserved_cells(uav.spec.uav_id)
+        if not reserved:
+            return True
+        return space_time_return(uav.table, pose, self.step_index + 1, budget, self.successors, self.map.no_fly,
+                                 reserved) is not None
+
+    def _reserved_cells(self, exclude: int) -> set[tuple[int, int, int]]:
+        """(step, x, y) of every other returning UAV's remaining path."""
+        k = self.step_index
+        return {(k + 1 + i, c[0], c[1]) for rows in self._reservations(exclude).values() for i, c in enumerate(rows)}
+
+    def _give_way_to(self, uav: _Uav, pose: tuple[int, int, int], budget: int) -> list[tuple[int, int, int]] | None:
+        """When every way home is blocked by UAVs already returning, let one of them re-plan
+        around this UAV's shortest way home (prioritised planning with the order swapped)."""
+        k = self.step_index
+        path = follow_table(uav.table, pose, self.successors, self.map.no_fly)
+        mine = {(k + 1 + i, c[0], c[1]) for i, c in enumerate(path)}
+        for uid, other in self.uavs.items():
+            if uid == uav.spec.uav_id or other.stage is not Stage.RETURN or not other.return_plan:
+                continue
+            theirs = {(k + 1 + i, c[0], c[1]) for i, c in enumerate(other.return_plan)}
+            if not theirs & mine:
+                continue
+            rest = self._reserved_cells(uid) | mine
+            other_pose = (other.x, other.y, other.heading)
+            new = space_time_return(other.table, other_pose, k, other.range_steps - other.steps_flown,
+                                    self.successors, self.map.no_fly, rest - theirs)
+            if new is None:
+                return None
+            other.return_plan = deque(new)
+        clash = self._reserved_cells(uav.spec.uav_id) & mine
+        return None if clash else path
 
     def _problem(self, searchers: list[_Uav]) -> StepProblem:
         committed = {uid: self._future(u) for uid, u in self.uavs.items() if u.stage is Stage.RETURN}
@@ -260,28 +340,12 @@ class ClosedSearch:
             if u.stage is not Stage.SEARCH:
                 continue
             if uid in self._orders:
-                returns.append(self._start_return(u, ReturnReason.ORDER, {}))
+                returns.append(self._start_return(u, ReturnReason.ORDER))
             elif u.steps_flown + u.home_cost > u.range_steps - self.config.reserve_steps:
-                returns.append(self._start_return(u, ReturnReason.RANGE_CUT, {}))
+                returns.append(self._start_return(u, ReturnReason.RANGE_CUT))
         self._orders.clear()
 
-        searchers = [u for u in self.uavs.values() if u.stage is Stage.SEARCH]
-        decisions: dict[int, Decision] = {}
-        if searchers:
-            answers = self.strategy.decide(self._problem(searchers), self.strategy_rng)
-            first_steps = {uid: d.first_step() for uid, d in answers.items() if d is not None}
-            for u in searchers:
-                d = answers.get(u.spec.uav_id)
-                if d is not None and not self._can_get_home_after(u, d.first_step()):
-                    first_steps.pop(u.spec.uav_id, None)
-                    returns.append(self._start_return(u, ReturnReason.RANGE, first_steps))
-                elif d is None:
-                    feasible = first_step_feasible(u.table, self.successors, self.map.no_fly, (u.x, u.y, u.heading),
-                                                   u.steps_flown, u.range_steps - self.config.reserve_steps)
-                    reason = ReturnReason.BOXED_IN if feasible else ReturnReason.RANGE
-                    returns.append(self._start_return(u, reason, first_steps))
-                else:
-                    decisions[u.spec.uav_id] = d
+        decisions = self._decide_searchers(returns)
 
         self.step_index += 1
         k = self.step_index

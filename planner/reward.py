@@ -104,7 +104,7 @@ def score_paths(choices, x0, y0, h0, successors, tep, eu, blocked, fa_map, other
             if q == 0 and range_steps >= 0:
                 if steps_flown + 1 + home_table[g, qx, qy] > range_steps:
                     break
-            d_min = 1e300
+            d2_min = -1
             clash = False
             for j in range(n_others):
                 ox = others[j, q, 0]
@@ -114,23 +114,22 @@ def score_paths(choices, x0, y0, h0, successors, tep, eu, blocked, fa_map, other
                 if ox == qx and oy == qy and others_hard[j]:
                     clash = True
                     break
-                d = np.sqrt((ox - qx) ** 2 + (oy - qy) ** 2)
-                if d < d_min:
-                    d_min = d
+                d2 = (ox - qx) * (ox - qx) + (oy - qy) * (oy - qy)
+                if d2_min < 0 or d2 < d2_min:
+                    d2_min = d2
             if clash:
                 break
-            earlier = 0
+            chi = 0.5 * eu[qx, qy]
+            p = tep[qx, qy]
             for r in range(q):
                 if cells[i, r, 0] == qx and cells[i, r, 1] == qy:
-                    earlier += 1
-            chi = eu[qx, qy] / (2.0 ** earlier)
-            p = tep[qx, qy]
-            if tep_once and earlier > 0:
-                p = 0.0
-            total += w1 * p + w2 * 0.5 * chi + w4 * fa_map[qx, qy]
-            if n_others > 0 and d_min < 1e299:
-                total += w3 * separation_reward(d_min)
-            elif w3 != 0.0:
+                    chi *= 0.5
+                    if tep_once:
+                        p = 0.0
+            total += w1 * p + w2 * chi + w4 * fa_map[qx, qy]
+            if d2_min >= 0:
+                total += w3 * separation_reward(np.sqrt(d2_min))
+            else:
                 total += w3
             cells[i, q, 0] = qx
             cells[i, q, 1] = qy

@@ -8,7 +8,12 @@ from typing import Protocol
 
 import numpy as np
 
+from planner.search.cpio import CpioStrategy
 from planner.search.exhaustive import ExhaustiveStrategy
+from planner.search.ga import GaStrategy
+from planner.search.lawnmower import LawnmowerStrategy
+from planner.search.pio import PioStrategy
+from planner.search.pso import PsoStrategy
 from planner.search.problem import Decision, Searcher, StepProblem
 
 
@@ -23,7 +28,14 @@ class SearchStrategy(Protocol):
                   others_hard: np.ndarray) -> Decision | None: ...
 
 
-STRATEGIES: dict[str, type] = {"exhaustive": ExhaustiveStrategy}
+STRATEGIES: dict[str, type] = {
+    "cpio": CpioStrategy,
+    "exhaustive": ExhaustiveStrategy,
+    "ga": GaStrategy,
+    "lawnmower": LawnmowerStrategy,
+    "pio": PioStrategy,
+    "pso": PsoStrategy,
+}
 
 
 def make_strategy(name: str) -> SearchStrategy:

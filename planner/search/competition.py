@@ -42,10 +42,9 @@ def padded_cells(path: np.ndarray, np_steps: int) -> np.ndarray:
     return out
 
 
-def claims_same_cell(a: np.ndarray, b: np.ndarray) -> bool:
-    """True when two (Np, 2) futures hold the same cell at the same step."""
-    known = (a[:, 0] >= 0) & (b[:, 0] >= 0)
-    return bool(np.any(known & (a[:, 0] == b[:, 0]) & (a[:, 1] == b[:, 1])))
+def claimed_cells(path: np.ndarray) -> set[tuple[int, int, int]]:
+    """(step, x, y) of a decision's path, step 0 being the next step."""
+    return {(q, x, y) for q, (x, y, _h) in enumerate(path.tolist())}
 
 
 def compete(problem: StepProblem, best_path: BestPath) -> dict[int, Decision | None]:
@@ -57,10 +56,11 @@ def compete(problem: StepProblem, best_path: BestPath) -> dict[int, Decision | N
         first[s.uav_id] = best_path(problem, s, others, hard)
     order = sorted(problem.searchers, key=lambda s: -(first[s.uav_id].j1 if first[s.uav_id] else -np.inf))
     winners: dict[int, np.ndarray] = {}
+    claimed: set[tuple[int, int, int]] = set()
     decided: dict[int, Decision | None] = {}
     for s in order:
         d = first[s.uav_id]
-        if d is not None and any(claims_same_cell(padded_cells(d.path, problem.np_steps), w) for w in winners.values()):
+        if d is not None and claimed & claimed_cells(d.path):
             others, hard = others_for(problem, s.uav_id, winners)
             redo = best_path(problem, s, others, hard)
             if redo is not None:
@@ -69,4 +69,5 @@ def compete(problem: StepProblem, best_path: BestPath) -> dict[int, Decision | N
         decided[s.uav_id] = d
         if d is not None:
             winners[s.uav_id] = padded_cells(d.path, problem.np_steps)
+            claimed |= claimed_cells(d.path)
     return decided

@@ -1,0 +1,102 @@
+"""Shared builders and checkers for planner tests: small random scenarios and the safety
+invariants every closed plan must satisfy."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from planner.environment import SearchMap, Sensor
+from planner.motion import HEADING_DX, HEADING_DY, OrientationConstraint
+from planner.plan import Plan
+from planner.return_exact import UNREACHABLE, return_table
+from planner.scenario import Scenario, UavSpec
+
+
+def random_scenario(seed: int, nx: int = 14, ny: int = 12, n_uavs: int = 3, range_steps: int = 40,
+                    blocked_fraction: float = 0.12, oc: OrientationConstraint | None = None) -> Scenario | None:
+    """A small random scenario whose airports can leave and come back, or None if the draw has none."""
+    rng = np.random.default_rng(seed)
+    no_fly = rng.random((nx, ny)) < blocked_fraction
+    tep = rng.random((nx, ny))
+    eu = rng.random((nx, ny))
+    free = np.argwhere(~no_fly)
+    if len(free) < n_uavs + 3:
+        return None
+    picks = rng.choice(len(free), size=n_uavs + 3, replace=False)
+    uavs = []
+    for i in range(n_uavs):
+        x, y = (int(v) for v in free[picks[i]])
+        heading = int(rng.integers(8))
+        if oc is not None:
+            table = return_table(no_fly, (x, y), oc)
+            ok = False
+            for g in oc.successors[heading]:
+                if g < 0:
+                    break
+                qx, qy = x + HEADING_DX[g], y + HEADING_DY[g]
+                if 0 <= qx < nx and 0 <= qy < ny and not no_fly[qx, qy] and 1 + table[g, qx, qy] <= range_steps:
+                    ok = True
+            if not ok:
+                return None
+        uavs.append(UavSpec(i + 1, (x, y), heading, range_steps))
+    targets = free[picks[n_uavs:]]
+    return Scenario("random", SearchMap(tep, eu, no_fly), uavs, targets, Sensor(0.9, 0.1))
+
+
+def assert_plan_safe(plan: Plan, scenario: Scenario, oc: OrientationConstraint) -> None:
+    """The safety invariants of a closed plan (in the grid, out of no-fly cells, OC on every
+    step, home within range, no two UAVs in one cell at one step)."""
+    nx, ny = scenario.search_map.shape
+    no_fly = scenario.search_map.no_fly
+    occupied: dict[tuple[int, int, int], int] = {}
+    specs = {u.uav_id: u for u in scenario.uavs}
+    for u in plan.uavs:
+        spec = specs[u.uav_id]
+        traj = u.trajectory
+        assert (traj[0].x, traj[0].y, traj[0].heading) == (*spec.airport, spec.heading), "starts at its airport pose"
+        assert (traj[-1].x, traj[-1].y) == spec.airport, f"UAV {u.uav_id} ends at its airport"
+        assert len(traj) - 1 <= u.range_steps, f"UAV {u.uav_id} flew {len(traj) - 1} > range {u.range_steps}"
+        assert u.search_steps + u.return_steps == len(traj) - 1
+        seen_return = False
+        for a, b in zip(traj, traj[1:]):
+            assert b.step == a.step + 1
+            assert oc.allows(a.heading, b.heading), f"UAV {u.uav_id} turn {a.heading}->{b.heading} at step {b.step}"
+            assert (b.x - a.x, b.y - a.y) == (HEADING_DX[b.heading], HEADING_DY[b.heading])
+            assert 0 <= b.x < nx and 0 <= b.y < ny
+            assert not no_fly[b.x, b.y], f"UAV {u.uav_id} in a no-fly cell at step {b.step}"
+            if b.stage.value == "return":
+                seen_return = True
+            else:
+                assert not seen_return, "no search after the return stage began"
+        for p in traj:
+            key = (p.step, p.x, p.y)
+            assert key not in occupied, f"UAVs {occupied.get(key)} and {u.uav_id} share cell ({p.x},{p.y}) at step {p.step}"
+            occupied[key] = u.uav_id
+
+
+def brute_force_steps_home(blocked: np.ndarray, goal: tuple[int, int], oc: OrientationConstraint,
+                           start: tuple[int, int, int]) -> int:
+    """Forward breadth-first search over (cell, heading) from one start pose: the reference."""
+    nx, ny = blocked.shape
+    if start[:2] == goal:
+        return 0
+    frontier = [start]
+    seen = {start}
+    depth = 0
+    while frontier:
+        depth += 1
+        nxt = []
+        for x, y, h in frontier:
+            for g in range(8):
+                if not oc.allows(h, g):
+                    continue
+                qx, qy = x + int(HEADING_DX[g]), y + int(HEADING_DY[g])
+                if not (0 <= qx < nx and 0 <= qy < ny) or blocked[qx, qy]:
+                    continue
+                if (qx, qy) == goal:
+                    return depth
+                if (qx, qy, g) not in seen:
+                    seen.add((qx, qy, g))
+                    nxt.append((qx, qy, g))
+        frontier = nxt
+    return int(UNREACHABLE)

@@ -1,0 +1,127 @@
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from planner.dtscs import ClosedSearch, MissionConfig, fly
+from planner.motion import OC3, OC4, OC8
+from planner.plan import ReturnReason, Stage
+from planner.scenario import paper_scenario
+from tests.planner.helpers import assert_plan_safe, random_scenario
+
+OCS = [OC3, OC4, OC8]
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@given(seed=st.integers(0, 100_000), oc_index=st.integers(0, 2), np_steps=st.integers(1, 4),
+       n_uavs=st.integers(1, 4), range_steps=st.integers(12, 45), return_planner=st.sampled_from(["exact", "st"]),
+       range_aware=st.booleans())
+def test_random_closed_plans_are_safe(seed, oc_index, np_steps, n_uavs, range_steps, return_planner, range_aware):
+    oc = OCS[oc_index]
+    scenario = random_scenario(seed, n_uavs=n_uavs, range_steps=range_steps, oc=oc)
+    if scenario is None:
+        return
+    config = MissionConfig(np_steps=np_steps, oc=oc, return_planner=return_planner, range_aware_search=range_aware)
+    plan = fly(scenario, config, seed=seed)
+    assert_plan_safe(plan, scenario, oc)
+    assert all(u.eta <= 1.0 for u in plan.uavs)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 100_000), order_step=st.integers(1, 15), cut=st.integers(1, 40))
+def test_return_orders_and_range_changes_keep_plans_safe(seed, order_step, cut):
+    scenario = random_scenario(seed, n_uavs=3, range_steps=40, oc=OC3)
+    if scenario is None:
+        return
+    search = ClosedSearch(scenario, MissionConfig(np_steps=3), seed=seed)
+    first, second = scenario.uavs[0].uav_id, scenario.uavs[-1].uav_id
+    for record in search.run():
+        if record.step == order_step:
+            search.order_return(first)
+        if record.step == order_step + 1 and len(scenario.uavs) > 1:
+            search.set_range(second, max(record.step + 1, cut))
+    plan = search.plan()
+    by_id = {u.uav_id: u for u in plan.uavs}
+    ordered = by_id[first]
+    assert ordered.return_step is not None and ordered.return_step <= order_step
+    if ordered.return_step == order_step:
+        assert ordered.return_reason is ReturnReason.ORDER
+    for u in plan.uavs:
+        assert (u.trajectory[-1].x, u.trajectory[-1].y) == u.airport
+    # a cut range below what the way home needs is overrun only by the shortest way home
+    safe = [u for u in plan.uavs if u.return_reason is not ReturnReason.RANGE_CUT]
+    for u in safe:
+        assert len(u.trajectory) - 1 <= u.range_steps
+    assert_plan_safe_except_range(plan, scenario)
+
+
+def assert_plan_safe_except_range(plan, scenario):
+    import copy
+    relaxed = copy.deepcopy(plan)
+    for u in relaxed.uavs:
+        u.range_steps = max(u.range_steps, len(u.trajectory) - 1)
+    assert_plan_safe(relaxed, scenario, OC3)
+
+
+def test_paper_plan_is_closed_safe_and_uses_its_range():
+    scenario = paper_scenario(seed=7, range_steps=130)
+    plan = fly(scenario, MissionConfig(np_steps=5), seed=7)
+    assert_plan_safe(plan, scenario, OC3)
+    assert len(plan.uavs) == 4 and len(plan.targets) == 10
+    for u in plan.uavs:
+        assert u.return_reason is ReturnReason.RANGE
+        assert u.search_steps > 60 and u.return_steps >= 1
+        assert 0.9 <= u.eta <= 1.0
+        switch = u.trajectory[u.search_steps + 1]
+        assert switch.stage is Stage.RETURN and u.trajectory[u.search_steps].stage is Stage.SEARCH
+
+
+def test_the_switch_is_the_last_step_that_gets_home():
+    """At the switch the chosen search step would have broken eq. (23); one step earlier it did not."""
+    scenario = paper_scenario(seed=3, range_steps=100)
+    search = ClosedSearch(scenario, MissionConfig(np_steps=5), seed=3)
+    records = list(search.run())
+    for event in (e for r in records for e in r.returns):
+        uav = search.uavs[event.uav_id]
+        assert event.reason is ReturnReason.RANGE
+        assert event.step + event.return_steps <= uav.range_steps
+        assert uav.search_steps == event.step
+
+
+def test_same_seed_same_plan_and_different_seed_differs():
+    a = fly(paper_scenario(seed=5, range_steps=80), MissionConfig(np_steps=3), seed=5)
+    b = fly(paper_scenario(seed=5, range_steps=80), MissionConfig(np_steps=3), seed=5)
+    c = fly(paper_scenario(seed=6, range_steps=80), MissionConfig(np_steps=3), seed=6)
+    assert [u.trajectory for u in a.uavs] == [u.trajectory for u in b.uavs]
+    assert a.targets == b.targets and a.false_alarms == b.false_alarms
+    assert a.targets != c.targets or a.false_alarms != c.false_alarms
+
+
+def test_targets_are_found_only_by_reports_in_their_cell():
+    scenario = paper_scenario(seed=1, range_steps=130)
+    scenario.sensor = type(scenario.sensor)(1.0, 0.0)
+    plan = fly(scenario, MissionConfig(np_steps=4), seed=1)
+    visited = {}
+    for u in plan.uavs:
+        for p in u.trajectory[1:]:
+            visited.setdefault((p.x, p.y), []).append(p.step)
+    assert plan.false_alarms == 0
+    for t in plan.targets:
+        steps = visited.get((t.x, t.y))
+        assert t.found_step == (min(steps) if steps else None)
+
+
+def test_a_range_too_short_to_leave_and_return_is_rejected():
+    with pytest.raises(ValueError, match="too short"):
+        ClosedSearch(paper_scenario(range_steps=2), MissionConfig())
+
+
+def test_return_order_at_the_airport_lands_at_once():
+    scenario = paper_scenario(seed=2, range_steps=60)
+    search = ClosedSearch(scenario, MissionConfig(np_steps=2), seed=2)
+    search.order_return(1)
+    list(search.run())
+    first = search.plan().uavs[0]
+    assert first.return_reason is ReturnReason.ORDER and first.return_step == 0
+    assert len(first.trajectory) == 1 and first.eta == 0.0
+    with pytest.raises(ValueError):
+        search.order_return(99)
