@@ -9,7 +9,6 @@ loggers and live front-ends read; `run()` flies to the end and returns the `Plan
 
 from __future__ import annotations
 
-import itertools
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -18,7 +17,7 @@ import numpy as np
 from planner.environment import sense
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
 from planner.plan import Plan, ReturnReason, Stage, TargetOutcome, TrajectoryPoint, UavPlan
-from planner.return_exact import UNREACHABLE, follow_table, return_table, space_time_return
+from planner.return_exact import follow_table, return_table, space_time_return
 from planner.return_st import st_return
 from planner.reward import RewardWeights, airport_reward_map
 from planner.scenario import Scenario, UavSpec
@@ -73,7 +72,6 @@ class ReturnEvent:
     step: int
     reason: ReturnReason
     return_steps: int
-    conflict: bool
 
 
 @dataclass
@@ -107,7 +105,8 @@ class _Uav:
     return_plan: deque = field(default_factory=deque)
     predicted: np.ndarray | None = None
     tracking_efficiency: float | None = None
-    return_conflict: bool = False
+    home_path: list[tuple[int, int, int]] = field(default_factory=list)
+    next_home_path: list[tuple[int, int, int]] = field(default_factory=list)
     trajectory: list[TrajectoryPoint] = field(default_factory=list)
 
     @property
@@ -189,135 +188,93 @@ class ClosedSearch:
             raise ValueError(f"unknown UAV {uav_id}")
         return self.uavs[uav_id]
 
-    def _future(self, uav: _Uav, start: int = 0) -> np.ndarray:
+    def _future(self, uav: _Uav) -> np.ndarray:
         """A returning UAV's committed cells for the next Np steps."""
         out = np.full((self.config.np_steps, 2), -1, dtype=np.int64)
-        for q, pose in enumerate(list(uav.return_plan)[start: start + self.config.np_steps]):
+        for q, pose in enumerate(list(uav.return_plan)[: self.config.np_steps]):
             out[q] = pose[:2]
         return out
 
-    def _reservations(self, exclude: int) -> dict[int, list[tuple[int, int]]]:
-        """Every other returning vehicle's cells from the next step on."""
-        return {uid: [(p[0], p[1]) for p in u.return_plan] for uid, u in self.uavs.items()
-                if uid != exclude and u.stage is Stage.RETURN}
+    def _plan_home(self, uav: _Uav, pose: tuple[int, int, int], start_step: int, budget: int,
+                   reserved: set[tuple[int, int, int]]) -> list[tuple[int, int, int]] | None:
+        """The shortest way home from `pose` (held at `start_step`) within `budget` steps that
+        shares no (step, x, y) with `reserved`; None when there is none."""
+        x, y, h = pose
+        if int(uav.table[h, x, y]) > budget:
+            return None
+        path = follow_table(uav.table, pose, self.successors, self.map.no_fly)
+        if not any((start_step + 1 + i, c[0], c[1]) in reserved for i, c in enumerate(path)):
+            return path
+        return space_time_return(uav.table, pose, start_step, budget, self.successors, self.map.no_fly, reserved)
+
+    def _ways_home(self, exclude: int) -> dict[int, list[tuple[int, int]]]:
+        """Every other flying UAV's way home from now on: committed returns and searchers' plans."""
+        return {uid: [(p[0], p[1]) for p in (u.return_plan if u.stage is Stage.RETURN else u.home_path)]
+                for uid, u in self.uavs.items() if uid != exclude and u.stage is not Stage.LANDED}
 
     def _start_return(self, uav: _Uav, reason: ReturnReason) -> ReturnEvent:
+        """Turn home now along this UAV's part of the joint way-home plan, or along the ST path
+        when `return_planner` is `st` and that path is clear of every other UAV's way home."""
         k = self.step_index
-        reserved = self._reservations(uav.spec.uav_id)
-        budget = uav.range_steps - uav.steps_flown
-        pose = (uav.x, uav.y, uav.heading)
-        path = None
-        if self.config.return_planner == "st":
-            st = st_return(self.map.no_fly, pose, uav.spec.airport, self.successors, uav.table, self.config.np_steps,
-                           budget, make_strategy(self.config.st_tracker).best_path, reserved, k)
-            if st is not None:
+        path = uav.home_path
+        if self.config.return_planner == "st" and path:
+            others = self._ways_home(uav.spec.uav_id)
+            budget = uav.range_steps - uav.steps_flown
+            st = st_return(self.map.no_fly, (uav.x, uav.y, uav.heading), uav.spec.airport, self.successors,
+                           uav.table, self.config.np_steps, budget, make_strategy(self.config.st_tracker).best_path,
+                           others, k)
+            taken = {(i, c[0], c[1]) for rows in others.values() for i, c in enumerate(rows)}
+            if st is not None and not any((i, c[0], c[1]) in taken for i, c in enumerate(st.path)):
                 path = st.path
                 uav.tracking_efficiency = st.tracking_efficiency
-        if path is None:
-            path = space_time_return(uav.table, pose, k, max(budget, uav.home_cost), self.successors,
-                                     self.map.no_fly, self._reserved_cells(uav.spec.uav_id))
-        if path is None:
-            path = self._give_way_to(uav, pose, max(budget, uav.home_cost))
-        conflict = path is None
-        if path is None:
-            path = follow_table(uav.table, pose, self.successors, self.map.no_fly)
         uav.stage = Stage.RETURN
         uav.return_reason = reason
         uav.return_step = k
         uav.return_plan = deque(path)
-        uav.return_conflict = conflict
-        return ReturnEvent(uav.spec.uav_id, k, reason, len(path), conflict)
+        return ReturnEvent(uav.spec.uav_id, k, reason, len(path))
 
     def _decide_searchers(self, returns: list[ReturnEvent]) -> dict[int, Decision]:
-        """The strategy's decisions for every searcher. A searcher whose best step would break
-        eq. (23), or that has no feasible step, turns home; its way home is planned against the
-        returns already committed, and the remaining searchers decide again around it, so a
-        UAV on its way home never has to give way."""
+        """The strategy's decisions for every searcher, kept only while all UAVs keep a joint,
+        conflict-free way home within their ranges (eq. 23 for the team).
+
+        Invariant: the ways home of all flying UAVs (committed returns, and each searcher's plan
+        from its current pose) never share a cell at a step. A searcher whose chosen step would
+        break eq. (23) (reason `range`), that has no feasible step (`boxed_in`), or after whose
+        step no way home clear of the others' exists (`separation`) turns home now along its
+        plan, which the invariant keeps clear; the others then decide again around it."""
+        k = self.step_index
         while True:
             searchers = [u for u in self.uavs.values() if u.stage is Stage.SEARCH]
             if not searchers:
                 return {}
             answers = self.strategy.decide(self._problem(searchers), self.strategy_rng)
-            turning = []
+            reserved = {(k + 1 + i, p[0], p[1]) for u in self.uavs.values() if u.stage is Stage.RETURN
+                        for i, p in enumerate(u.return_plan)}
+            plans: dict[int, list[tuple[int, int, int]]] = {}
+            turning: tuple[_Uav, ReturnReason] | None = None
             for u in searchers:
                 d = answers.get(u.spec.uav_id)
-                if d is not None and self._can_get_home_after(u, d.first_step()):
-                    continue
-                if d is not None:
-                    turning.append((u, ReturnReason.RANGE))
-                elif first_step_feasible(u.table, self.successors, self.map.no_fly, (u.x, u.y, u.heading),
-                                         u.steps_flown, u.range_steps - self.config.reserve_steps):
-                    turning.append((u, ReturnReason.BOXED_IN))
-                else:
-                    turning.append((u, ReturnReason.RANGE))
-            if not turning:
+                budget = u.range_steps - self.config.reserve_steps - u.steps_flown - 1
+                if d is None:
+                    feasible = first_step_feasible(u.table, self.successors, self.map.no_fly, (u.x, u.y, u.heading),
+                                                   u.steps_flown, u.range_steps - self.config.reserve_steps)
+                    turning = (u, ReturnReason.BOXED_IN if feasible else ReturnReason.RANGE)
+                    break
+                x, y, h = d.first_step()
+                if int(u.table[h, x, y]) > budget:
+                    turning = (u, ReturnReason.RANGE)
+                    break
+                path = self._plan_home(u, (x, y, h), k + 1, budget, reserved)
+                if path is None:
+                    turning = (u, ReturnReason.SEPARATION)
+                    break
+                plans[u.spec.uav_id] = path
+                reserved |= {(k + 2 + i, p[0], p[1]) for i, p in enumerate(path)}
+            if turning is None:
+                for uid, path in plans.items():
+                    self.uavs[uid].next_home_path = path
                 return {uid: d for uid, d in answers.items() if d is not None}
-            returns.extend(self._start_returns(turning))
-
-    def _start_returns(self, turning: list[tuple[_Uav, ReturnReason]]) -> list[ReturnEvent]:
-        """Plan the ways home of UAVs turning at the same step, trying each order of planning
-        (prioritised planning) until one leaves no two of them in one cell at one step."""
-        saved = {uid: (u.stage, u.return_plan.copy(), u.return_reason, u.return_step, u.return_conflict,
-                       u.tracking_efficiency) for uid, u in self.uavs.items()}
-        orders = itertools.permutations(turning) if len(turning) <= 4 else [tuple(turning)]
-        first: list[ReturnEvent] | None = None
-        for order in orders:
-            events = [self._start_return(u, reason) for u, reason in order]
-            if not any(e.conflict for e in events):
-                return events
-            if first is None:
-                first = events
-                first_state = {uid: (u.stage, u.return_plan.copy(), u.return_reason, u.return_step,
-                                     u.return_conflict, u.tracking_efficiency) for uid, u in self.uavs.items()}
-            self._restore(saved)
-        self._restore(first_state)
-        return first
-
-    def _restore(self, state: dict) -> None:
-        for uid, (stage, plan, reason, step, conflict, phi) in state.items():
-            u = self.uavs[uid]
-            u.stage, u.return_plan, u.return_reason, u.return_step = stage, plan.copy(), reason, step
-            u.return_conflict, u.tracking_efficiency = conflict, phi
-
-    def _can_get_home_after(self, uav: _Uav, pose: tuple[int, int, int]) -> bool:
-        """Eq. (23) one step ahead: T_i1(k+1) + T_i2(k+1) <= T_i (less the reserve), where the
-        way home from the next pose must also avoid the cells of UAVs already returning."""
-        x, y, h = pose
-        budget = uav.range_steps - self.config.reserve_steps - uav.steps_flown - 1
-        if int(uav.table[h, x, y]) > budget:
-            return False
-        reserved = self._reserved_cells(uav.spec.uav_id)
-        if not reserved:
-            return True
-        return space_time_return(uav.table, pose, self.step_index + 1, budget, self.successors, self.map.no_fly,
-                                 reserved) is not None
-
-    def _reserved_cells(self, exclude: int) -> set[tuple[int, int, int]]:
-        """(step, x, y) of every other returning UAV's remaining path."""
-        k = self.step_index
-        return {(k + 1 + i, c[0], c[1]) for rows in self._reservations(exclude).values() for i, c in enumerate(rows)}
-
-    def _give_way_to(self, uav: _Uav, pose: tuple[int, int, int], budget: int) -> list[tuple[int, int, int]] | None:
-        """When every way home is blocked by UAVs already returning, let one of them re-plan
-        around this UAV's shortest way home (prioritised planning with the order swapped)."""
-        k = self.step_index
-        path = follow_table(uav.table, pose, self.successors, self.map.no_fly)
-        mine = {(k + 1 + i, c[0], c[1]) for i, c in enumerate(path)}
-        for uid, other in self.uavs.items():
-            if uid == uav.spec.uav_id or other.stage is not Stage.RETURN or not other.return_plan:
-                continue
-            theirs = {(k + 1 + i, c[0], c[1]) for i, c in enumerate(other.return_plan)}
-            if not theirs & mine:
-                continue
-            rest = self._reserved_cells(uid) | mine
-            other_pose = (other.x, other.y, other.heading)
-            new = space_time_return(other.table, other_pose, k, other.range_steps - other.steps_flown,
-                                    self.successors, self.map.no_fly, rest - theirs)
-            if new is None:
-                return None
-            other.return_plan = deque(new)
-        clash = self._reserved_cells(uav.spec.uav_id) & mine
-        return None if clash else path
+            returns.append(self._start_return(*turning))
 
     def _problem(self, searchers: list[_Uav]) -> StepProblem:
         committed = {uid: self._future(u) for uid, u in self.uavs.items() if u.stage is Stage.RETURN}
@@ -355,6 +312,7 @@ class ClosedSearch:
                 continue
             if u.stage is Stage.SEARCH:
                 u.x, u.y, u.heading = decisions[uid].first_step()
+                u.home_path = u.next_home_path
                 u.search_steps += 1
                 rest = decisions[uid].path[1:, :2]
                 u.predicted = np.full((self.config.np_steps, 2), -1, dtype=np.int64)
@@ -415,8 +373,7 @@ class ClosedSearch:
     def plan(self) -> Plan:
         """The closed trajectories and outcomes so far."""
         uavs = [UavPlan(u.spec.uav_id, u.spec.airport, u.spec.heading, u.range_steps, list(u.trajectory),
-                        u.search_steps, u.return_steps, u.return_reason, u.return_step, u.tracking_efficiency,
-                        u.return_conflict) for u in self.uavs.values()]
+                        u.search_steps, u.return_steps, u.return_reason, u.return_step, u.tracking_efficiency) for u in self.uavs.values()]
         targets = [TargetOutcome(int(x), int(y), self.found_step[i], self.found_by[i])
                    for i, (x, y) in enumerate(self.scenario.targets)]
         settings = {"np": self.config.np_steps, "oc": self.config.oc.name, "strategy": self.strategy.name,

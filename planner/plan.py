@@ -21,6 +21,7 @@ class ReturnReason(str, Enum):
     ORDER = "order"              # a return order
     RANGE_CUT = "range_cut"      # the range was cut below what the way home needs
     BOXED_IN = "boxed_in"        # no feasible search step (every move blocked or claimed)
+    SEPARATION = "separation"    # one more search step would leave no way home clear of the others'
 
 
 @dataclass(frozen=True)
@@ -44,7 +45,6 @@ class UavPlan:
     return_reason: ReturnReason | None
     return_step: int | None
     tracking_efficiency: float | None = None
-    return_conflict: bool = False
 
     @property
     def eta(self) -> float:

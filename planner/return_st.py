@@ -2,10 +2,11 @@
 
 Operator 1: A* on the 8-connected grid without the OC. Operator 2: its cells become key cells
 for this UAV only (eq. 20). Operators 3-4: fly Np-step-ahead prediction under the OC with the
-key-cell values as fitness (eq. 21), one step at a time, until the airport is reached.
+key-cell values as fitness (eq. 21), one step at a time, until the airport is reached. A small
+pull toward home (`homing_map`) breaks the ties between paths that collect the same key cells.
 
-The tracker is any `best_path` of a search strategy; the default is exhaustive choice, the exact
-optimum of eq. (21) at each step (the paper solves it with basic PIO). Each step keeps the way
+The tracker is any `best_path` of a search strategy: basic PIO as in the paper (MissionConfig's
+default), or exhaustive choice, the exact optimum of eq. (21) at each step. Each step keeps the way
 home feasible within the budget (the exact table's check), so ST never runs out of range."""
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from planner.search.problem import Decision, Searcher, StepProblem
 
 KEY_CELL_VALUE = 0.2
 GOAL_VALUE = 1.0
+HOMING_TIE_BREAK = 0.01
 
 
 @dataclass
@@ -74,6 +76,18 @@ def astar_cells(blocked: np.ndarray, start: tuple[int, int], goal: tuple[int, in
     raise ValueError(f"no path from cell ({start[0] + 1}, {start[1] + 1}) to ({goal[0] + 1}, {goal[1] + 1})")
 
 
+def homing_map(home_table: np.ndarray) -> np.ndarray:
+    """A tie-break added to eq. (21): -HOMING_TIE_BREAK * (steps home from the cell, over the
+    largest finite one). Many Np-step paths collect the same key cells (e.g. every path that
+    reaches the goal within the horizon), and without it the tracker may put the goal off step
+    after step and circle until the budget forces it home. At most Np * 0.01 per path, it never
+    outweighs one key cell (0.2)."""
+    steps = home_table.min(axis=0).astype(np.float64)
+    finite = steps < UNREACHABLE
+    top = steps[finite].max() if finite.any() else 1.0
+    return np.where(finite, -HOMING_TIE_BREAK * steps / max(top, 1.0), -HOMING_TIE_BREAK)
+
+
 def key_cell_map(shape: tuple[int, int], cells: list[tuple[int, int]]) -> np.ndarray:
     """Operator 2, eq. (20): 1/5 on the path's inner cells, 1 on the goal, 0 elsewhere."""
     key = np.zeros(shape)
@@ -99,7 +113,8 @@ def st_return(blocked: np.ndarray, pose: tuple[int, int, int], goal: tuple[int, 
     key = key_cell_map(blocked.shape, cells)
     key_set = set(cells[1:])
     zeros = np.zeros(blocked.shape)
-    weights = np.array([1.0, 0.0, 0.0, 0.0])
+    homing = homing_map(home_table)
+    weights = np.array([1.0, 0.0, 0.0, 1.0])
     path: list[tuple[int, int, int]] = []
     tracked = 0
     while (x, y) != goal:
@@ -111,7 +126,7 @@ def st_return(blocked: np.ndarray, pose: tuple[int, int, int], goal: tuple[int, 
                 if flown + q < len(rows):
                     block[q] = rows[flown + q]
             future[uav] = block
-        problem = StepProblem(key, zeros, blocked, zeros, weights, successors, np_steps,
+        problem = StepProblem(key, zeros, blocked, homing, weights, successors, np_steps,
                               [], future, {}, tep_once=True)
         searcher = Searcher(-1, x, y, h, flown, budget, home_table)
         others, hard = others_for(problem, -1, {})

@@ -172,3 +172,26 @@ def choices_along(successors: np.ndarray, pose: tuple[int, int, int], cells: np.
         out[q] = matches[0]
         x, y, h = x + dx, y + dy, g
     return out
+
+
+class PathMemory:
+    """Each UAV's last chosen path, to warm-start the next decision (receding horizon): when the
+    UAV stands where that path's first step put it, the first candidate of the new population is
+    the rest of the path, then straight on."""
+
+    def __init__(self) -> None:
+        self._paths: dict[int, np.ndarray] = {}
+
+    def remember(self, uav_id: int, decision: Decision | None) -> None:
+        if decision is None:
+            self._paths.pop(uav_id, None)
+        else:
+            self._paths[uav_id] = decision.path.copy()
+
+    def warm_row(self, searcher: Searcher, successors: np.ndarray, np_steps: int) -> np.ndarray | None:
+        path = self._paths.get(searcher.uav_id)
+        if path is None or tuple(int(v) for v in path[0]) != (searcher.x, searcher.y, searcher.heading):
+            return None
+        rest = np.full((np_steps, 2), -1, dtype=np.int64)
+        rest[: len(path) - 1] = path[1:, :2]
+        return choices_along(successors, (searcher.x, searcher.y, searcher.heading), rest, np_steps)

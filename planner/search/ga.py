@@ -15,7 +15,7 @@ import numpy as np
 
 from planner.config import njit
 from planner.search.competition import compete
-from planner.search.flock import decision_from_choices, evaluate_flock, flock_inputs, others_with_groups, turn_ordered
+from planner.search.flock import PathMemory, decision_from_choices, evaluate_flock, flock_inputs, others_with_groups, turn_ordered
 from planner.search.problem import Decision, Searcher, StepProblem
 
 
@@ -95,13 +95,15 @@ def ga_population(poses, range_steps, home_tables, successors, tep, eu, blocked,
 
 
 class GaStrategy:
-    """GA per UAV against the others' predicted paths, then the shared competition rule."""
+    """GA per UAV against the others' predicted paths, then the shared competition rule; with
+    `warm_start` the first chromosome is the rest of the UAV's previous path."""
 
     name = "ga"
 
-    def __init__(self, params: GaParams | None = None, seed: int = 0) -> None:
+    def __init__(self, params: GaParams | None = None, seed: int = 0, warm_start: bool = True) -> None:
         self.params = params or GaParams()
         self._rng = np.random.default_rng(seed)
+        self.memory = PathMemory() if warm_start else None
 
     def best_path(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
                   rng: np.random.Generator | None = None) -> Decision | None:
@@ -116,6 +118,9 @@ class GaStrategy:
         masks = rng.random((t, n, m))
         mutations = rng.random((t, n, m))
         values = rng.integers(0, k, (t, n, m))
+        warm = self.memory.warm_row(searcher, successors, m) if self.memory else None
+        if warm is not None:
+            population[0] = warm
         rate = p.mutation_rate if p.mutation_rate is not None else 1.0 / m
         poses, ranges, tables = flock_inputs([searcher])
         rows, hard = others_with_groups(others, others_hard, 1, m)
@@ -125,7 +130,10 @@ class GaStrategy:
                                     problem.fa_map, rows, hard, others.shape[0], problem.weights, problem.tep_once,
                                     population, tournaments, crossover, masks, mutations, values, p.crossover_rate,
                                     rate, p.elites, best, trace)
-        return decision_from_choices(problem, searcher, others, others_hard, best, evaluations, trace)
+        decision = decision_from_choices(problem, searcher, others, others_hard, best, evaluations, trace)
+        if self.memory is not None:
+            self.memory.remember(searcher.uav_id, decision)
+        return decision
 
     def decide(self, problem: StepProblem, rng: np.random.Generator) -> dict[int, Decision | None]:
         return compete(problem, lambda p, s, o, h: self.best_path(p, s, o, h, rng))

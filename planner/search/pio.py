@@ -24,7 +24,7 @@ import numpy as np
 
 from planner.config import njit
 from planner.search.competition import compete
-from planner.search.flock import (DEPTH_WEIGHT, clamp_position, decision_from_choices, decode_positions,
+from planner.search.flock import (DEPTH_WEIGHT, PathMemory, clamp_position, decision_from_choices, decode_positions,
                                   evaluate_flock, flock_inputs, others_with_groups, share_best_cells, turn_ordered)
 from planner.search.problem import Decision, Searcher, StepProblem
 
@@ -247,18 +247,27 @@ class PioStrategy:
     """Basic PIO per UAV (against the others' predicted paths), then the shared competition rule.
 
     `best_path` without an rng (the ST tracker calls it) draws from the strategy's own
-    generator, seeded with `seed`, so repeated runs give the same answers."""
+    generator, seeded with `seed`, so repeated runs give the same answers. With `warm_start`
+    the first pigeon starts on the rest of the UAV's previous path (`PathMemory`)."""
 
     name = "pio"
 
-    def __init__(self, params: PioParams | None = None, seed: int = 0) -> None:
+    def __init__(self, params: PioParams | None = None, seed: int = 0, warm_start: bool = True) -> None:
         self.params = params or PioParams()
         self._rng = np.random.default_rng(seed)
+        self.memory = PathMemory() if warm_start else None
 
     def best_path(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
                   rng: np.random.Generator | None = None) -> Decision | None:
-        best, _, trace, evaluations = run_pio(problem, [searcher], others, others_hard, self.params, rng or self._rng)
-        return decision_from_choices(problem, searcher, others, others_hard, best[0], evaluations, trace[0])
+        warm = None
+        if self.memory is not None:
+            warm = [self.memory.warm_row(searcher, turn_ordered(problem.successors), problem.np_steps)]
+        best, _, trace, evaluations = run_pio(problem, [searcher], others, others_hard, self.params, rng or self._rng,
+                                              warm_starts=warm)
+        decision = decision_from_choices(problem, searcher, others, others_hard, best[0], evaluations, trace[0])
+        if self.memory is not None:
+            self.memory.remember(searcher.uav_id, decision)
+        return decision
 
     def decide(self, problem: StepProblem, rng: np.random.Generator) -> dict[int, Decision | None]:
         return compete(problem, lambda p, s, o, h: self.best_path(p, s, o, h, rng))

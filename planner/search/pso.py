@@ -14,7 +14,7 @@ import numpy as np
 
 from planner.config import njit
 from planner.search.competition import compete
-from planner.search.flock import (clamp_position, decision_from_choices, decode_positions, evaluate_flock,
+from planner.search.flock import (PathMemory, clamp_position, decision_from_choices, decode_positions, evaluate_flock,
                                   flock_inputs, others_with_groups, turn_ordered)
 from planner.search.problem import Decision, Searcher, StepProblem
 
@@ -80,13 +80,15 @@ def pso_swarm(poses, range_steps, home_tables, successors, tep, eu, blocked, fa_
 
 
 class PsoStrategy:
-    """PSO per UAV against the others' predicted paths, then the shared competition rule."""
+    """PSO per UAV against the others' predicted paths, then the shared competition rule; with
+    `warm_start` the first particle starts on the rest of the UAV's previous path."""
 
     name = "pso"
 
-    def __init__(self, params: PsoParams | None = None, seed: int = 0) -> None:
+    def __init__(self, params: PsoParams | None = None, seed: int = 0, warm_start: bool = True) -> None:
         self.params = params or PsoParams()
         self._rng = np.random.default_rng(seed)
+        self.memory = PathMemory() if warm_start else None
 
     def best_path(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
                   rng: np.random.Generator | None = None) -> Decision | None:
@@ -99,6 +101,9 @@ class PsoStrategy:
         velocities = rng.uniform(-1.0, 1.0, shape)
         r_personal = rng.random((p.iterations, *shape))
         r_social = rng.random((p.iterations, *shape))
+        warm = self.memory.warm_row(searcher, successors, problem.np_steps) if self.memory else None
+        if warm is not None:
+            positions[0] = warm
         poses, ranges, tables = flock_inputs([searcher])
         rows, hard = others_with_groups(others, others_hard, 1, problem.np_steps)
         best = np.zeros(problem.np_steps, dtype=np.int64)
@@ -107,7 +112,10 @@ class PsoStrategy:
                                 problem.fa_map, rows, hard, others.shape[0], problem.weights, problem.tep_once,
                                 positions, velocities, r_personal, r_social, p.inertia, p.c_personal, p.c_social,
                                 best, trace)
-        return decision_from_choices(problem, searcher, others, others_hard, best, evaluations, trace)
+        decision = decision_from_choices(problem, searcher, others, others_hard, best, evaluations, trace)
+        if self.memory is not None:
+            self.memory.remember(searcher.uav_id, decision)
+        return decision
 
     def decide(self, problem: StepProblem, rng: np.random.Generator) -> dict[int, Decision | None]:
         return compete(problem, lambda p, s, o, h: self.best_path(p, s, o, h, rng))
