@@ -70,26 +70,36 @@ def return_table(blocked: np.ndarray, goal: tuple[int, int], oc: OrientationCons
                          HEADING_DX, HEADING_DY)
 
 
+@njit
+def _follow_table(table, x, y, h, successors, blocked, dx, dy):
+    """Descend the table from pose (x, y, h): rows (x, y, heading) of the poses after it."""
+    nx, ny = blocked.shape
+    remaining = table[h, x, y]
+    path = np.empty((remaining, 3), dtype=np.int64)
+    for i in range(remaining):
+        for k in range(successors.shape[1]):
+            g = successors[h, k]
+            if g < 0:
+                break
+            qx = x + dx[g]
+            qy = y + dy[g]
+            if 0 <= qx < nx and 0 <= qy < ny and not blocked[qx, qy] and table[g, qx, qy] == remaining - 1 - i:
+                x, y, h = qx, qy, g
+                break
+        path[i, 0] = x
+        path[i, 1] = y
+        path[i, 2] = h
+    return path
+
+
 def follow_table(table: np.ndarray, pose: tuple[int, int, int], successors: np.ndarray,
                  blocked: np.ndarray) -> list[tuple[int, int, int]]:
     """A lowest-cost path home from `pose` by descending the table; poses after `pose`."""
     x, y, h = pose
-    remaining = int(table[h, x, y])
-    if remaining >= UNREACHABLE:
+    if table[h, x, y] >= UNREACHABLE:
         raise ValueError(f"no way home from cell ({x + 1}, {y + 1}) heading {h}")
-    path = []
-    nx, ny = blocked.shape
-    while remaining > 0:
-        for g in successors[h]:
-            if g < 0:
-                break
-            qx, qy = x + HEADING_DX[g], y + HEADING_DY[g]
-            if 0 <= qx < nx and 0 <= qy < ny and not blocked[qx, qy] and table[g, qx, qy] == remaining - 1:
-                x, y, h = int(qx), int(qy), int(g)
-                break
-        path.append((x, y, h))
-        remaining -= 1
-    return path
+    rows = _follow_table(table, int(x), int(y), int(h), successors, blocked, HEADING_DX, HEADING_DY)
+    return [tuple(r) for r in rows.tolist()]
 
 
 def space_time_return(table: np.ndarray, pose: tuple[int, int, int], start_step: int, budget: int,
