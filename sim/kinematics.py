@@ -3,7 +3,8 @@
 Heading is the yaw from north, clockwise, so with theta = pi/2 - heading the model is
 xdot = v cos(theta), ydot = v sin(theta), |thetadot| <= eps, exactly the unicycle.
 A plane always flies at cruise speed; a copter may slow down (0 <= v <= cruise) so that it
-can stop on a point that lies inside its turning circle.
+can stop on a point that lies inside its turning circle, and within one step of a point it
+moves onto it without turning (a multirotor translates in any direction).
 """
 
 from __future__ import annotations
@@ -64,6 +65,11 @@ def step_toward(
     else:
         de, dn = target_en[0] - s.east_m, target_en[1] - s.north_m
         dist = math.hypot(de, dn)
+        if limits.can_hover and dist <= cruise * dt_s:
+            s.east_m, s.north_m = target_en
+            s.speed_m_s, s.turn_rate_rad_s = dist / dt_s, 0.0
+            _climb(s, limits, dt_s, target_alt_m)
+            return
         if dist > 1e-6:
             err = wrap_pi(math.atan2(de, dn) - s.heading_rad)
             turn = max(-max_turn, min(max_turn, err))
@@ -78,6 +84,10 @@ def step_toward(
             s.speed_m_s = cruise
     s.east_m += s.speed_m_s * math.sin(s.heading_rad) * dt_s
     s.north_m += s.speed_m_s * math.cos(s.heading_rad) * dt_s
+    _climb(s, limits, dt_s, target_alt_m)
+
+
+def _climb(s: KinematicState, limits: KinematicLimits, dt_s: float, target_alt_m: float) -> None:
     dz = target_alt_m - s.alt_m
     dz = max(-limits.descent_rate_m_s * dt_s, min(limits.climb_rate_m_s * dt_s, dz))
     s.alt_m += dz

@@ -130,7 +130,7 @@ class MissionProtocol:
     def items(self, mission_type: int = MissionType.MISSION) -> list[MissionItem]:
         """The stored items; with a home item, index 0 is the current home."""
         items = self._stores[mission_type]
-        if self._has_home(mission_type) and items:
+        if self._has_home(mission_type):
             return [self.home, *items[1:]]
         return list(items)
 
@@ -197,6 +197,8 @@ class MissionProtocol:
         up = self._upload
         if up is not None and (up.partner != sender or up.mission_type != mtype):
             return [_ack(sender, mavlink.MAV_MISSION_DENIED, mtype)]
+        if up is not None and up.items and up.count == msg.count:
+            return [self._request_next(up, now_s)]  # a late duplicate of the COUNT
         if msg.count > self.config.capacity[mtype]:
             self._upload = None
             return [_ack(sender, mavlink.MAV_MISSION_NO_SPACE, mtype)]
@@ -218,8 +220,8 @@ class MissionProtocol:
                 return [_ack(sender, mavlink.MAV_MISSION_DENIED, msg.mission_type)]
             return []
         expected = len(up.items)
-        if msg.seq == expected - 1:
-            return [self._request_next(up, now_s)]  # a duplicate: ask again for the one we need
+        if msg.seq < expected:
+            return [self._request_next(up, now_s)]  # a late duplicate: ask again for the one we need
         if msg.seq != expected:
             return [_ack(sender, mavlink.MAV_MISSION_INVALID_SEQUENCE, up.mission_type)]
         item = MissionItem.from_msg(msg)

@@ -1,0 +1,232 @@
+"""Telemetry streams: which message is due when, and how each is built from vehicle state.
+
+Intervals are in simulated seconds, so `--speedup K` sends K times as often in real time, as
+ArduPilot SITL does. A stream sends at most once per fleet tick: an overloaded process sends
+less often rather than in bursts.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from sim.battery import FailsafeLevel
+from sim.modes import Mode
+
+if TYPE_CHECKING:
+    from sim.vehicle import SimVehicle
+
+HEARTBEAT = mavlink.MAVLINK_MSG_ID_HEARTBEAT
+SYS_STATUS = mavlink.MAVLINK_MSG_ID_SYS_STATUS
+BATTERY_STATUS = mavlink.MAVLINK_MSG_ID_BATTERY_STATUS
+EXTENDED_SYS_STATE = mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE
+MISSION_CURRENT = mavlink.MAVLINK_MSG_ID_MISSION_CURRENT
+GLOBAL_POSITION_INT = mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+ATTITUDE = mavlink.MAVLINK_MSG_ID_ATTITUDE
+VFR_HUD = mavlink.MAVLINK_MSG_ID_VFR_HUD
+HOME_POSITION = mavlink.MAVLINK_MSG_ID_HOME_POSITION
+AUTOPILOT_VERSION = mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION
+
+SLOW_STREAMS = (HEARTBEAT, SYS_STATUS, BATTERY_STATUS, EXTENDED_SYS_STATE, MISSION_CURRENT)
+FAST_STREAMS = (GLOBAL_POSITION_INT, ATTITUDE, VFR_HUD)
+
+# REQUEST_DATA_STREAM groups, as ArduPilot assigns messages to them.
+DATA_STREAM_GROUPS: dict[int, tuple[int, ...]] = {
+    mavlink.MAV_DATA_STREAM_EXTENDED_STATUS: (SYS_STATUS, MISSION_CURRENT, EXTENDED_SYS_STATE),
+    mavlink.MAV_DATA_STREAM_POSITION: (GLOBAL_POSITION_INT,),
+    mavlink.MAV_DATA_STREAM_EXTRA1: (ATTITUDE,),
+    mavlink.MAV_DATA_STREAM_EXTRA2: (VFR_HUD,),
+    mavlink.MAV_DATA_STREAM_EXTRA3: (BATTERY_STATUS,),
+}
+DATA_STREAM_GROUPS[mavlink.MAV_DATA_STREAM_ALL] = tuple(m for g in DATA_STREAM_GROUPS.values() for m in g)
+
+CAPABILITIES = (
+    mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+    | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+    | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
+    | mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+)
+_SENSORS = (
+    mavlink.MAV_SYS_STATUS_SENSOR_3D_GYRO
+    | mavlink.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+    | mavlink.MAV_SYS_STATUS_SENSOR_3D_MAG
+    | mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+    | mavlink.MAV_SYS_STATUS_SENSOR_GPS
+    | mavlink.MAV_SYS_STATUS_SENSOR_BATTERY
+)
+_GRAVITY_M_S2 = 9.80665
+
+
+def default_intervals_s(fast_hz: float) -> dict[int, float]:
+    """Slow streams at 1 Hz, position/attitude/HUD at `fast_hz`."""
+    intervals = dict.fromkeys(SLOW_STREAMS, 1.0)
+    intervals.update(dict.fromkeys(FAST_STREAMS, 1.0 / fast_hz))
+    return intervals
+
+
+class StreamScheduler:
+    """Next due time per message id; interval None means off."""
+
+    def __init__(self, intervals_s: dict[int, float]) -> None:
+        self._defaults = dict(intervals_s)
+        self._interval: dict[int, float | None] = dict(intervals_s)
+        self._due: dict[int, float] = dict.fromkeys(intervals_s, 0.0)
+
+    def set_interval(self, msg_id: int, interval_s: float | None, now_s: float) -> None:
+        """None disables; the SET_MESSAGE_INTERVAL value 0 means 'default': pass `default`."""
+        self._interval[msg_id] = interval_s
+        self._due[msg_id] = now_s
+
+    def reset_default(self, msg_id: int, now_s: float) -> None:
+        self.set_interval(msg_id, self._defaults.get(msg_id), now_s)
+
+    def interval(self, msg_id: int) -> float | None:
+        return self._interval.get(msg_id)
+
+    def due(self, now_s: float) -> list[int]:
+        out = []
+        for msg_id, interval in self._interval.items():
+            if interval is None or self._due[msg_id] > now_s:
+                continue
+            out.append(msg_id)
+            nxt = self._due[msg_id] + interval
+            self._due[msg_id] = nxt if nxt > now_s else now_s + interval
+        return out
+
+
+def build(msg_id: int, v: SimVehicle) -> mavlink.MAVLink_message | None:
+    """The message `msg_id` describing vehicle `v` now, or None if we cannot produce it."""
+    builder = _BUILDERS.get(msg_id)
+    return builder(v) if builder else None
+
+
+def _clamp(value: float, lo: int, hi: int) -> int:
+    return max(lo, min(hi, round(value)))
+
+
+def _time_boot_ms(v: SimVehicle) -> int:
+    return int(v.time_s * 1000) & 0xFFFFFFFF
+
+
+def heartbeat(v: SimVehicle) -> mavlink.MAVLink_message:
+    base = mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    if v.armed:
+        base |= mavlink.MAV_MODE_FLAG_SAFETY_ARMED
+    if v.mode in (Mode.GUIDED, Mode.AUTO, Mode.RTL, Mode.LAND, Mode.LOITER, Mode.TAKEOFF):
+        base |= mavlink.MAV_MODE_FLAG_GUIDED_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
+    if v.mode in (Mode.AUTO, Mode.RTL, Mode.LAND, Mode.TAKEOFF):
+        base |= mavlink.MAV_MODE_FLAG_AUTO_ENABLED
+    if not v.armed:
+        status = mavlink.MAV_STATE_STANDBY
+    elif v.failsafe != FailsafeLevel.NONE:
+        status = mavlink.MAV_STATE_CRITICAL
+    else:
+        status = mavlink.MAV_STATE_ACTIVE
+    return mavlink.MAVLink_heartbeat_message(v.mav_type, v.mav_autopilot, base, v.custom_mode, status, 3)
+
+
+def global_position_int(v: SimVehicle) -> mavlink.MAVLink_message:
+    s = v.kin
+    lat, lon = v.lat_lon_deg
+    vn = s.speed_m_s * math.cos(s.heading_rad)
+    ve = s.speed_m_s * math.sin(s.heading_rad)
+    return mavlink.MAVLink_global_position_int_message(
+        _time_boot_ms(v), round(lat * 1e7), round(lon * 1e7),
+        round((v.home.alt_m + s.alt_m) * 1000), round(s.alt_m * 1000),
+        round(vn * 100), round(ve * 100), round(-s.climb_m_s * 100),
+        round(math.degrees(s.heading_rad) % 360 * 100) % 36000,
+    )
+
+
+def attitude(v: SimVehicle) -> mavlink.MAVLink_message:
+    s = v.kin
+    roll = math.atan(s.speed_m_s * s.turn_rate_rad_s / _GRAVITY_M_S2)
+    pitch = math.atan2(s.climb_m_s, max(s.speed_m_s, 1.0))
+    return mavlink.MAVLink_attitude_message(_time_boot_ms(v), roll, pitch, s.heading_rad, 0.0, 0.0, s.turn_rate_rad_s)
+
+
+def vfr_hud(v: SimVehicle) -> mavlink.MAVLink_message:
+    s = v.kin
+    throttle = 0 if not v.armed else (50 if not v.landed else 10)
+    return mavlink.MAVLink_vfr_hud_message(
+        s.speed_m_s, s.speed_m_s, round(math.degrees(s.heading_rad)) % 360, throttle,
+        v.home.alt_m + s.alt_m, s.climb_m_s,
+    )
+
+
+def sys_status(v: SimVehicle) -> mavlink.MAVLink_message:
+    b = v.battery
+    return mavlink.MAVLink_sys_status_message(
+        _SENSORS, _SENSORS, _SENSORS, 200, round(b.voltage_v * 1000), _clamp(b.current_a * 100, -1, 32767),
+        round(b.remaining_pct), 0, 0, 0, 0, 0, 0,
+    )
+
+
+def battery_status(v: SimVehicle) -> mavlink.MAVLink_message:
+    b = v.battery
+    cell_mv = round(b.voltage_v / b.config.cells * 1000)
+    voltages = [cell_mv] * b.config.cells + [0xFFFF] * (10 - b.config.cells)
+    if b.remaining_fraction <= 0.0:
+        charge = mavlink.MAV_BATTERY_CHARGE_STATE_FAILED
+    else:
+        charge = {
+            FailsafeLevel.NONE: mavlink.MAV_BATTERY_CHARGE_STATE_OK,
+            FailsafeLevel.LOW: mavlink.MAV_BATTERY_CHARGE_STATE_LOW,
+            FailsafeLevel.CRITICAL: mavlink.MAV_BATTERY_CHARGE_STATE_CRITICAL,
+        }[v.failsafe]
+    return mavlink.MAVLink_battery_status_message(
+        0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, 0x7FFF, voltages,
+        _clamp(b.current_a * 100, -1, 32767), _clamp(b.consumed_mah, -1, 2**31 - 1), -1, round(b.remaining_pct),
+        _clamp(b.time_remaining_s, 0, 2**31 - 1), charge,
+    )
+
+
+def extended_sys_state(v: SimVehicle) -> mavlink.MAVLink_message:
+    if v.landed:
+        landed = mavlink.MAV_LANDED_STATE_ON_GROUND
+    elif v.landing:
+        landed = mavlink.MAV_LANDED_STATE_LANDING
+    else:
+        landed = mavlink.MAV_LANDED_STATE_IN_AIR
+    return mavlink.MAVLink_extended_sys_state_message(mavlink.MAV_VTOL_STATE_UNDEFINED, landed)
+
+
+def mission_current(v: SimVehicle) -> mavlink.MAVLink_message:
+    return mavlink.MAVLink_mission_current_message(
+        v.mission_seq, v.mission_total, v.mission_state, int(v.mode == Mode.AUTO)
+    )
+
+
+def home_position(v: SimVehicle) -> mavlink.MAVLink_message:
+    h = v.home
+    east, north = v.frame.geodetic2en(h.lat_deg, h.lon_deg)
+    return mavlink.MAVLink_home_position_message(
+        round(h.lat_deg * 1e7), round(h.lon_deg * 1e7), round(h.alt_m * 1000),
+        east, north, 0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, int(v.time_s * 1e6),
+    )
+
+
+def autopilot_version(v: SimVehicle) -> mavlink.MAVLink_message:
+    version = (4 << 24) | (5 << 16) | (0 << 8) | mavlink.FIRMWARE_VERSION_TYPE_OFFICIAL
+    return mavlink.MAVLink_autopilot_version_message(
+        CAPABILITIES, version, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, v.sysid,
+    )
+
+
+_BUILDERS = {
+    HEARTBEAT: heartbeat,
+    SYS_STATUS: sys_status,
+    BATTERY_STATUS: battery_status,
+    EXTENDED_SYS_STATE: extended_sys_state,
+    MISSION_CURRENT: mission_current,
+    GLOBAL_POSITION_INT: global_position_int,
+    ATTITUDE: attitude,
+    VFR_HUD: vfr_hud,
+    HOME_POSITION: home_position,
+    AUTOPILOT_VERSION: autopilot_version,
+}

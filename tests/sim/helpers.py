@@ -1,0 +1,92 @@
+"""Helpers for the simulator tests: a pymavlink ground station and mission-building shortcuts."""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Callable
+
+os.environ.setdefault("MAVLINK20", "1")
+
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from sim import HomePose, MissionItem
+
+HOME = HomePose(-35.363261, 149.165230, 584.0, 0.0)
+
+
+class Gcs:
+    """A minimal pymavlink ground station talking to one simulated vehicle."""
+
+    def __init__(self, address: tuple[str, int], target_system: int = 1, **kwargs) -> None:
+        host, port = address
+        self.conn = mavutil.mavlink_connection(
+            f"udpout:{host}:{port}", source_system=255, source_component=190, dialect="ardupilotmega", **kwargs
+        )
+        self.target = (target_system, 1)
+        self.mav = self.conn.mav
+
+    def hello(self, timeout_s: float = 5.0) -> mavlink.MAVLink_message:
+        """Announce ourselves (the vehicle answers whoever spoke last) and wait for a heartbeat."""
+        end = time.monotonic() + timeout_s
+        while time.monotonic() < end:
+            self.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            msg = self.wait("HEARTBEAT", timeout_s=0.3, check=False)
+            if msg is not None:
+                return msg
+        raise AssertionError("no HEARTBEAT from the simulator")
+
+    def wait(self, types: str | list[str], pred: Callable | None = None, timeout_s: float = 10.0,
+             check: bool = True):
+        end = time.monotonic() + timeout_s
+        while True:
+            left = end - time.monotonic()
+            if left <= 0:
+                if check:
+                    raise AssertionError(f"no {types} matching within {timeout_s} s")
+                return None
+            msg = self.conn.recv_match(type=types, blocking=True, timeout=left)
+            if msg is None or msg.get_srcSystem() != self.target[0]:
+                continue
+            if pred is None or pred(msg):
+                return msg
+
+    def command(self, command: int, *params: float, timeout_s: float = 5.0) -> int:
+        p = list(params) + [0.0] * (7 - len(params))
+        self.mav.command_long_send(*self.target, command, 0, *p)
+        ack = self.wait("COMMAND_ACK", lambda m: m.command == command, timeout_s)
+        return ack.result
+
+    def command_int(self, command: int, frame: int, p: tuple[float, float, float, float],
+                    x: int, y: int, z: float) -> int:
+        self.mav.command_int_send(*self.target, frame, command, 0, 0, *p, x, y, z)
+        return self.wait("COMMAND_ACK", lambda m: m.command == command).result
+
+    def set_mode(self, custom_mode: int) -> int:
+        return self.command(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, custom_mode)
+
+    def close(self) -> None:
+        self.conn.close()
+
+
+def offset(home: HomePose, east_m: float, north_m: float) -> tuple[float, float]:
+    lat = home.lat_deg + north_m / 111_319.49
+    lon = home.lon_deg + east_m / (111_319.49 * math.cos(math.radians(home.lat_deg)))
+    return lat, lon
+
+
+def waypoint(seq: int, lat: float, lon: float, alt_m: float, **params: float) -> MissionItem:
+    return MissionItem(seq=seq, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, command=mavlink.MAV_CMD_NAV_WAYPOINT,
+                       x=round(lat * 1e7), y=round(lon * 1e7), z=alt_m, **params)
+
+
+def home_placeholder() -> MissionItem:
+    return MissionItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_WAYPOINT)
+
+
+def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    dn = (lat2 - lat1) * 111_319.49
+    de = (lon2 - lon1) * 111_319.49 * math.cos(math.radians(lat1))
+    return math.hypot(de, dn)

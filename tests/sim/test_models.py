@@ -1,0 +1,133 @@
+"""Pure pieces: unicycle kinematics, battery and failsafe decisions, sensor, modes, geodesy."""
+
+from __future__ import annotations
+
+import math
+import random
+
+import pymap3d
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sim.battery import Battery, BatteryConfig, FailsafeLevel, failsafe_level, failsafe_to_trigger
+from sim.geo import LocalFrame
+from sim.kinematics import KinematicLimits, KinematicState, step_toward, wrap_pi
+from sim.modes import Mode, custom_mode_of, mode_from_custom
+from sim.sensor import DownwardSensor, SensorConfig
+
+PLANE = KinematicLimits(cruise_speed_m_s=20, turn_rate_rad_s=math.radians(20), climb_rate_m_s=5,
+                        descent_rate_m_s=3, can_hover=False)
+COPTER = KinematicLimits(cruise_speed_m_s=10, turn_rate_rad_s=math.radians(90), climb_rate_m_s=2.5,
+                         descent_rate_m_s=1.5, can_hover=True)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    heading=st.floats(-math.pi, math.pi),
+    tx=st.floats(-2000, 2000), ty=st.floats(-2000, 2000), talt=st.floats(0, 200),
+    dt=st.floats(0.01, 0.1),
+)
+def test_plane_keeps_speed_and_respects_turn_and_climb_limits(heading, tx, ty, talt, dt):
+    s = KinematicState(0.0, 0.0, 50.0, heading)
+    before = (s.east_m, s.north_m, s.alt_m, s.heading_rad)
+    step_toward(s, PLANE, dt, target_en=(tx, ty), target_alt_m=talt)
+    moved = math.hypot(s.east_m - before[0], s.north_m - before[1])
+    assert moved == pytest.approx(PLANE.cruise_speed_m_s * dt, rel=1e-9)
+    assert abs(wrap_pi(s.heading_rad - before[3])) <= PLANE.turn_rate_rad_s * dt + 1e-12
+    assert -PLANE.descent_rate_m_s * dt - 1e-9 <= s.alt_m - before[2] <= PLANE.climb_rate_m_s * dt + 1e-9
+
+
+def test_copter_reaches_and_stops_on_a_point_inside_its_turn_circle():
+    s = KinematicState(0.0, 0.0, 10.0, 0.0)
+    for _ in range(200):
+        step_toward(s, COPTER, 0.05, target_en=(3.0, 0.0), target_alt_m=10.0)
+    assert math.hypot(s.east_m - 3.0, s.north_m) < 0.05
+    assert s.speed_m_s < 0.1
+
+
+def test_plane_holding_circles_at_its_turn_radius():
+    s = KinematicState(0.0, 0.0, 50.0, 0.0)
+    points = []
+    for _ in range(int(2 * math.pi / PLANE.turn_rate_rad_s / 0.05)):
+        step_toward(s, PLANE, 0.05, target_en=None, target_alt_m=50.0)
+        points.append((s.east_m, s.north_m))
+    cx = sum(x for x, _ in points) / len(points)
+    cy = sum(y for _, y in points) / len(points)
+    assert math.hypot(cx - PLANE.turn_radius_m, cy) < 1.0  # turning right from heading north
+    radii = [math.hypot(x - cx, y - cy) for x, y in points]
+    assert max(radii) - min(radii) < 0.5
+    assert sum(radii) / len(radii) == pytest.approx(PLANE.turn_radius_m, rel=0.02)
+
+
+@pytest.mark.parametrize(
+    ("pct", "level"),
+    [(100, FailsafeLevel.NONE), (20.01, FailsafeLevel.NONE), (20, FailsafeLevel.LOW),
+     (5.01, FailsafeLevel.LOW), (5, FailsafeLevel.CRITICAL), (0, FailsafeLevel.CRITICAL)],
+)
+def test_failsafe_level_thresholds(pct, level):
+    assert failsafe_level(pct, BatteryConfig(low_pct=20, critical_pct=5)) == level
+
+
+def test_failsafe_triggers_only_on_escalation():
+    N, L, C = FailsafeLevel.NONE, FailsafeLevel.LOW, FailsafeLevel.CRITICAL
+    table = {(N, N): None, (N, L): L, (N, C): C, (L, L): None, (L, C): C, (L, N): None, (C, L): None, (C, C): None}
+    for (current, reached), expected in table.items():
+        assert failsafe_to_trigger(current, reached) == expected
+
+
+def test_battery_drains_with_flight_time_less_on_the_ground_and_fails_on_demand():
+    b = Battery(BatteryConfig(endurance_s=1000, ground_drain_fraction=0.05))
+    b.step(100, flying=True)
+    assert b.remaining_pct == pytest.approx(90.0)
+    b.step(100, flying=False)
+    assert b.remaining_pct == pytest.approx(89.5)
+    b.drain_multiplier = 10
+    b.step(10, flying=True)
+    assert b.remaining_pct == pytest.approx(79.5)
+    assert 4 * 3.3 < b.voltage_v < 4 * 4.2
+    b.fail()
+    assert b.remaining_pct == 0 and b.voltage_v == pytest.approx(13.2)
+
+
+def test_sensor_rates_match_pc_and_pf():
+    frame = LocalFrame(-35.0, 149.0)
+    cfg = SensorConfig(cell_size_m=10.0, pc=0.8, pf=0.1)
+    target = frame.en2geodetic(5.0, 5.0)
+    cells = DownwardSensor.cells_of([target], frame, 10.0)
+    assert cells == {(0, 0)}
+    sensor = DownwardSensor(cfg, frame, cells, random.Random(1))
+    hits_on_target = hits_elsewhere = 0
+    for _ in range(2000):
+        hits_on_target += sensor.update(5.0, 5.0, 20.0, 0.0).reported
+        hits_elsewhere += sensor.update(15.0, 5.0, 20.0, 0.0).reported
+    assert hits_on_target / 2000 == pytest.approx(0.8, abs=0.04)
+    assert hits_elsewhere / 2000 == pytest.approx(0.1, abs=0.03)
+    assert sensor.update(15.0, 5.0, 20.0, 0.0) is None  # same cell again: no new reading
+    assert sensor.update(25.0, 5.0, 1.0, 0.0) is None  # below minimum altitude
+
+
+@pytest.mark.parametrize(
+    ("profile", "vtype", "mode", "number"),
+    [("ardupilot", "copter", Mode.GUIDED, 4), ("ardupilot", "copter", Mode.AUTO, 3),
+     ("ardupilot", "copter", Mode.RTL, 6), ("ardupilot", "copter", Mode.LAND, 9),
+     ("ardupilot", "plane", Mode.GUIDED, 15), ("ardupilot", "plane", Mode.AUTO, 10),
+     ("ardupilot", "plane", Mode.RTL, 11), ("px4", "copter", Mode.AUTO, 4 << 16 | 4 << 24),
+     ("px4", "copter", Mode.RTL, 4 << 16 | 5 << 24)],
+)
+def test_mode_numbers_round_trip(profile, vtype, mode, number):
+    assert custom_mode_of(mode, profile, vtype) == number
+    assert mode_from_custom(number, profile, vtype) == mode
+
+
+def test_plane_has_no_land_mode_like_arduplane():
+    assert mode_from_custom(9, "ardupilot", "plane") is None
+
+
+@pytest.mark.parametrize(("east", "north"), [(0, 0), (1000, -500), (-3000, 4000), (5000, 5000)])
+def test_flat_earth_frame_against_pymap3d(east, north):
+    frame = LocalFrame(-35.363261, 149.165230)
+    lat, lon = frame.en2geodetic(east, north)
+    assert frame.geodetic2en(lat, lon) == pytest.approx((east, north), abs=1e-6)
+    e, n, _ = pymap3d.geodetic2enu(lat, lon, 0.0, -35.363261, 149.165230, 0.0)
+    assert math.hypot(e - east, n - north) < 0.1 + 5e-8 * (east * east + north * north)
