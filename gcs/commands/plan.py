@@ -1,4 +1,7 @@
-"""`gcs plan`: run the closed search (DTSCS) and write the plan."""
+"""`gcs plan`: run the closed search (DTSCS) and write the plan.
+
+With `--area area.geojson` the search runs over a real area (docs/areas.md): the output folder
+gets plan.json, uav<id>.waypoints (QGC WPL 110), uav<id>.plan (QGroundControl) and paths.geojson."""
 
 from __future__ import annotations
 
@@ -10,6 +13,7 @@ from tqdm import tqdm
 
 from gcs.atomic import write_json_atomic
 from gcs.errors import UserError
+from gcs.missions import planning as area_plan
 from gcs.plan_file import plan_to_dict
 from planner.dtscs import RETURN_PLANNERS, ClosedSearch, MissionConfig
 from planner.environment import Sensor
@@ -27,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--np", dest="np_steps", type=int, default=5, help="Np, steps of look-ahead (Definition 4)")
     p.add_argument("--oc", default="3", help="orientation constraint: 3, 4, 5 or 8")
     p.add_argument("--range", dest="range_steps", type=int, default=130, help="range T_i of every UAV, in steps")
-    p.add_argument("--strategy", default="exhaustive", help=f"search strategy ({', '.join(sorted(STRATEGIES))})")
+    p.add_argument("--strategy", default="cpio", help=f"search strategy ({', '.join(sorted(STRATEGIES))})")
     p.add_argument("--return", dest="return_planner", default="exact", help=f"return planner ({', '.join(RETURN_PLANNERS)})")
     p.add_argument("--reserve", type=int, default=0, help="steps of range kept in reserve by every range check")
     p.add_argument("--range-aware-search", action="store_true",
@@ -35,8 +39,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pc", type=float, default=0.9, help="sensor detection probability")
     p.add_argument("--pf", type=float, default=0.1, help="sensor false-alarm rate")
     p.add_argument("--footprint", type=int, default=0, help="sensor footprint radius in cells (0: the cell below)")
-    p.add_argument("--out", default="runs/plan.json", help="plan JSON file, or a folder to hold plan.json")
+    p.add_argument("--out", default=None,
+                   help="plan JSON file, or a folder to hold plan.json (default runs/plan.json; with --area a "
+                        "folder, default runs/<area file name>)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    area_plan.add_arguments(p)
     p.set_defaults(func=run)
 
 
@@ -89,9 +96,11 @@ def summary_table(plan: Plan) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.area is not None:
+        return area_plan.run_area(args, fly_with_progress, summary_table)
     search = build_search(args)
     plan = fly_with_progress(search, args.quiet)
-    out = plan_path(args.out)
+    out = plan_path(args.out or "runs/plan.json")
     write_json_atomic(out, plan_to_dict(plan, seed=args.seed))
     if not args.quiet:
         print(summary_table(plan))

@@ -47,10 +47,14 @@ def test_return_orders_and_range_changes_keep_plans_safe(seed, order_step, cut):
         assert ordered.return_reason is ReturnReason.ORDER
     for u in plan.uavs:
         assert (u.trajectory[-1].x, u.trajectory[-1].y) == u.airport
-    # a cut range below what the way home needs is overrun only by the shortest way home
-    safe = [u for u in plan.uavs if u.return_reason is not ReturnReason.RANGE_CUT]
-    for u in safe:
-        assert len(u.trajectory) - 1 <= u.range_steps
+    # a range cut below what the way home needs is overrun only by a UAV already on its way home
+    cut_step = order_step + 1
+    for u in plan.uavs:
+        on_way_home_at_cut = u.uav_id == second and u.return_step is not None and u.return_step <= cut_step
+        if not on_way_home_at_cut:
+            assert len(u.trajectory) - 1 <= u.range_steps
+        if u.return_reason is ReturnReason.RANGE_CUT:
+            assert u.uav_id == second and u.return_step == cut_step
     assert_plan_safe_except_range(plan, scenario)
 
 

@@ -1,0 +1,261 @@
+"""The search-area file: a GeoJSON FeatureCollection (RFC 7946, WGS84 lon/lat) whose features
+carry a `role` property. See docs/areas.md for the format and a complete example.
+
+- `area`     Polygon / MultiPolygon, holes allowed: the search region (several are merged).
+- `no_fly`   Polygon / MultiPolygon: no-fly zones (their holes are ignored: the whole outline is
+             kept out of, for the planner and the geofence alike).
+- `prior`    Polygon / MultiPolygon with `tep` and `eu` in [0, 1]: a prior target probability and
+             uncertainty; later features win where they overlap.
+- `airport`  Point, one per UAV: `heading` (degrees clockwise from north, or N, NE, E, SE, S, SW, W,
+             NW), optional `range_m` or `endurance_s`, `altitude_m`, `name`.
+- `target`   Point (optional): a target for simulation and evaluation.
+
+A suggested cell size may be given as `cell_size_m` in the area feature's properties or in the
+FeatureCollection's `properties` member. Rings may wind either way. Bad input raises `UserError`
+with one line saying what and where."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from shapely.geometry import MultiPolygon, Polygon, shape
+from shapely.geometry.base import BaseGeometry
+from shapely.ops import unary_union
+from shapely.validation import explain_validity
+
+from gcs.errors import UserError
+from planner.georef import heading_from_degrees
+from planner.motion import COMPASS
+
+ROLES = ("area", "no_fly", "prior", "airport", "target")
+POLYGONAL = ("Polygon", "MultiPolygon")
+
+
+@dataclass(frozen=True)
+class Airport:
+    """One UAV's airport; `heading` is the grid heading 0..7 (0 = N, clockwise)."""
+
+    index: int
+    name: str
+    lon_deg: float
+    lat_deg: float
+    heading: int
+    range_m: float | None = None
+    endurance_s: float | None = None
+    altitude_m: float | None = None
+
+
+@dataclass(frozen=True)
+class Prior:
+    name: str
+    geometry: BaseGeometry
+    tep: float
+    eu: float
+
+
+@dataclass(frozen=True)
+class Target:
+    name: str
+    lon_deg: float
+    lat_deg: float
+
+
+@dataclass(frozen=True)
+class AreaFile:
+    """A parsed, validated area file; geometries are shapely, in lon/lat."""
+
+    name: str
+    area: BaseGeometry
+    no_fly: tuple[BaseGeometry, ...]
+    priors: tuple[Prior, ...]
+    airports: tuple[Airport, ...]
+    targets: tuple[Target, ...]
+    cell_size_m: float | None
+
+
+def _reject_constant(name: str) -> float:
+    raise ValueError(f"{name} is not a number JSON allows")
+
+
+def read_area_file(path: str | Path) -> AreaFile:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise UserError(f"cannot read area file {path}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise UserError(f"{path}: not a UTF-8 text file") from None
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except json.JSONDecodeError as exc:
+        raise UserError(f"{path}: not JSON ({exc.msg} at line {exc.lineno} column {exc.colno})") from None
+    except ValueError as exc:
+        raise UserError(f"{path}: not valid JSON: {exc}") from None
+    return parse_area(data, name=path.stem, source=str(path))
+
+
+def _where(index: int, feature: dict) -> str:
+    props = feature.get("properties") or {}
+    label = props.get("name") if isinstance(props, dict) else None
+    role = props.get("role") if isinstance(props, dict) else None
+    return f"feature {index}" + (f" ({role} {label!r})" if label else f" ({role})" if role else "")
+
+
+def _number(value, what: str, low: float | None = None, high: float | None = None, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise UserError(f"{what} must be a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise UserError(f"{what} must be positive, got {value!r}")
+    if (low is not None and value < low) or (high is not None and value > high):
+        raise UserError(f"{what} must lie in [{low}, {high}], got {value!r}")
+    return float(value)
+
+
+def _check_position(pos, where: str) -> None:
+    if not isinstance(pos, list) or len(pos) < 2:
+        raise UserError(f"{where}: a position must be [longitude, latitude], got {pos!r}")
+    for v in pos:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise UserError(f"{where}: coordinate {v!r} is not a finite number")
+    lon, lat = pos[0], pos[1]
+    if not -180.0 <= lon <= 180.0:
+        raise UserError(f"{where}: longitude {lon} is out of range [-180, 180]")
+    if not -90.0 <= lat <= 90.0:
+        raise UserError(f"{where}: latitude {lat} is out of range [-90, 90]")
+
+
+def _check_polygon_coords(rings, where: str) -> None:
+    if not isinstance(rings, list) or not rings:
+        raise UserError(f"{where}: a Polygon needs a list of rings")
+    for k, ring in enumerate(rings):
+        label = f"{where} {'exterior ring' if k == 0 else f'hole {k}'}"
+        if not isinstance(ring, list) or len(ring) < 4:
+            raise UserError(f"{label}: a ring needs at least 4 positions (first = last)")
+        for pos in ring:
+            _check_position(pos, label)
+        if ring[0][:2] != ring[-1][:2]:
+            raise UserError(f"{label}: ring is not closed (its first and last positions differ)")
+
+
+def _geometry(feature: dict, allowed: tuple[str, ...], where: str) -> BaseGeometry:
+    geom = feature.get("geometry")
+    if not isinstance(geom, dict) or "type" not in geom:
+        raise UserError(f"{where}: missing geometry")
+    kind = geom["type"]
+    if kind not in allowed:
+        raise UserError(f"{where}: geometry must be {' or '.join(allowed)}, got {kind}")
+    coords = geom.get("coordinates")
+    if kind == "Point":
+        _check_position(coords, where)
+    elif kind == "Polygon":
+        _check_polygon_coords(coords, where)
+    elif kind == "MultiPolygon":
+        if not isinstance(coords, list) or not coords:
+            raise UserError(f"{where}: a MultiPolygon needs a list of polygons")
+        for i, rings in enumerate(coords):
+            _check_polygon_coords(rings, f"{where} polygon {i}")
+    result = shape({"type": kind, "coordinates": coords})
+    if kind != "Point":
+        if not result.is_valid:
+            reason = explain_validity(result)
+            raise UserError(f"{where}: invalid polygon: {_readable_validity(reason)}")
+        if result.area <= 0:
+            raise UserError(f"{where}: polygon has no area")
+    return result
+
+
+def _readable_validity(reason: str) -> str:
+    """'Self-intersection[8.54 47.39]' -> 'Self-intersection at lon 8.540000, lat 47.390000'."""
+    if "[" in reason and reason.endswith("]"):
+        what, _, where = reason[:-1].partition("[")
+        parts = where.split()
+        try:
+            lon, lat = float(parts[0]), float(parts[1])
+        except (IndexError, ValueError):
+            return reason
+        return f"{what} at lon {lon:.6f}, lat {lat:.6f}"
+    return reason
+
+
+def _heading(value, where: str) -> int:
+    if isinstance(value, str):
+        key = value.strip().upper()
+        if key in COMPASS:
+            return COMPASS.index(key)
+        raise UserError(f"{where}: heading {value!r} is not one of {', '.join(COMPASS)} or a number of degrees")
+    return heading_from_degrees(_number(value, f"{where}: heading"))
+
+
+def _outline(geometry: BaseGeometry) -> BaseGeometry:
+    """A polygon or multipolygon without its holes."""
+    parts = geometry.geoms if isinstance(geometry, MultiPolygon) else [geometry]
+    return unary_union([Polygon(p.exterior) for p in parts])
+
+
+def parse_area(data, name: str = "area", source: str = "area file") -> AreaFile:
+    """Validate a decoded GeoJSON document and return its parts."""
+    if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
+        raise UserError(f"{source}: not a GeoJSON FeatureCollection")
+    features = data.get("features")
+    if not isinstance(features, list):
+        raise UserError(f"{source}: FeatureCollection has no 'features' list")
+    areas, no_fly, priors, airports, targets = [], [], [], [], []
+    cell_size = None
+    collection_props = data.get("properties")
+    if isinstance(collection_props, dict) and collection_props.get("cell_size_m") is not None:
+        cell_size = _number(collection_props["cell_size_m"], f"{source}: properties.cell_size_m", positive=True)
+    for i, feature in enumerate(features):
+        if not isinstance(feature, dict) or feature.get("type") != "Feature":
+            raise UserError(f"{source}: feature {i} is not a GeoJSON Feature")
+        props = feature.get("properties") or {}
+        if not isinstance(props, dict):
+            raise UserError(f"{source}: feature {i}: properties must be an object")
+        where = f"{source}: {_where(i, feature)}"
+        role = props.get("role")
+        if role not in ROLES:
+            raise UserError(f"{where}: 'role' must be one of {', '.join(ROLES)}, got {role!r}")
+        label = str(props.get("name", f"{role} {i}"))
+        if role == "area":
+            areas.append(_geometry(feature, POLYGONAL, where))
+            if props.get("cell_size_m") is not None:
+                cell_size = _number(props["cell_size_m"], f"{where}: cell_size_m", positive=True)
+        elif role == "no_fly":
+            no_fly.append(_outline(_geometry(feature, POLYGONAL, where)))
+        elif role == "prior":
+            geom = _geometry(feature, POLYGONAL, where)
+            for key in ("tep", "eu"):
+                if key not in props:
+                    raise UserError(f"{where}: a prior needs '{key}'")
+            priors.append(Prior(label, geom, _number(props["tep"], f"{where}: tep", 0.0, 1.0),
+                                _number(props["eu"], f"{where}: eu", 0.0, 1.0)))
+        elif role == "airport":
+            point = _geometry(feature, ("Point",), where)
+            if "heading" not in props:
+                raise UserError(f"{where}: an airport needs a 'heading' (degrees or {', '.join(COMPASS)})")
+            range_m = props.get("range_m")
+            endurance_s = props.get("endurance_s")
+            if range_m is not None and endurance_s is not None:
+                raise UserError(f"{where}: give range_m or endurance_s, not both")
+            altitude = props.get("altitude_m")
+            airports.append(Airport(
+                len(airports), str(props.get("name", f"UAV {len(airports) + 1}")), point.x, point.y,
+                _heading(props["heading"], where),
+                None if range_m is None else _number(range_m, f"{where}: range_m", positive=True),
+                None if endurance_s is None else _number(endurance_s, f"{where}: endurance_s", positive=True),
+                None if altitude is None else _number(altitude, f"{where}: altitude_m", positive=True)))
+        else:
+            point = _geometry(feature, ("Point",), where)
+            targets.append(Target(label, point.x, point.y))
+    if not areas:
+        raise UserError(f"{source}: no feature with role 'area'")
+    if not airports:
+        raise UserError(f"{source}: no feature with role 'airport' (one Point per UAV)")
+    area = unary_union(areas)
+    min_lon, _, max_lon, _ = area.bounds
+    if max_lon - min_lon > 180.0:
+        raise UserError(f"{source}: the area spans more than 180 degrees of longitude (areas across the "
+                        f"antimeridian are not supported)")
+    return AreaFile(name, area, tuple(no_fly), tuple(priors), tuple(airports), tuple(targets), cell_size)

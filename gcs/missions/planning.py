@@ -1,0 +1,240 @@
+"""`gcs plan --area`: area file -> grid and scenario -> closed search -> mission files.
+
+Bad input raises `UserError` before anything is written; the outputs are staged and published
+together (`gcs.atomic.staged_outputs`), so a failed run leaves the output folder as it was."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from shapely.geometry import MultiPolygon, Point
+
+from gcs.area_file import AreaFile, read_area_file
+from gcs.atomic import staged_outputs
+from gcs.errors import UserError
+from gcs.missions.from_plan import FlownPath, uav_mission
+from gcs.missions.items import UavMission, Vehicle
+from gcs.missions.paths import paths_geojson
+from gcs.missions.qgc_plan import qgc_plan
+from gcs.missions.wpl import wpl_text
+from gcs.plan_file import plan_to_dict
+from planner.area_grid import (
+    DIAGONAL,
+    MAX_CELLS,
+    AreaGrid,
+    PriorCells,
+    airport_cell,
+    area_scenario,
+    build_area_grid,
+    steps_for_range,
+)
+from planner.dtscs import ClosedSearch, MissionConfig
+from planner.environment import Sensor
+from planner.motion import constraint_by_name
+from planner.plan import Plan
+from planner.scenario import UavSpec
+
+DEFAULT_CELL_SIZE_M = 50.0
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("area planning (--area)")
+    g.add_argument("--area", metavar="GEOJSON", default=None,
+                   help="plan over a GeoJSON search area (docs/areas.md) instead of a built-in scenario")
+    g.add_argument("--cell-size", dest="cell_size_m", metavar="METRES", type=float, default=None,
+                   help=f"grid cell side (default: the file's cell_size_m, else {DEFAULT_CELL_SIZE_M:g})")
+    g.add_argument("--speed", dest="speed_m_s", metavar="M/S", type=float, default=12.0, help="cruise speed")
+    g.add_argument("--range-m", dest="range_m", metavar="METRES", type=float, default=None,
+                   help="range of airports that give neither range_m nor endurance_s (overrides --endurance)")
+    g.add_argument("--endurance", dest="endurance_s", metavar="SECONDS", type=float, default=900.0,
+                   help="endurance of airports that give neither range_m nor endurance_s")
+    g.add_argument("--altitude", dest="altitude_m", metavar="METRES", type=float, default=60.0,
+                   help="mission altitude above home of the first UAV")
+    g.add_argument("--altitude-step", dest="altitude_step_m", metavar="METRES", type=float, default=10.0,
+                   help="altitude added per UAV, so UAVs fly at distinct altitudes (airport altitude_m overrides)")
+    g.add_argument("--vehicle", choices=[v.value for v in Vehicle], default=Vehicle.COPTER.value,
+                   help="copter: take-off and NAV_LAND at the airport; plane: take-off and RETURN_TO_LAUNCH")
+    g.add_argument("--margin", dest="margin_m", metavar="METRES", type=float, default=0.0,
+                   help="safety buffer: shrink the area and grow the no-fly zones by this much")
+    g.add_argument("--default-tep", type=float, default=0.5, help="target probability outside prior regions")
+    g.add_argument("--default-eu", type=float, default=0.5, help="uncertainty outside prior regions")
+    g.add_argument("--max-cells", type=int, default=MAX_CELLS, help="refuse grids with more cells than this")
+
+
+@dataclass
+class AreaSetup:
+    """Everything resolved from the area file and the options, before the search flies."""
+
+    source: AreaFile
+    area: AreaGrid
+    search: ClosedSearch
+    ranges_m: dict[int, float]
+    altitudes_m: dict[int, float]
+    vehicle: Vehicle
+
+
+def _positive(value: float, what: str) -> float:
+    if not (math.isfinite(value) and value > 0):
+        raise UserError(f"{what} must be a positive number, got {value:g}")
+    return value
+
+
+def mission_altitudes(explicit: list[float | None], base_m: float, step_m: float) -> dict[int, float]:
+    """Altitude per UAV id (1-based): the airport's own `altitude_m`, else the next of base,
+    base + step, base + 2 step, ... not within step/2 of an altitude an airport asked for."""
+    taken = [a for a in explicit if a is not None]
+    out: dict[int, float] = {}
+    level = 0
+    for i, alt in enumerate(explicit):
+        if alt is None:
+            while step_m and any(abs(base_m + level * step_m - t) < abs(step_m) / 2 for t in taken):
+                level += 1
+            alt = base_m + level * step_m
+            level += 1
+        if alt <= 0:
+            raise ValueError(f"UAV {i + 1}: altitude {alt:g} m is not above home")
+        out[i + 1] = alt
+    return out
+
+
+def build_area_search(args: argparse.Namespace) -> AreaSetup:
+    source = read_area_file(args.area)
+    cell = _positive(args.cell_size_m or source.cell_size_m or DEFAULT_CELL_SIZE_M, "--cell-size")
+    speed = _positive(args.speed_m_s, "--speed")
+    _positive(args.endurance_s, "--endurance")
+    if args.range_m is not None:
+        _positive(args.range_m, "--range-m")
+    if not (math.isfinite(args.altitude_m) and args.altitude_m > 0 and math.isfinite(args.altitude_step_m)):
+        raise UserError("--altitude must be positive and --altitude-step finite")
+    try:
+        area = build_area_grid(source.area, list(source.no_fly), cell, args.margin_m, args.max_cells)
+        uavs, ranges_m = [], {}
+        for ap in source.airports:
+            uav_id = ap.index + 1
+            label = f"airport {ap.name!r} (UAV {uav_id})"
+            east, north = area.point_m(ap.lon_deg, ap.lat_deg)
+            x, y = airport_cell(area, east, north, label)
+            range_m = (ap.range_m or (ap.endurance_s * speed if ap.endurance_s else None)
+                       or args.range_m or args.endurance_s * speed)
+            ce, cn = area.grid.centre_m(x, y)
+            to_cell_m = float(math.hypot(ce - east, cn - north))
+            steps = steps_for_range(range_m - 2 * to_cell_m, cell)
+            if steps < 2:
+                raise ValueError(f"{label}: range {range_m:.0f} m is {max(steps, 0)} steps of {cell * DIAGONAL:.1f} m; "
+                                 f"it cannot leave its airport and come back")
+            uavs.append(UavSpec(uav_id, (x, y), ap.heading, steps))
+            ranges_m[uav_id] = range_m
+        altitudes = mission_altitudes([ap.altitude_m for ap in source.airports], args.altitude_m,
+                                      args.altitude_step_m)
+        targets = []
+        for t in source.targets:
+            east, north = area.point_m(t.lon_deg, t.lat_deg)
+            if not area.area_m.covers(Point(east, north)):
+                raise ValueError(f"target {t.name!r} at lon {t.lon_deg}, lat {t.lat_deg} is outside the area")
+            targets.append((east, north))
+        priors = [PriorCells(area.to_local(p.geometry), p.tep, p.eu) for p in source.priors]
+        sensor = Sensor(args.pc, args.pf, args.footprint)
+        scenario = area_scenario(source.name, area, priors, uavs, targets, args.default_tep, args.default_eu, sensor)
+        config = MissionConfig(np_steps=args.np_steps, oc=constraint_by_name(args.oc), strategy=args.strategy,
+                               return_planner=args.return_planner, reserve_steps=args.reserve,
+                               range_aware_search=args.range_aware_search)
+        search = ClosedSearch(scenario, config, seed=args.seed)
+    except ValueError as exc:
+        raise UserError(f"{args.area}: {exc}") from None
+    return AreaSetup(source, area, search, ranges_m, altitudes, Vehicle(args.vehicle))
+
+
+def _rings_lat_lon(geometry) -> tuple[list, list]:
+    """Outer rings and holes of a (multi)polygon as lists of (lat, lon)."""
+    parts = geometry.geoms if isinstance(geometry, MultiPolygon) else [geometry]
+    outer = [[(lat, lon) for lon, lat in p.exterior.coords] for p in parts]
+    holes = [[(lat, lon) for lon, lat in h.coords] for p in parts for h in p.interiors]
+    return outer, holes
+
+
+def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float) -> dict[str, str]:
+    """File name -> text of every output of an area plan."""
+    source, area = setup.source, setup.area
+    missions: list[UavMission] = []
+    paths: dict[int, FlownPath] = {}
+    extra: dict[int, dict] = {}
+    airports = {ap.index + 1: ap for ap in source.airports}
+    for u in plan.uavs:
+        ap = airports[u.uav_id]
+        try:
+            mission, flown = uav_mission(area, u, ap.name, setup.vehicle, (ap.lat_deg, ap.lon_deg),
+                                         setup.altitudes_m[u.uav_id])
+        except ValueError as exc:
+            raise UserError(f"{source.name}: {exc}") from None
+        missions.append(mission)
+        paths[u.uav_id] = flown
+        extra[u.uav_id] = {"name": ap.name, "vehicle": setup.vehicle.value, "altitude_m": mission.altitude_m,
+                           "range_m": round(setup.ranges_m[u.uav_id], 3),
+                           "airport_lat_lon": [ap.lat_deg, ap.lon_deg],
+                           "waypoints": [[a, b] for a, b in mission.waypoints],
+                           "length_m": round(flown.length_m, 3)}
+    outer, holes = _rings_lat_lon(source.area)
+    exclusion = holes + [ring for zone in source.no_fly for ring in _rings_lat_lon(zone)[0]]
+    files = {"plan.json": json.dumps(plan_to_dict(plan, seed=seed, area=area, uav_extra=extra), indent=1) + "\n"}
+    for m in missions:
+        files[f"uav{m.uav_id}.waypoints"] = wpl_text(m)
+        files[f"uav{m.uav_id}.plan"] = json.dumps(qgc_plan(m, outer, exclusion, speed_m_s), indent=1) + "\n"
+    lengths = {uid: p.length_m for uid, p in paths.items()}
+    files["paths.geojson"] = json.dumps(paths_geojson(missions, lengths, source.name), indent=1) + "\n"
+    return files
+
+
+def write_outputs(out_dir: Path, files: dict[str, str]) -> None:
+    """Publish all files together; on failure remove nothing old and leave no new folder behind."""
+    created = not out_dir.exists()
+    try:
+        with staged_outputs([out_dir / name for name in files]) as staged:
+            for name, text in files.items():
+                staged[out_dir / name].write_text(text, encoding="utf-8")
+    except BaseException:
+        if created and out_dir.is_dir() and not any(out_dir.iterdir()):
+            out_dir.rmdir()
+        raise
+
+
+def area_out_dir(args: argparse.Namespace) -> Path:
+    if args.out is None:
+        return Path("runs") / Path(args.area).stem
+    out = Path(args.out)
+    if out.suffix == ".json":
+        raise UserError(f"--out {args.out}: --area writes several files; give a folder")
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {args.out}: exists and is not a folder")
+    return out
+
+
+def mission_table(setup: AreaSetup, plan: Plan, files: dict[str, str]) -> str:
+    data = json.loads(files["plan.json"])
+    rows = [f"{'UAV':>3}  {'name':<16} {'alt m':>6} {'range m':>8} {'path m':>8} {'waypoints':>9}"]
+    for u in data["uavs"]:
+        rows.append(f"{u['id']:>3}  {u['name'][:16]:<16} {u['altitude_m']:>6.0f} {u['range_m']:>8.0f} "
+                    f"{u['length_m']:>8.0f} {len(u['waypoints']):>9}")
+    g = setup.area.grid
+    rows.append(f"grid {g.nx}x{g.ny} cells of {g.cell_size_m:g} m, {int(setup.area.free.sum())} searchable, "
+                f"{setup.area.edge_blocked} blocked at edges")
+    return "\n".join(rows)
+
+
+def run_area(args: argparse.Namespace, fly: Callable[[ClosedSearch, bool], Plan],
+             summary: Callable[[Plan], str]) -> int:
+    out_dir = area_out_dir(args)
+    setup = build_area_search(args)
+    plan = fly(setup.search, args.quiet)
+    files = area_outputs(setup, plan, args.seed, args.speed_m_s)
+    write_outputs(out_dir, files)
+    if not args.quiet:
+        print(summary(plan))
+        print(mission_table(setup, plan, files))
+        print(f"plan, missions and paths written to {out_dir}/ ({', '.join(sorted(files))})")
+    return 0
+

@@ -1,0 +1,138 @@
+"""Bad area files and options: one clear error line, exit 2, and no output."""
+
+import json
+
+import pytest
+
+
+def _fails(run_gcs, doc, match, *extra):
+    code, err, out = run_gcs(doc, *extra)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ")
+    assert match in lines[0], lines[0]
+    assert not out.exists()
+    return lines[0]
+
+
+def test_the_small_area_is_valid(run_gcs, area_doc):
+    code, err, out = run_gcs(area_doc)
+    assert code == 0, err
+    assert (out / "plan.json").exists()
+
+
+def test_not_json(run_gcs):
+    _fails(run_gcs, "{ this is not json", "not JSON")
+
+
+def test_not_geojson(run_gcs):
+    _fails(run_gcs, json.dumps({"type": "Feature", "geometry": None}), "not a GeoJSON FeatureCollection")
+    _fails(run_gcs, json.dumps([1, 2, 3]), "not a GeoJSON FeatureCollection")
+
+
+def test_no_area(run_gcs, area_doc):
+    area_doc["features"] = [f for f in area_doc["features"] if f["properties"]["role"] != "area"]
+    _fails(run_gcs, area_doc, "no feature with role 'area'")
+
+
+def test_unknown_role(run_gcs, area_doc):
+    area_doc["features"][1]["properties"]["role"] = "nofly"
+    _fails(run_gcs, area_doc, "'role' must be one of")
+
+
+def test_self_intersecting_polygon_says_where(run_gcs, area_doc, shapes):
+    bow_tie = shapes.ring([(-300, -300), (300, 300), (300, -300), (-300, 300)])
+    area_doc["features"][0]["geometry"]["coordinates"] = [bow_tie]
+    _fails(run_gcs, area_doc, "feature 0 (area 'square'): invalid polygon: Self-intersection at lon 8.000000, "
+                              "lat 47.000000")
+
+
+def test_unclosed_ring(run_gcs, area_doc):
+    area_doc["features"][1]["geometry"]["coordinates"][0].pop()
+    _fails(run_gcs, area_doc, "not closed")
+
+
+def test_airport_outside_the_area(run_gcs, area_doc, shapes):
+    area_doc["features"][3]["geometry"]["coordinates"] = shapes.lonlat([(-400, 0)])[0]
+    _fails(run_gcs, area_doc, "airport 'west' (UAV 1) is outside the area")
+
+
+def test_airport_inside_a_no_fly_zone(run_gcs, area_doc, shapes):
+    area_doc["features"][3]["geometry"]["coordinates"] = shapes.lonlat([(60, 60)])[0]
+    _fails(run_gcs, area_doc, "airport 'west' (UAV 1) is inside a no-fly zone")
+
+
+def test_airport_that_cannot_leave_and_return(run_gcs, area_doc):
+    area_doc["features"][3]["properties"]["range_m"] = 50
+    _fails(run_gcs, area_doc, "cannot leave its airport and come back")
+
+
+def test_range_too_short_for_the_orientation_constraint(run_gcs, area_doc):
+    # 3 steps (3 * 42.4 m): under 3OC no loop of 3 steps returns to the start cell.
+    area_doc["features"][3]["properties"]["range_m"] = 130
+    _fails(run_gcs, area_doc, "too short to leave")
+
+
+def test_too_many_cells(run_gcs, area_doc):
+    line = _fails(run_gcs, area_doc, "more than the maximum of 1000000", "--cell-size", "0.5")
+    assert "use a cell size of at least" in line
+
+
+@pytest.mark.parametrize("position, match", [([8.0, 91.0], "latitude 91.0 is out of range"),
+                                             ([181.0, 47.0], "longitude 181.0 is out of range"),
+                                             (["8", 47.0], "is not a finite number")])
+def test_coordinates_out_of_range(run_gcs, area_doc, position, match):
+    area_doc["features"][5]["geometry"]["coordinates"] = position
+    _fails(run_gcs, area_doc, match)
+
+
+def test_nan_is_refused(run_gcs, area_doc):
+    text = json.dumps(area_doc).replace('"range_m": 3000', '"range_m": NaN')
+    assert "NaN" in text
+    _fails(run_gcs, text, "NaN")
+
+
+def test_prior_values_outside_zero_one(run_gcs, area_doc):
+    area_doc["features"][2]["properties"]["tep"] = 1.5
+    _fails(run_gcs, area_doc, "tep must lie in [0.0, 1.0]")
+
+
+def test_bad_heading(run_gcs, area_doc):
+    area_doc["features"][3]["properties"]["heading"] = "up"
+    _fails(run_gcs, area_doc, "heading 'up' is not one of N, NE")
+
+
+def test_target_outside_the_area(run_gcs, area_doc, shapes):
+    area_doc["features"].append(shapes.feature("Point", shapes.lonlat([(500, 500)])[0], role="target", name="far"))
+    _fails(run_gcs, area_doc, "target 'far'")
+
+
+def test_out_must_be_a_folder(run_gcs, area_doc, tmp_path):
+    code, err, _ = run_gcs(area_doc, "--out", str(tmp_path / "x.json"))
+    assert code == 2 and "give a folder" in err
+    assert not (tmp_path / "x.json").exists()
+
+
+def test_missing_file(tmp_path, capsys):
+    from gcs.cli import main
+    assert main(["plan", "--area", str(tmp_path / "nope.geojson"), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    assert "cannot read area file" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_two_airports_in_one_cell(run_gcs, area_doc, shapes):
+    area_doc["features"][4]["geometry"]["coordinates"] = shapes.lonlat([(-250, -20)])[0]
+    _fails(run_gcs, area_doc, "shared with another UAV")
+
+
+@pytest.mark.parametrize("option, value, match", [("--cell-size", "-5", "--cell-size must be a positive number"),
+                                                  ("--cell-size", "nan", "--cell-size must be a positive number"),
+                                                  ("--speed", "0", "--speed must be a positive number"),
+                                                  ("--margin", "-1", "margin must be >= 0")])
+def test_bad_options(run_gcs, area_doc, option, value, match):
+    _fails(run_gcs, area_doc, match, option, value)
+
+
+def test_both_range_and_endurance(run_gcs, area_doc):
+    area_doc["features"][3]["properties"]["endurance_s"] = 100
+    _fails(run_gcs, area_doc, "give range_m or endurance_s, not both")
