@@ -22,6 +22,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--vehicles", type=int, default=1, metavar="N", help="number of vehicles (default 1)")
     p.add_argument("--home", action="append", metavar="LAT,LON[,HEADING]",
                    help=f"home pose, once per vehicle or once for all (default {DEFAULT_HOME})")
+    p.add_argument("--area", default=None, metavar="AREA.geojson",
+                   help="one vehicle per airport of an area file (home, heading), with its targets")
     p.add_argument("--home-alt-m", type=float, default=0.0, help="ground altitude AMSL of every home")
     p.add_argument("--base-port", type=int, default=14540, help="UDP port of vehicle 1 (default 14540)")
     p.add_argument("--bind", default="127.0.0.1", help="address to listen on (default loopback only)")
@@ -63,8 +65,27 @@ class _Silent:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.area is not None:
+        if args.home:
+            raise UserError("give either --area or --home, not both")
+        homes, targets = _homes_from_area(args.area, args.home_alt_m)
+        args.vehicles = len(homes)
+        args.target = list(args.target) + [f"{lat},{lon}" for lat, lon in targets]
+        return serve(homes, args)
     homes = [_parse_home(text, args.home_alt_m) for text in (args.home or [DEFAULT_HOME])]
     return serve(homes, args)
+
+
+def _homes_from_area(path: str, alt_m: float):
+    """Home poses from an area file's airports (in file order: vehicle i flies UAV i) and its targets."""
+    from gcs.area_file import read_area_file
+    from sim import HomePose
+
+    area = read_area_file(path)
+    if not area.airports:
+        raise UserError(f"{path}: no airport features, so no vehicle homes")
+    homes = [HomePose(a.lat_deg, a.lon_deg, alt_m, a.heading * 45.0) for a in area.airports]
+    return homes, [(t.lat_deg, t.lon_deg) for t in area.targets]
 
 
 def serve(poses: list, args: argparse.Namespace) -> int:

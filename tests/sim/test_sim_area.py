@@ -1,0 +1,62 @@
+"""`gcs sim --area`: one vehicle per airport of an area file, at the airport, with its heading."""
+
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+from gcs.area_file import read_area_file
+from tests.sim.helpers import Gcs, distance_m
+
+ROOT = Path(__file__).resolve().parents[2]
+AREA = ROOT / "missions" / "paper.geojson"
+
+
+def _free_ports(n: int) -> int:
+    for _ in range(50):
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
+            a.bind(("127.0.0.1", 0))
+            base = a.getsockname()[1]
+        if base > 65000:
+            continue
+        try:
+            socks = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(n)]
+            for i, s in enumerate(socks):
+                s.bind(("127.0.0.1", base + i))
+        except OSError:
+            continue
+        finally:
+            for s in socks:
+                s.close()
+        return base
+    raise RuntimeError("no free UDP ports")
+
+
+def test_vehicles_start_at_the_area_airports():
+    airports = read_area_file(AREA).airports
+    base = _free_ports(len(airports))
+    proc = subprocess.Popen([sys.executable, "-m", "gcs.cli", "sim", "--area", str(AREA), "--base-port", str(base),
+                             "--speedup", "5"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        banner = proc.stdout.readline()
+        assert f"{len(airports)} copter" in banner
+        for i, airport in enumerate(airports):
+            link = Gcs(("127.0.0.1", base + i), i + 1)
+            assert link.hello().get_srcSystem() == i + 1
+            pos = link.wait("GLOBAL_POSITION_INT")
+            assert distance_m(pos.lat / 1e7, pos.lon / 1e7, airport.lat_deg, airport.lon_deg) < 1.0
+            assert abs(((pos.hdg / 100.0) - airport.heading * 45.0 + 180) % 360 - 180) < 1.0
+            link.close()
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=10) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
+def test_area_and_home_together_are_refused():
+    run = subprocess.run([sys.executable, "-m", "gcs.cli", "sim", "--area", str(AREA), "--home", "1,2"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=30)
+    assert run.returncode == 2 and run.stderr.strip() == "error: give either --area or --home, not both"
