@@ -10,6 +10,13 @@ from pathlib import Path
 from typing import Iterator
 
 
+def _default_mode() -> int:
+    """Permissions an ordinary new file gets under the current umask (mkstemp makes 0600)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:
     """Write `text` to `path` through a temporary file in the same folder and a rename."""
     path = Path(path)
@@ -18,6 +25,7 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> None:
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
+        os.chmod(tmp, _default_mode())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -40,6 +48,9 @@ def staged_outputs(final_paths: list[Path]) -> Iterator[dict[Path, Path]]:
             os.close(fd)
             staged[final] = Path(tmp)
         yield staged
+        mode = _default_mode()
+        for tmp in staged.values():
+            os.chmod(tmp, mode)
         for final, tmp in staged.items():
             os.replace(tmp, final)
     finally:

@@ -13,8 +13,8 @@ from planner.search.exhaustive import ExhaustiveStrategy
 from planner.search.ga import GaStrategy
 from planner.search.lawnmower import LawnmowerStrategy
 from planner.search.pio import PioStrategy
-from planner.search.pso import PsoStrategy
 from planner.search.problem import Decision, Searcher, StepProblem
+from planner.search.pso import PsoStrategy
 
 
 class SearchStrategy(Protocol):

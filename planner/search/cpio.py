@@ -5,7 +5,8 @@ One subgroup of C1 pigeons per searching UAV, all run in lock-step by one kernel
 
 Cooperation: every subgroup scores its pigeons against the shared map and against the other
 subgroups' *current* best paths (re-read every iteration), so F_r of eq. (10) steers the UAVs
-apart while they are being optimised. A subgroup starts from its UAV's previous prediction.
+apart while they are being optimised. Each subgroup's row starts as its UAV's previous prediction,
+and its first pigeon on the rest of that path (warm start, as for PIO, PSO and GA).
 
 Competition: two best paths conflict when, at the same future step, they claim the same cell or
 come within `proximity` (sqrt 2, where F_r turns into the -100 penalty). In order of falling J1
@@ -19,7 +20,12 @@ from __future__ import annotations
 import numpy as np
 
 from planner.search.competition import padded_cells
-from planner.search.flock import choices_along, decision_from_choices, path_cells, turn_ordered
+from planner.search.flock import (
+    PathMemory,
+    decision_from_choices,
+    path_cells,
+    turn_ordered,
+)
 from planner.search.pio import PioParams, run_pio
 from planner.search.problem import Decision, Searcher, StepProblem
 
@@ -28,9 +34,11 @@ PROXIMITY = float(np.sqrt(2.0))
 
 def paths_conflict(a: np.ndarray, b: np.ndarray, proximity: float = PROXIMITY) -> bool:
     """True when two (Np, 2) futures come within `proximity` cells at the same step."""
-    known = (a[:, 0] >= 0) & (b[:, 0] >= 0)
-    d = np.hypot(a[:, 0] - b[:, 0], a[:, 1] - b[:, 1])
-    return bool(np.any(known & (d <= proximity + 1e-9)))
+    limit = proximity * proximity + 1e-9
+    for (ax, ay), (bx, by) in zip(a.tolist(), b.tolist()):
+        if ax >= 0 and bx >= 0 and (ax - bx) ** 2 + (ay - by) ** 2 <= limit:
+            return True
+    return False
 
 
 def fixed_others(problem: StepProblem, group: set[int], hard_paths: dict[int, np.ndarray] | None = None,
@@ -70,14 +78,21 @@ class CpioStrategy:
                  warm_start: bool = True) -> None:
         self.params = params or PioParams()
         self.proximity = proximity
-        self.warm_start = warm_start
+        self.memory = PathMemory() if warm_start else None
         self._rng = np.random.default_rng(seed)
 
     def best_path(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
                   rng: np.random.Generator | None = None) -> Decision | None:
         """One subgroup alone (basic PIO) against fixed others."""
-        best, _, trace, evaluations = run_pio(problem, [searcher], others, others_hard, self.params, rng or self._rng)
-        return decision_from_choices(problem, searcher, others, others_hard, best[0], evaluations, trace[0])
+        warm = None
+        if self.memory is not None:
+            warm = [self.memory.warm_row(searcher, turn_ordered(problem.successors), problem.np_steps)]
+        best, _, trace, evaluations = run_pio(problem, [searcher], others, others_hard, self.params, rng or self._rng,
+                                              warm_starts=warm)
+        decision = decision_from_choices(problem, searcher, others, others_hard, best[0], evaluations, trace[0])
+        if self.memory is not None:
+            self.memory.remember(searcher.uav_id, decision)
+        return decision
 
     def coevolve(self, problem: StepProblem, rng: np.random.Generator) -> dict[int, Decision | None]:
         """Cooperation: all subgroups optimised together, each against the others' current bests."""
@@ -86,10 +101,9 @@ class CpioStrategy:
         fixed, fixed_hard = fixed_others(problem, ids)
         start = [problem.predicted.get(s.uav_id) for s in searchers]
         warm = None
-        if self.warm_start:
+        if self.memory is not None:
             table = turn_ordered(problem.successors)
-            warm = [choices_along(table, (s.x, s.y, s.heading), cells, problem.np_steps)
-                    for s, cells in zip(searchers, start)]
+            warm = [self.memory.warm_row(s, table, problem.np_steps) for s in searchers]
         best, others, trace, evaluations = run_pio(problem, searchers, fixed, fixed_hard, self.params, rng, start,
                                                    warm)
         n_fixed = fixed.shape[0]
@@ -122,4 +136,6 @@ class CpioStrategy:
             decided[s.uav_id] = d
             if d is not None:
                 kept[s.uav_id] = padded_cells(d.path, problem.np_steps)
+            if self.memory is not None:
+                self.memory.remember(s.uav_id, d)
         return decided

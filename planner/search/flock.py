@@ -108,11 +108,24 @@ def flock_inputs(searchers: list[Searcher]) -> tuple[np.ndarray, np.ndarray, np.
     """`poses`, `range_steps` and `home_tables` for the flock layout."""
     poses = np.array([[s.x, s.y, s.heading, s.steps_flown] for s in searchers], dtype=np.int64).reshape(-1, 4)
     ranges = np.array([s.range_steps for s in searchers], dtype=np.int64)
-    if len(searchers) == 1:
-        tables = searchers[0].home_table[None]
-    else:
-        tables = np.stack([s.home_table for s in searchers])
-    return poses, ranges, np.ascontiguousarray(tables)
+    return poses, ranges, _stacked_tables(tuple(s.home_table for s in searchers))
+
+
+_STACKS: list[tuple[tuple[np.ndarray, ...], np.ndarray]] = []
+
+
+def _stacked_tables(tables: tuple[np.ndarray, ...]) -> np.ndarray:
+    """The return tables stacked into one array, kept for reuse: a mission's tables never change,
+    and copying them every step would cost 8 * nx * ny * 4 bytes per UAV per step."""
+    if len(tables) == 1:
+        return np.ascontiguousarray(tables[0][None])
+    for key, stacked in _STACKS:
+        if len(key) == len(tables) and all(a is b for a, b in zip(key, tables)):
+            return stacked
+    stacked = np.stack(tables)
+    _STACKS.insert(0, (tables, stacked))
+    del _STACKS[4:]
+    return stacked
 
 
 def others_with_groups(fixed: np.ndarray, fixed_hard: np.ndarray, groups: int, np_steps: int,
@@ -174,24 +187,44 @@ def choices_along(successors: np.ndarray, pose: tuple[int, int, int], cells: np.
     return out
 
 
+@lru_cache(maxsize=16)
+def _columns(table_bytes: bytes, width: int) -> tuple[tuple[int, ...], ...]:
+    successors = np.frombuffer(table_bytes, dtype=np.int64).reshape(8, width)
+    return tuple(tuple(int(np.flatnonzero(successors[h] == g)[0]) if g in successors[h] else -1 for g in range(8))
+                 for h in range(8))
+
+
+def column_of(successors: np.ndarray) -> tuple[tuple[int, ...], ...]:
+    """`column_of(table)[h][g]`: the turn choice that takes heading g from heading h, -1 if none."""
+    table = np.ascontiguousarray(successors, dtype=np.int64)
+    return _columns(table.tobytes(), table.shape[1])
+
+
 class PathMemory:
     """Each UAV's last chosen path, to warm-start the next decision (receding horizon): when the
     UAV stands where that path's first step put it, the first candidate of the new population is
     the rest of the path, then straight on."""
 
     def __init__(self) -> None:
-        self._paths: dict[int, np.ndarray] = {}
+        self._paths: dict[int, list[tuple[int, int, int]]] = {}
 
     def remember(self, uav_id: int, decision: Decision | None) -> None:
         if decision is None:
             self._paths.pop(uav_id, None)
         else:
-            self._paths[uav_id] = decision.path.copy()
+            self._paths[uav_id] = [tuple(row) for row in decision.path.tolist()]
 
     def warm_row(self, searcher: Searcher, successors: np.ndarray, np_steps: int) -> np.ndarray | None:
         path = self._paths.get(searcher.uav_id)
-        if path is None or tuple(int(v) for v in path[0]) != (searcher.x, searcher.y, searcher.heading):
+        if not path or path[0] != (searcher.x, searcher.y, searcher.heading):
             return None
-        rest = np.full((np_steps, 2), -1, dtype=np.int64)
-        rest[: len(path) - 1] = path[1:, :2]
-        return choices_along(successors, (searcher.x, searcher.y, searcher.heading), rest, np_steps)
+        columns = column_of(successors)
+        h = searcher.heading
+        row = []
+        for _, _, g in path[1: np_steps + 1]:
+            if columns[h][g] < 0:
+                return None
+            row.append(columns[h][g])
+            h = g
+        ahead = columns[h][h] if columns[h][h] >= 0 else successors.shape[1] // 2
+        return np.array(row + [ahead] * (np_steps - len(row)), dtype=np.int64)

@@ -15,7 +15,14 @@ import numpy as np
 
 from planner.config import njit
 from planner.search.competition import compete
-from planner.search.flock import PathMemory, decision_from_choices, evaluate_flock, flock_inputs, others_with_groups, turn_ordered
+from planner.search.flock import (
+    PathMemory,
+    decision_from_choices,
+    evaluate_flock,
+    flock_inputs,
+    others_with_groups,
+    turn_ordered,
+)
 from planner.search.problem import Decision, Searcher, StepProblem
 
 

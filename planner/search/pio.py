@@ -24,8 +24,18 @@ import numpy as np
 
 from planner.config import njit
 from planner.search.competition import compete
-from planner.search.flock import (DEPTH_WEIGHT, PathMemory, clamp_position, decision_from_choices, decode_positions,
-                                  evaluate_flock, flock_inputs, others_with_groups, share_best_cells, turn_ordered)
+from planner.search.flock import (
+    DEPTH_WEIGHT,
+    PathMemory,
+    clamp_position,
+    decision_from_choices,
+    decode_positions,
+    evaluate_flock,
+    flock_inputs,
+    others_with_groups,
+    share_best_cells,
+    turn_ordered,
+)
 from planner.search.problem import Decision, Searcher, StepProblem
 
 
@@ -73,8 +83,7 @@ def landmark_centre(positions, fitness, n):
     m = positions.shape[1]
     f_min = fitness[0]
     for a in range(n):
-        if fitness[a] < f_min:
-            f_min = fitness[a]
+        f_min = min(f_min, fitness[a])
     total = 0.0
     for a in range(n):
         total += fitness[a] - f_min

@@ -14,8 +14,16 @@ import numpy as np
 
 from planner.config import njit
 from planner.search.competition import compete
-from planner.search.flock import (PathMemory, clamp_position, decision_from_choices, decode_positions, evaluate_flock,
-                                  flock_inputs, others_with_groups, turn_ordered)
+from planner.search.flock import (
+    PathMemory,
+    clamp_position,
+    decision_from_choices,
+    decode_positions,
+    evaluate_flock,
+    flock_inputs,
+    others_with_groups,
+    turn_ordered,
+)
 from planner.search.problem import Decision, Searcher, StepProblem
 
 
