@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from tqdm import tqdm
@@ -14,8 +15,9 @@ from tqdm import tqdm
 from gcs.atomic import write_json_atomic
 from gcs.errors import UserError
 from gcs.missions import planning as area_plan
+from gcs.overview import draw_overview
 from gcs.plan_file import plan_to_dict
-from planner.dtscs import RETURN_PLANNERS, ClosedSearch, MissionConfig
+from planner.dtscs import RETURN_PLANNERS, ClosedSearch, MissionConfig, StepRecord
 from planner.environment import Sensor
 from planner.motion import constraint_by_name
 from planner.plan import Plan
@@ -43,6 +45,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="plan JSON file, or a folder to hold plan.json (default runs/plan.json; with --area a "
                         "folder, default runs/<area file name>)")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    p.add_argument("--rrd", metavar="PATH", help="Rerun recording of the run (default: next to the plan, plan.rrd)")
+    p.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
+    p.add_argument("--rerun-connect", nargs="?", const="rerun+http://127.0.0.1:9876/proxy", metavar="ADDR",
+                   help="also stream the run to a running Rerun viewer (ADDR default: %(const)s)")
     area_plan.add_arguments(p)
     p.set_defaults(func=run)
 
@@ -69,14 +75,39 @@ def build_search(args: argparse.Namespace) -> ClosedSearch:
         raise UserError(str(exc)) from None
 
 
-def fly_with_progress(search: ClosedSearch, quiet: bool) -> Plan:
+def fly_with_progress(search: ClosedSearch, quiet: bool, on_step: Callable[[StepRecord], None] | None = None) -> Plan:
     horizon = max(u.range_steps for u in search.uavs.values())
     with tqdm(total=horizon, unit="step", desc="planning", disable=quiet or None, leave=False,
               file=sys.stderr) as bar:
         for record in search.run():
+            if on_step is not None:
+                on_step(record)
             bar.update(1)
             bar.set_postfix(found=sum(s is not None for s in search.found_step))
     return search.plan()
+
+
+def recording_path(args: argparse.Namespace, default: Path) -> Path | None:
+    """Where the Rerun recording goes: `--rrd`, else `default`; None with `--no-rrd`."""
+    if args.no_rrd:
+        return None
+    rrd = Path(args.rrd) if args.rrd else default
+    if rrd.suffix != ".rrd":
+        raise UserError(f"--rrd must name a .rrd file, got {rrd}")
+    return rrd
+
+
+def fly_and_record(search: ClosedSearch, args: argparse.Namespace, rrd: Path | None, name: str,
+                   cells_to_lat_lon: Callable | None = None) -> Plan:
+    """Fly the search with a progress bar, recording every step to Rerun unless disabled."""
+    if rrd is None and args.rerun_connect is None:
+        return fly_with_progress(search, args.quiet)
+    from gcs.recording import PlanRecorder  # rerun takes ~0.45 s to import: only when recording
+
+    with PlanRecorder(rrd, args.rerun_connect, search.scenario, cells_to_lat_lon=cells_to_lat_lon, name=name) as rec:
+        plan = fly_with_progress(search, args.quiet, rec.log_step)
+        rec.log_plan(plan)
+    return plan
 
 
 def summary_table(plan: Plan) -> str:
@@ -97,12 +128,15 @@ def summary_table(plan: Plan) -> str:
 
 def run(args: argparse.Namespace) -> int:
     if args.area is not None:
-        return area_plan.run_area(args, fly_with_progress, summary_table)
+        return area_plan.run_area(args, lambda search, rrd, name, geo: fly_and_record(search, args, rrd, name, geo),
+                                  summary_table, recording_path)
     search = build_search(args)
-    plan = fly_with_progress(search, args.quiet)
     out = plan_path(args.out or "runs/plan.json")
+    rrd = recording_path(args, out.with_suffix(".rrd"))
+    plan = fly_and_record(search, args, rrd, f"{args.scenario} seed {args.seed}")
     write_json_atomic(out, plan_to_dict(plan, seed=args.seed))
+    picture = draw_overview(plan, search.scenario, out.with_suffix(".png"))
     if not args.quiet:
         print(summary_table(plan))
-        print(f"plan written to {out}")
+        print(f"plan written to {out}, picture {picture}" + (f", recording {rrd}" if rrd else ""))
     return 0

@@ -225,16 +225,22 @@ def mission_table(setup: AreaSetup, plan: Plan, files: dict[str, str]) -> str:
     return "\n".join(rows)
 
 
-def run_area(args: argparse.Namespace, fly: Callable[[ClosedSearch, bool], Plan],
-             summary: Callable[[Plan], str]) -> int:
+def run_area(args: argparse.Namespace, fly: Callable[..., Plan], summary: Callable[[Plan], str],
+             recording_path: Callable[[argparse.Namespace, Path], Path | None]) -> int:
+    """`gcs plan --area`: `fly(search, rrd, name, cells_to_lat_lon)` runs and records the search."""
+    from gcs.overview import draw_overview
+
     out_dir = area_out_dir(args)
+    rrd = recording_path(args, out_dir / "plan.rrd")
     setup = build_area_search(args)
-    plan = fly(setup.search, args.quiet)
+    plan = fly(setup.search, rrd, Path(args.area).stem, setup.area.cells_lonlat)
     files = area_outputs(setup, plan, args.seed, args.speed_m_s)
     write_outputs(out_dir, files)
+    picture = draw_overview(plan, setup.search.scenario, out_dir / "plan.png")
     if not args.quiet:
         print(summary(plan))
         print(mission_table(setup, plan, files))
-        print(f"plan, missions and paths written to {out_dir}/ ({', '.join(sorted(files))})")
+        print(f"plan, missions and paths written to {out_dir}/ ({', '.join(sorted(files))}), picture {picture.name}"
+              + (f", recording {rrd}" if rrd else ""))
     return 0
 

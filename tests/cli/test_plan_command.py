@@ -4,6 +4,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from gcs.plan_file import validate_plan_dict
@@ -57,3 +58,29 @@ def test_bad_arguments_give_one_line_exit_2_and_no_file(tmp_path, args, message)
     assert len(lines) == 1 and lines[0].startswith("error:") and message in lines[0]
     assert "Traceback" not in run.stderr
     assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_plan_records_the_run_and_draws_a_picture_by_default(tmp_path):
+    from PIL import Image
+
+    from gcs.recording import read_recording
+
+    out = tmp_path / "run" / "plan.json"
+    run = gcs("plan", "--np", "3", "--range", "70", "--seed", "2", "--out", str(out), "--quiet")
+    assert run.returncode == 0, run.stderr
+    data = json.loads(out.read_text())
+    tables = read_recording(out.with_suffix(".rrd"))
+    for u in data["uavs"]:
+        state = tables.temporal[f"uav/{u['id']}/state"].to_pydict()
+        assert state["step"] == [p["step"] for p in u["trajectory"]]
+        assert [v[0] for v in state["x"]] == [p["x"] for p in u["trajectory"]]
+        assert [v[0] for v in state["stage"]] == [p["stage"] for p in u["trajectory"]]
+    with Image.open(out.with_suffix(".png")) as picture:
+        assert picture.size == (1400, 1000)
+        assert len(np.unique(np.asarray(picture.convert("RGB")).reshape(-1, 3), axis=0)) > 50
+
+
+def test_no_rrd_writes_no_recording(tmp_path):
+    out = tmp_path / "plan.json"
+    assert gcs("plan", "--np", "2", "--range", "40", "--no-rrd", "--out", str(out), "--quiet").returncode == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.json", "plan.png"]

@@ -1,0 +1,150 @@
+"""A PNG picture of a plan: the prior map, no-fly zones, known and key regions, every UAV's
+closed path in its own colour (search solid, return dashed), airports, and targets found or
+missed. Matplotlib with the Agg backend; the file is written atomically."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gcs.atomic import staged_outputs
+from planner.plan import Plan
+from planner.scenario import Scenario
+
+WIDTH_PX = 1400
+HEIGHT_PX = 1000
+DPI = 100
+REGION_COLOURS = {"known": "tab:cyan", "key": "tab:orange"}
+
+UAV_COLOURS = ((31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (255, 127, 14),
+               (23, 190, 207), (227, 119, 194), (140, 86, 75), (188, 189, 34), (127, 127, 127))
+
+# Named bands of the prior (P, chi) used to outline regions (Section 2.1 names them, it does not
+# fix numbers): known where both are <= 0.1, key where P >= 0.8.
+KNOWN_MAX = 0.1
+KEY_MIN_TEP = 0.8
+
+
+def uav_colour(index: int) -> tuple[int, int, int]:
+    """The colour of the index-th UAV, in the picture and in the recording."""
+    return UAV_COLOURS[index % len(UAV_COLOURS)]
+
+
+def region_masks(scenario: Scenario) -> dict[str, np.ndarray]:
+    """Known and key regions of the prior, by the bands above, outside no-fly cells."""
+    m = scenario.search_map
+    free = ~m.no_fly
+    return {"known": free & (m.tep <= KNOWN_MAX) & (m.eu <= KNOWN_MAX), "key": free & (m.tep >= KEY_MIN_TEP)}
+
+
+def mask_outline(mask: np.ndarray) -> np.ndarray:
+    """The boundary of a [x, y] cell mask as (n, 2, 2) segments along cell edges, in image
+    coordinates: x from the west edge, rows from the north edge, one unit per cell."""
+    ny = mask.shape[1]
+    padded = np.pad(np.asarray(mask, dtype=bool), 1)
+    inside = padded[1:-1, 1:-1]
+    segments = []
+    for outside, horizontal, offset in ((padded[1:-1, 2:], True, 0), (padded[1:-1, :-2], True, 1),
+                                        (padded[:-2, 1:-1], False, 0), (padded[2:, 1:-1], False, 1)):
+        xs, ys = np.nonzero(inside & ~outside)
+        top = ny - ys - 1.0
+        if horizontal:  # north (offset 0) or south edge
+            start, end = np.stack([xs, top + offset], -1), np.stack([xs + 1, top + offset], -1)
+        else:  # west (offset 0) or east edge
+            start, end = np.stack([xs + offset, top], -1), np.stack([xs + offset, top + 1], -1)
+        segments.append(np.stack([start, end], axis=1))
+    return np.concatenate(segments).astype(np.float64)
+
+
+def _rgb(colour: tuple[int, int, int]) -> tuple[float, float, float]:
+    return tuple(c / 255.0 for c in colour)  # type: ignore[return-value]
+
+
+def _legs(trajectory) -> tuple[np.ndarray, np.ndarray]:
+    """Search and return legs as arrays of 1-based (x, y); the return leg starts where search ended."""
+    points = np.array([(p.x + 1, p.y + 1) for p in trajectory], dtype=float).reshape(-1, 2)
+    searching = np.array([p.stage.value == "search" for p in trajectory])
+    first_return = int(np.argmin(searching)) if not searching.all() else len(points)
+    return points[:first_return], points[max(first_return - 1, 0):] if first_return < len(points) else points[:0]
+
+
+def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
+    """Write the overview PNG of `plan` (flown over `scenario`) to `path` (WIDTH_PX x HEIGHT_PX)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    path = Path(path)
+    m = scenario.search_map
+    nx, ny = m.shape
+    fig = Figure(figsize=(WIDTH_PX / DPI, HEIGHT_PX / DPI), dpi=DPI)
+    ax = fig.add_axes((0.05, 0.07, 0.6, 0.84))
+    extent = (0.5, nx + 0.5, 0.5, ny + 0.5)
+    prior = ax.imshow(m.tep.T, origin="lower", extent=extent, cmap="Greys", vmin=0.0, vmax=1.6,
+                      interpolation="nearest")
+    overlay = np.zeros((ny, nx, 4))
+    overlay[m.no_fly.T] = (0.8, 0.1, 0.1, 0.55)
+    ax.imshow(overlay, origin="lower", extent=extent, interpolation="nearest")
+    for name, mask in region_masks(scenario).items():
+        if mask.any():
+            segments = mask_outline(mask)
+            segments[..., 0] += 0.5
+            segments[..., 1] = ny + 0.5 - segments[..., 1]
+            ax.add_collection(LineCollection(segments, colors=REGION_COLOURS[name], linewidths=2.2, zorder=2))
+
+    for i, u in enumerate(plan.uavs):
+        colour = _rgb(uav_colour(i))
+        search, back = _legs(u.trajectory)
+        ax.plot(search[:, 0], search[:, 1], "-", color=colour, lw=1.8, solid_capstyle="round")
+        if len(back):
+            ax.plot(back[:, 0], back[:, 1], "--", color=colour, lw=2.2, dashes=(3, 1.5))
+            ax.plot(*back[0], "o", ms=7, mfc="white", mec=colour, mew=2)
+        ax.plot(u.airport[0] + 1, u.airport[1] + 1, "^", ms=14, color=colour, mec="black", mew=1.2, zorder=5)
+        inward = np.sign([(nx + 1) / 2 - (u.airport[0] + 1), (ny + 1) / 2 - (u.airport[1] + 1)])
+        ax.annotate(f"A{u.uav_id}", (u.airport[0] + 1, u.airport[1] + 1), textcoords="offset points",
+                    xytext=tuple(14 * inward + (0, -5)), ha="center", fontsize=11, fontweight="bold", color=colour,
+                    zorder=6, bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+
+    found = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is not None], dtype=float).reshape(-1, 2)
+    missed = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is None], dtype=float).reshape(-1, 2)
+    ax.plot(found[:, 0], found[:, 1], "*", ms=17, color="gold", mec="black", mew=1.0, zorder=7, ls="none")
+    ax.plot(missed[:, 0], missed[:, 1], "X", ms=11, color="crimson", mec="black", mew=0.8, zorder=7, ls="none")
+
+    ax.set_xlim(extent[0] - 1, extent[1] + 1)
+    ax.set_ylim(extent[2] - 1, extent[3] + 1)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (cell, east)")
+    ax.set_ylabel("y (cell, north)")
+    settings = ", ".join(f"{k} {v}" for k, v in plan.settings.items())
+    ax.set_title(f"{plan.scenario}: {plan.targets_found}/{len(plan.targets)} targets found, "
+                 f"{plan.false_alarms} false alarms, mean eta {plan.mean_eta:.1%}\n{settings}", fontsize=12)
+    cbar = fig.colorbar(prior, cax=fig.add_axes((0.67, 0.3, 0.012, 0.4)))
+    cbar.set_label("prior TEP")
+    cbar.ax.set_ylim(0, 1)
+
+    handles = [Line2D([], [], color=_rgb(uav_colour(i)), lw=2.5,
+                      label=f"UAV {u.uav_id}: {u.search_steps} + {u.return_steps} of {u.range_steps} steps, "
+                            f"eta {u.eta:.0%}" + (f"\n    returned at step {u.return_step}: {u.return_reason.value}"
+                                                  if u.return_reason else ""))
+               for i, u in enumerate(plan.uavs)]
+    handles += [
+        Line2D([], [], color="black", lw=1.8, label="search leg"),
+        Line2D([], [], color="black", lw=2.2, ls="--", dashes=(3, 1.5), label="return leg"),
+        Line2D([], [], marker="o", ls="none", ms=7, mfc="white", mec="black", mew=2, label="switch to return"),
+        Line2D([], [], marker="^", ls="none", ms=12, color="grey", mec="black", label="airport"),
+        Line2D([], [], marker="*", ls="none", ms=15, color="gold", mec="black", label=f"target found ({len(found)})"),
+        Line2D([], [], marker="X", ls="none", ms=10, color="crimson", mec="black", label=f"target missed ({len(missed)})"),
+        Patch(color=(0.8, 0.1, 0.1, 0.55), label="no-fly"),
+        Patch(facecolor="none", edgecolor=REGION_COLOURS["known"], lw=2, label="known region"),
+        Patch(facecolor="none", edgecolor=REGION_COLOURS["key"], lw=2, label="key region"),
+    ]
+    fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.73, 0.5), fontsize=11, frameon=False,
+               labelspacing=0.8)
+    with staged_outputs([path]) as staged:
+        fig.savefig(staged[path], format="png", dpi=DPI)
+    return path

@@ -1,0 +1,45 @@
+"""The PNG overview of a plan."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from gcs.overview import HEIGHT_PX, WIDTH_PX, draw_overview
+from gcs.overview import uav_colour
+from tests.recording.conftest import RecordedRun
+
+
+def _near(image: np.ndarray, colour, tolerance: int = 30) -> int:
+    return int((np.abs(image - np.array(colour)).sum(axis=-1) < tolerance).sum())
+
+
+def test_overview_png_shows_every_uav_path_and_the_targets(recorded_run: RecordedRun, tmp_path: Path):
+    out = draw_overview(recorded_run.plan, recorded_run.scenario, tmp_path / "nested" / "plan.png")
+    assert out == tmp_path / "nested" / "plan.png"
+    assert [p.name for p in out.parent.iterdir()] == ["plan.png"]  # no staging file left behind
+    image = Image.open(out)
+    assert image.size == (WIDTH_PX, HEIGHT_PX)
+    rgb = np.asarray(image.convert("RGB"), dtype=np.int64)
+    assert len(np.unique(rgb.reshape(-1, 3), axis=0)) > 200
+    assert (rgb.sum(axis=-1) < 700).mean() > 0.2  # not a white page
+    for i, _ in enumerate(recorded_run.plan.uavs):
+        assert _near(rgb, uav_colour(i)) > 200, f"UAV {i + 1}'s path is missing"
+    assert _near(rgb, (203, 105, 105)) > 10_000  # the no-fly zones
+    found = sum(t.found_step is not None for t in recorded_run.plan.targets)
+    missed = len(recorded_run.plan.targets) - found
+    assert missed == 0 or _near(rgb, (220, 20, 60)) > 40 * missed  # crimson crosses
+    assert found == 0 or _near(rgb, (255, 215, 0)) > 40 * found  # gold stars
+
+
+def test_overview_differs_between_plans(recorded_run: RecordedRun, tmp_path: Path):
+    from planner.dtscs import MissionConfig, fly
+    from planner.scenario import paper_scenario
+
+    other_scenario = paper_scenario(11, range_steps=30)
+    other = fly(other_scenario, MissionConfig(), seed=11)
+    a = np.asarray(Image.open(draw_overview(recorded_run.plan, recorded_run.scenario, tmp_path / "a.png")).convert("RGB"))
+    b = np.asarray(Image.open(draw_overview(other, other_scenario, tmp_path / "b.png")).convert("RGB"))
+    assert a.shape == b.shape and (a != b).any(axis=-1).mean() > 0.01
