@@ -21,13 +21,12 @@ import numpy as np
 
 from planner.search.competition import padded_cells
 from planner.search.flock import (
-    PathMemory,
     decision_from_choices,
     path_cells,
     turn_ordered,
 )
-from planner.search.pio import PioParams, run_pio
-from planner.search.problem import Decision, Searcher, StepProblem
+from planner.search.pio import PioParams, PioStrategy, run_pio
+from planner.search.problem import Decision, StepProblem
 
 PROXIMITY = float(np.sqrt(2.0))
 
@@ -69,30 +68,16 @@ def fixed_others(problem: StepProblem, group: set[int], hard_paths: dict[int, np
     return np.ascontiguousarray(np.stack(rows), dtype=np.int64), np.array(hard, dtype=np.bool_)
 
 
-class CpioStrategy:
-    """CPIO: coevolving subgroups (cooperation), then the competition rule."""
+class CpioStrategy(PioStrategy):
+    """CPIO: coevolving subgroups (cooperation), then the competition rule. `best_path` (one
+    subgroup alone against fixed others) is basic PIO."""
 
     name = "cpio"
 
     def __init__(self, params: PioParams | None = None, seed: int = 0, proximity: float = PROXIMITY,
                  warm_start: bool = True) -> None:
-        self.params = params or PioParams()
+        super().__init__(params, seed, warm_start)
         self.proximity = proximity
-        self.memory = PathMemory() if warm_start else None
-        self._rng = np.random.default_rng(seed)
-
-    def best_path(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
-                  rng: np.random.Generator | None = None) -> Decision | None:
-        """One subgroup alone (basic PIO) against fixed others."""
-        warm = None
-        if self.memory is not None:
-            warm = [self.memory.warm_row(searcher, turn_ordered(problem.successors), problem.np_steps)]
-        best, _, trace, evaluations = run_pio(problem, [searcher], others, others_hard, self.params, rng or self._rng,
-                                              warm_starts=warm)
-        decision = decision_from_choices(problem, searcher, others, others_hard, best[0], evaluations, trace[0])
-        if self.memory is not None:
-            self.memory.remember(searcher.uav_id, decision)
-        return decision
 
     def coevolve(self, problem: StepProblem, rng: np.random.Generator) -> dict[int, Decision | None]:
         """Cooperation: all subgroups optimised together, each against the others' current bests."""

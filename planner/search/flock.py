@@ -27,7 +27,7 @@ import numpy as np
 from planner.config import njit
 from planner.motion import HEADING_DX, HEADING_DY
 from planner.reward import score_paths
-from planner.search.competition import padded_cells
+from planner.search.competition import compete, padded_cells
 from planner.search.problem import Decision, PathScorer, Searcher, StepProblem
 
 DEPTH_WEIGHT = 1000.0
@@ -228,3 +228,38 @@ class PathMemory:
             h = g
         ahead = columns[h][h] if columns[h][h] >= 0 else successors.shape[1] // 2
         return np.array(row + [ahead] * (np_steps - len(row)), dtype=np.int64)
+
+
+class PopulationOptimiser:
+    """Base of the population optimisers (PIO, PSO, GA): one UAV's best path by a search over
+    turn-choice rows, warm-started from the UAV's previous path when `warm_start` is on, then the
+    shared competition rule between UAVs. `best_path` without an rng (the ST tracker calls it)
+    draws from the strategy's own generator, seeded with `seed`, so repeated runs agree."""
+
+    name = ""
+    params_type: type = object
+
+    def __init__(self, params=None, seed: int = 0, warm_start: bool = True) -> None:
+        self.params = params or self.params_type()
+        self._rng = np.random.default_rng(seed)
+        self.memory = PathMemory() if warm_start else None
+
+    def optimise(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
+                 rng: np.random.Generator, successors: np.ndarray,
+                 warm: np.ndarray | None) -> tuple[np.ndarray, int, np.ndarray]:
+        """Best turn-choice row (over the turn-ordered `successors`), paths scored, best fitness per iteration."""
+        raise NotImplementedError
+
+    def best_path(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
+                  rng: np.random.Generator | None = None) -> Decision | None:
+        successors = turn_ordered(problem.successors)
+        warm = self.memory.warm_row(searcher, successors, problem.np_steps) if self.memory else None
+        best, evaluations, trace = self.optimise(problem, searcher, others, others_hard, rng or self._rng,
+                                                 successors, warm)
+        decision = decision_from_choices(problem, searcher, others, others_hard, best, evaluations, trace)
+        if self.memory is not None:
+            self.memory.remember(searcher.uav_id, decision)
+        return decision
+
+    def decide(self, problem: StepProblem, rng: np.random.Generator) -> dict[int, Decision | None]:
+        return compete(problem, lambda p, s, o, h: self.best_path(p, s, o, h, rng))

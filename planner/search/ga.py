@@ -14,16 +14,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.config import njit
-from planner.search.competition import compete
 from planner.search.flock import (
-    PathMemory,
-    decision_from_choices,
+    PopulationOptimiser,
     evaluate_flock,
     flock_inputs,
     others_with_groups,
-    turn_ordered,
 )
-from planner.search.problem import Decision, Searcher, StepProblem
+from planner.search.problem import Searcher, StepProblem
 
 
 @dataclass(frozen=True)
@@ -101,22 +98,17 @@ def ga_population(poses, range_steps, home_tables, successors, tep, eu, blocked,
     return evaluations
 
 
-class GaStrategy:
+class GaStrategy(PopulationOptimiser):
     """GA per UAV against the others' predicted paths, then the shared competition rule; with
     `warm_start` the first chromosome is the rest of the UAV's previous path."""
 
     name = "ga"
+    params_type = GaParams
 
-    def __init__(self, params: GaParams | None = None, seed: int = 0, warm_start: bool = True) -> None:
-        self.params = params or GaParams()
-        self._rng = np.random.default_rng(seed)
-        self.memory = PathMemory() if warm_start else None
-
-    def best_path(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
-                  rng: np.random.Generator | None = None) -> Decision | None:
-        rng = rng or self._rng
+    def optimise(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
+                 rng: np.random.Generator, successors: np.ndarray,
+                 warm: np.ndarray | None) -> tuple[np.ndarray, int, np.ndarray]:
         p = self.params
-        successors = turn_ordered(problem.successors)
         k = successors.shape[1]
         n, m, t = p.population, problem.np_steps, p.generations
         population = rng.integers(0, k, (n, m))
@@ -125,7 +117,6 @@ class GaStrategy:
         masks = rng.random((t, n, m))
         mutations = rng.random((t, n, m))
         values = rng.integers(0, k, (t, n, m))
-        warm = self.memory.warm_row(searcher, successors, m) if self.memory else None
         if warm is not None:
             population[0] = warm
         rate = p.mutation_rate if p.mutation_rate is not None else 1.0 / m
@@ -137,10 +128,4 @@ class GaStrategy:
                                     problem.fa_map, rows, hard, others.shape[0], problem.weights, problem.tep_once,
                                     population, tournaments, crossover, masks, mutations, values, p.crossover_rate,
                                     rate, p.elites, best, trace)
-        decision = decision_from_choices(problem, searcher, others, others_hard, best, evaluations, trace)
-        if self.memory is not None:
-            self.memory.remember(searcher.uav_id, decision)
-        return decision
-
-    def decide(self, problem: StepProblem, rng: np.random.Generator) -> dict[int, Decision | None]:
-        return compete(problem, lambda p, s, o, h: self.best_path(p, s, o, h, rng))
+        return best, int(evaluations), trace

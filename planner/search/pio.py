@@ -23,12 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.config import njit
-from planner.search.competition import compete
 from planner.search.flock import (
+    PopulationOptimiser,
     DEPTH_WEIGHT,
-    PathMemory,
     clamp_position,
-    decision_from_choices,
     decode_positions,
     evaluate_flock,
     flock_inputs,
@@ -36,7 +34,7 @@ from planner.search.flock import (
     share_best_cells,
     turn_ordered,
 )
-from planner.search.problem import Decision, Searcher, StepProblem
+from planner.search.problem import Searcher, StepProblem
 
 
 @dataclass(frozen=True)
@@ -252,34 +250,19 @@ def run_pio(problem: StepProblem, searchers: list[Searcher], fixed: np.ndarray, 
     return best, others, trace, int(evaluations)
 
 
-class PioStrategy:
+class PioStrategy(PopulationOptimiser):
     """Basic PIO per UAV (against the others' predicted paths), then the shared competition rule.
-
-    `best_path` without an rng (the ST tracker calls it) draws from the strategy's own
-    generator, seeded with `seed`, so repeated runs give the same answers. With `warm_start`
-    the first pigeon starts on the rest of the UAV's previous path (`PathMemory`)."""
+    With `warm_start` the first pigeon starts on the rest of the UAV's previous path."""
 
     name = "pio"
+    params_type = PioParams
 
-    def __init__(self, params: PioParams | None = None, seed: int = 0, warm_start: bool = True) -> None:
-        self.params = params or PioParams()
-        self._rng = np.random.default_rng(seed)
-        self.memory = PathMemory() if warm_start else None
-
-    def best_path(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
-                  rng: np.random.Generator | None = None) -> Decision | None:
-        warm = None
-        if self.memory is not None:
-            warm = [self.memory.warm_row(searcher, turn_ordered(problem.successors), problem.np_steps)]
-        best, _, trace, evaluations = run_pio(problem, [searcher], others, others_hard, self.params, rng or self._rng,
-                                              warm_starts=warm)
-        decision = decision_from_choices(problem, searcher, others, others_hard, best[0], evaluations, trace[0])
-        if self.memory is not None:
-            self.memory.remember(searcher.uav_id, decision)
-        return decision
-
-    def decide(self, problem: StepProblem, rng: np.random.Generator) -> dict[int, Decision | None]:
-        return compete(problem, lambda p, s, o, h: self.best_path(p, s, o, h, rng))
+    def optimise(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
+                 rng: np.random.Generator, successors: np.ndarray,
+                 warm: np.ndarray | None) -> tuple[np.ndarray, int, np.ndarray]:
+        best, _, trace, evaluations = run_pio(problem, [searcher], others, others_hard, self.params, rng,
+                                              warm_starts=[warm])
+        return best[0], evaluations, trace[0]
 
 
 __all__ = ["DEPTH_WEIGHT", "PioParams", "PioStrategy", "pio_flocks", "run_pio"]

@@ -13,18 +13,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from planner.config import njit
-from planner.search.competition import compete
 from planner.search.flock import (
-    PathMemory,
+    PopulationOptimiser,
     clamp_position,
-    decision_from_choices,
     decode_positions,
     evaluate_flock,
     flock_inputs,
     others_with_groups,
-    turn_ordered,
 )
-from planner.search.problem import Decision, Searcher, StepProblem
+from planner.search.problem import Searcher, StepProblem
 
 
 @dataclass(frozen=True)
@@ -87,29 +84,23 @@ def pso_swarm(poses, range_steps, home_tables, successors, tep, eu, blocked, fa_
     return evaluations
 
 
-class PsoStrategy:
+class PsoStrategy(PopulationOptimiser):
     """PSO per UAV against the others' predicted paths, then the shared competition rule; with
     `warm_start` the first particle starts on the rest of the UAV's previous path."""
 
     name = "pso"
+    params_type = PsoParams
 
-    def __init__(self, params: PsoParams | None = None, seed: int = 0, warm_start: bool = True) -> None:
-        self.params = params or PsoParams()
-        self._rng = np.random.default_rng(seed)
-        self.memory = PathMemory() if warm_start else None
-
-    def best_path(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
-                  rng: np.random.Generator | None = None) -> Decision | None:
-        rng = rng or self._rng
+    def optimise(self, problem: StepProblem, searcher: Searcher, others: np.ndarray, others_hard: np.ndarray,
+                 rng: np.random.Generator, successors: np.ndarray,
+                 warm: np.ndarray | None) -> tuple[np.ndarray, int, np.ndarray]:
         p = self.params
-        successors = turn_ordered(problem.successors)
         k = successors.shape[1]
         shape = (p.particles, problem.np_steps)
         positions = rng.uniform(-0.5, k - 0.5, shape)
         velocities = rng.uniform(-1.0, 1.0, shape)
         r_personal = rng.random((p.iterations, *shape))
         r_social = rng.random((p.iterations, *shape))
-        warm = self.memory.warm_row(searcher, successors, problem.np_steps) if self.memory else None
         if warm is not None:
             positions[0] = warm
         poses, ranges, tables = flock_inputs([searcher])
@@ -120,10 +111,4 @@ class PsoStrategy:
                                 problem.fa_map, rows, hard, others.shape[0], problem.weights, problem.tep_once,
                                 positions, velocities, r_personal, r_social, p.inertia, p.c_personal, p.c_social,
                                 best, trace)
-        decision = decision_from_choices(problem, searcher, others, others_hard, best, evaluations, trace)
-        if self.memory is not None:
-            self.memory.remember(searcher.uav_id, decision)
-        return decision
-
-    def decide(self, problem: StepProblem, rng: np.random.Generator) -> dict[int, Decision | None]:
-        return compete(problem, lambda p, s, o, h: self.best_path(p, s, o, h, rng))
+        return best, int(evaluations), trace
