@@ -1,0 +1,175 @@
+"""Ground-station speed: fleet upload time, and the GCS loop's per-step latency with 4, 16 and 64
+vehicles against the simulated fleet over loopback UDP (docs/fly.md).
+
+    .venv/bin/python benchmarks/bench_fly.py [--runs 5] [--counts 4,16,64] [--seconds 8]
+
+Upload: the 4-UAV paper plan (mission + fence + rally, verified by read-back), whole fleet
+concurrently, at 0 % and 20 % packet loss. Loop: the plan's UAVs are cloned up to N vehicles
+(same airports and paths, ids 1..N), flown at speedup 5 for a few seconds; every GCS tick
+(telemetry bookkeeping, track, the return decision for every vehicle) is timed, then every
+vehicle is ordered home at once and the command latency (hold, upload the return leg, verify,
+start) is timed per vehicle."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import statistics
+import sys
+import tempfile
+import time
+from contextlib import AsyncExitStack
+from dataclasses import replace
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from gcs.cli import main as gcs_main  # noqa: E402
+from gcs.commands.fly import FlightController, FlyOptions, start_sim  # noqa: E402
+from gcs.commands.upload import upload_fleet  # noqa: E402
+from gcs.fleet import FleetPlan, load_plan_dir  # noqa: E402
+from gcs.link import MavLink  # noqa: E402
+from gcs.mission_transfer import Autopilot  # noqa: E402
+
+
+def make_plan() -> FleetPlan:
+    out = Path(tempfile.mkdtemp(prefix="bench-fly-")) / "paper"
+    gcs_main(["plan", "--area", str(ROOT / "missions" / "paper.geojson"), "--strategy", "exhaustive", "--out", str(out),
+              "--quiet"])
+    return load_plan_dir(out)
+
+
+def cloned(plan: FleetPlan, n: int) -> FleetPlan:
+    base = [plan.uavs[k] for k in sorted(plan.uavs)]
+    uavs = {i + 1: replace(base[i % len(base)], uav_id=i + 1) for i in range(n)}
+    return replace(plan, uavs=uavs, _tables={})
+
+
+def pct(values: list[float], q: float) -> float:
+    values = sorted(values)
+    return values[min(len(values) - 1, int(q * len(values)))]
+
+
+def bench_upload(plan: FleetPlan, runs: int, loss: float) -> tuple[list[float], list[float]]:
+    """Whole-fleet wall time (connect, stream set-up, uploads), and per vehicle the transfers
+    alone (mission + fence + rally, each uploaded and read back)."""
+    times, transfers = [], []
+    for r in range(runs):
+        fleet = start_sim(plan, speedup=1.0, loss=loss, seed=r).start()
+        try:
+            opts = FlyOptions(fly=False, transfer_timeout_s=0.05 if loss else 0.5)
+            start = time.perf_counter()
+            controller = asyncio.run(upload_fleet(plan, fleet.connection_strings(), opts, out=lambda line: None))
+            times.append(time.perf_counter() - start)
+            assert len(controller.upload_reports) == len(plan.uavs), "an upload failed"
+            transfers += [sum(r.elapsed_s for r in reports.values()) for reports in controller.upload_reports.values()]
+        finally:
+            fleet.stop()
+    return times, transfers
+
+
+async def _loop(plan: FleetPlan, connections: list[str], seconds: float) -> FlightController:
+    async with AsyncExitStack() as stack:
+        links = [await stack.enter_async_context(MavLink(c)) for c in connections]
+        controller = FlightController(plan, links, FlyOptions(tick_s=0.05, transfer_timeout_s=0.2,
+                                                              connect_timeout_s=30), out=lambda line: None)
+        runner = asyncio.create_task(controller.run())
+        await asyncio.sleep(seconds)
+        controller.loop_latency_s.clear()  # measure the steady state, after the launch
+        await asyncio.sleep(seconds)
+        for uid in plan.uavs:
+            controller.order_return(uid)
+        end = time.monotonic() + 30
+        while len(controller.return_latency_s) < len(plan.uavs) and time.monotonic() < end:
+            await asyncio.sleep(0.05)
+        controller.interrupt()
+        await runner
+    return controller
+
+
+def bench_loop(plan: FleetPlan, n: int, seconds: float) -> tuple[FlightController, float]:
+    fleet_plan = cloned(plan, n)
+    fleet = start_sim(fleet_plan, speedup=5.0).start()
+    try:
+        start = time.perf_counter()
+        controller = asyncio.run(_loop(fleet_plan, fleet.connection_strings(), seconds))
+        return controller, time.perf_counter() - start
+    finally:
+        fleet.stop()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--counts", default="4,16,64")
+    ap.add_argument("--seconds", type=float, default=8.0)
+    ap.add_argument("--compare-online", metavar="SEEDS", default=None,
+                    help="instead: targets found online vs precomputed for these seeds, e.g. 0,1,2")
+    args = ap.parse_args()
+    if args.compare_online:
+        compare_online([int(s) for s in args.compare_online.split(",")])
+        return
+    plan = make_plan()
+    items = sum(len(t.mission_wire(Autopilot.ARDUPILOT))
+                + len(t.fence_wire()) + len(t.rally_wire()) for t in plan.uavs.values())
+    print(f"upload: {len(plan.uavs)} vehicles, {items} items in all (mission + fence + rally), read back and compared")
+    for loss in (0.0, 0.2):
+        t, per_vehicle = bench_upload(plan, args.runs, loss)
+        print(f"  loss {loss:.0%}: fleet median {statistics.median(t):.3f} s (min {min(t):.3f}, max {max(t):.3f}) "
+              f"over {len(t)} runs; transfers per vehicle median {statistics.median(per_vehicle):.3f} s, "
+              f"max {max(per_vehicle):.3f} s")
+    print()
+    print(f"{'vehicles':>8} {'ticks':>6} {'tick p50 ms':>11} {'tick p95 ms':>11} {'tick max ms':>11} "
+          f"{'per vehicle us':>14} {'return p50 ms':>13} {'return max ms':>13} {'returned':>8}")
+    for n in (int(c) for c in args.counts.split(",") if c):
+        controller, _ = bench_loop(plan, n, args.seconds)
+        ticks = controller.loop_latency_s
+        ret = list(controller.return_latency_s.values()) or [float("nan")]
+        print(f"{n:>8} {len(ticks):>6} {pct(ticks, .5) * 1e3:>11.3f} {pct(ticks, .95) * 1e3:>11.3f} "
+              f"{max(ticks) * 1e3:>11.3f} {statistics.median(ticks) / n * 1e6:>14.1f} "
+              f"{statistics.median(ret) * 1e3:>13.1f} {max(ret) * 1e3:>13.1f} {len(controller.return_latency_s):>8}")
+
+
+
+
+def compare_online(seeds: list[int], speedup: float = 20.0) -> None:
+    """Targets found (positive readings in target cells) by the precomputed plan and by online
+    mode, both flown through the simulator with the same targets and sensor seed."""
+    import argparse as _ap
+
+    from gcs.missions import planning as area_plan
+    from gcs.online import ObservedSearch
+    from gcs.status_table import targets_found
+
+    print(f"{'seed':>4} {'plan (planner sim)':>18} {'plan flown':>10} {'online':>6}")
+    for seed in seeds:
+        out = Path(tempfile.mkdtemp(prefix="bench-online-")) / "paper"
+        gcs_main(["plan", "--area", str(ROOT / "missions" / "paper.geojson"), "--strategy", "exhaustive",
+                  "--seed", str(seed), "--out", str(out), "--quiet"])
+        plan = load_plan_dir(out)
+        args = _ap.Namespace(area=str(ROOT / "missions" / "paper.geojson"), cell_size_m=None, speed_m_s=12.0,
+                             range_m=None, endurance_s=900.0, altitude_m=60.0, altitude_step_m=10.0, vehicle="copter",
+                             margin_m=0.0, default_tep=0.5, default_eu=0.5, max_cells=1_000_000, pc=0.9, pf=0.1,
+                             footprint=0, np_steps=5, oc="3", strategy="exhaustive", return_planner="exact",
+                             reserve=0, range_aware_search=False, seed=seed)
+        found = []
+        for online in (False, True):
+            search = None
+            if online:
+                setup = area_plan.build_area_search(args)
+                search = ObservedSearch(setup.search.scenario, setup.search.config, seed=seed)
+            fleet = start_sim(plan, speedup=speedup, seed=seed).start()
+            try:
+                from gcs.commands.fly import fly_async
+
+                controller = asyncio.run(fly_async(plan, fleet.connection_strings(),
+                                                   FlyOptions(tick_s=0.01, transfer_timeout_s=0.1), online=search))
+            finally:
+                fleet.stop()
+            found.append(len(targets_found(controller)[0]))
+        print(f"{seed:>4} {plan.raw['summary']['targets_found']:>18} {found[0]:>10} {found[1]:>6}", flush=True)
+
+
+if __name__ == "__main__":
+    main()

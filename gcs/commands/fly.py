@@ -1,0 +1,744 @@
+"""`gcs fly`: upload the plan to every vehicle, arm, start the missions, and watch the fleet
+until every vehicle has landed, sending vehicles home early when their battery no longer covers
+the planned search (the live DTSCS return trigger, docs/fly.md).
+
+`gcs fly --plan DIR --connect udpout:127.0.0.1:14540 ...` flies a `gcs plan --area` folder;
+`gcs fly --area AREA.geojson` plans first (the plan command's code path); `--sim` starts the
+built-in simulated fleet at the plan's airports, so one command runs the whole job."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import math
+import random
+import signal
+import sys
+import tempfile
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from contextlib import AsyncExitStack
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from gcs.errors import UserError
+from gcs.fleet import FINAL_STAGES, FleetPlan, Stage, UavTask, VehicleStatus, load_plan_dir, set_mode_params
+from gcs.link import CommandError, LinkError, MavLink, mavlink, parse_connection
+from gcs.mission_transfer import Autopilot, MissionTransferError, MissionType, WireItem, upload_verified
+from gcs.return_trigger import (RangeModel, battery_drain_pct_s, check_return, drain_rate_pct_s, landing_steps,
+                                range_left_steps)
+from gcs.status_table import render_summary, render_table
+from planner.motion import HEADING_DX, HEADING_DY
+from planner.return_exact import follow_table
+
+STREAMS_HZ = {  # message -> rate asked with MAV_CMD_SET_MESSAGE_INTERVAL (vehicle time)
+    mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: 1.0,
+    mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
+    mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: 1.0,
+    mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0,
+    mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 4.0,
+}
+REFUSED_FOR_NOW = (mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED, mavlink.MAV_RESULT_FAILED)
+
+
+@dataclass
+class FlyOptions:
+    """Knobs of a flight; times are real (wall-clock) seconds unless named otherwise."""
+
+    speed_m_s: float = 10.0
+    reserve_pct: float = 30.0
+    descent_m_s: float = 1.5
+    link_timeout_s: float = 3.0
+    lost_giveup_s: float = 20.0
+    connect_timeout_s: float = 15.0
+    gps_timeout_s: float = 120.0
+    arm_timeout_s: float = 60.0
+    transfer_timeout_s: float = 0.5
+    command_timeout_s: float = 0.5
+    tick_s: float = 0.05
+    table_every_s: float = 0.5
+    live_table: bool = False
+    fence: bool = True
+    return_after_s: dict[int, float] = field(default_factory=dict)
+    fly: bool = True
+    lookahead_steps: int = 2
+
+
+class FlightController:
+    """Uploads, launches and watches one fleet; returns are decided here, by pure functions."""
+
+    def __init__(self, plan: FleetPlan, links: list[MavLink], options: FlyOptions | None = None,
+                 out: Callable[[str], None] | None = None) -> None:
+        self.plan = plan
+        self.links = links
+        self.options = options = options or FlyOptions()
+        self.out = out or (lambda line: print(line, flush=True))
+        self.status = {uid: VehicleStatus(uid) for uid in plan.uavs}
+        self.link_of: dict[int, MavLink] = {}
+        self.model = RangeModel(step_m=plan.cell_size_m * math.sqrt(2.0), speed_m_s=options.speed_m_s,
+                                reserve_pct=options.reserve_pct, descent_m_s=options.descent_m_s)
+        self._track_m = {uid: np.array([plan.local_m(p.lat_deg, p.lon_deg) for p in task.trajectory])
+                         for uid, task in plan.uavs.items()}
+        self._orders: list[tuple[int, str]] = []
+        self._busy: set[int] = set()
+        self._stay_on_ground: set[int] = set()
+        self._last_recovery = 0.0
+        self.recent: deque[str] = deque(maxlen=8)
+        self._tasks: set[asyncio.Task] = set()
+        self._lost_since: dict[int, float] = {}
+        self._stage_before_loss: dict[int, Stage] = {}
+        self._interrupted = False
+        self.t0 = time.monotonic()
+        self.loop_latency_s: list[float] = []
+        self.upload_reports: dict[int, dict] = {}
+        self.return_latency_s: dict[int, float] = {}
+        for link in links:
+            link.subscribe(lambda msg, link=link: self._on_message(link, msg))
+
+    # ---- messages ----------------------------------------------------------------------
+
+    def _on_message(self, link: MavLink, msg) -> None:
+        uid = msg.get_srcSystem()
+        status = self.status.get(uid)
+        if status is None or msg.get_srcComponent() != mavlink.MAV_COMP_ID_AUTOPILOT1:
+            return
+        self.link_of.setdefault(uid, link)
+        status.update(msg, time.monotonic())
+
+    def say(self, uid: int | None, text: str) -> None:
+        stamp = f"[{time.monotonic() - self.t0:6.1f}s]"
+        line = f"{stamp} UAV {uid}: {text}" if uid is not None else f"{stamp} {text}"
+        if self.options.live_table:
+            self.recent.append(line)  # shown under the live table
+        else:
+            self.out(line)
+
+    def _recover_readings(self, now: float) -> None:
+        """Ask again (MAV_CMD_REQUEST_MESSAGE, param2 = image index) for readings lost on the link."""
+        if now - self._last_recovery < 1.0:
+            return
+        self._last_recovery = now
+        for uid, st in self.status.items():
+            link = self.link_of.get(uid)
+            if link is None or st.stage is Stage.LOST:
+                continue
+            for index in st.lost_detections[:5]:
+                link.send(mavlink.MAVLink_command_long_message(
+                    uid, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED, index,
+                    0, 0, 0, 0, 0))
+
+    def _set_stage(self, uid: int, stage: Stage, note: str = "") -> None:
+        st = self.status[uid]
+        if st.stage is not stage:
+            st.stage = stage
+            self.say(uid, f"{stage.value}{' - ' + note if note else ''}")
+        if note:
+            st.note = note
+
+    # ---- operator ------------------------------------------------------------------------
+
+    def order_return(self, uid: int, reason: str = "order") -> None:
+        """A return order (from the operator or a command); ValueError for an unknown UAV."""
+        if uid not in self.status:
+            raise ValueError(f"unknown UAV {uid} (the plan has {', '.join(map(str, sorted(self.status)))})")
+        self._orders.append((uid, reason))
+
+    def interrupt(self) -> None:
+        """Ctrl-C: bring everyone home, then stop."""
+        self._interrupted = True
+
+    # ---- preparation ---------------------------------------------------------------------
+
+    async def _wait(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
+        end = time.monotonic() + timeout_s
+        while not predicate():
+            if time.monotonic() > end:
+                return False
+            await asyncio.sleep(0.02)
+        return True
+
+    async def command(self, uid: int, cmd: int, *params: float, retries: int = 3) -> int:
+        link = self.link_of.get(uid)
+        if link is None:
+            raise CommandError(f"command to vehicle {uid}", None, "vehicle not connected")
+        return await link.command(uid, cmd, *params, timeout_s=self.options.command_timeout_s, retries=retries)
+
+    async def set_mode(self, uid: int, name: str) -> None:
+        st = self.status[uid]
+        await self.command(uid, mavlink.MAV_CMD_DO_SET_MODE, *set_mode_params(st.autopilot, st.mav_type, name))
+
+    async def prepare(self, uid: int, mission: bool = True) -> bool:
+        """Connect, ask for the streams, wait for a GPS origin, upload and verify (unless
+        `mission` is False). False (and stage FAILED with a clear note) when anything cannot be done."""
+        opts, st, task = self.options, self.status[uid], self.plan.uavs[uid]
+        self._set_stage(uid, Stage.CONNECTING)
+        if not await self._wait(lambda: st.autopilot is not None, opts.connect_timeout_s):
+            self._set_stage(uid, Stage.FAILED, f"no HEARTBEAT from system id {uid} within {opts.connect_timeout_s:g} s")
+            return False
+        self._set_stage(uid, Stage.PREPARING, f"{st.autopilot.value} autopilot")
+        for msg_id, hz in STREAMS_HZ.items():
+            try:
+                await self.command(uid, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz, retries=2)
+            except CommandError as exc:
+                name = mavlink.mavlink_map[msg_id].msgname if msg_id in mavlink.mavlink_map else msg_id
+                self.say(uid, f"stream {name} not set ({exc}); using what the vehicle sends")
+        if not st.has_position:
+            self.say(uid, "waiting for a GPS origin (position still 0,0)")
+            if not await self._wait(lambda: st.has_position, opts.gps_timeout_s):
+                self._set_stage(uid, Stage.FAILED, f"no GPS position within {opts.gps_timeout_s:g} s")
+                return False
+        away = _distance_m(self.plan, (st.lat_deg, st.lon_deg), task.airport_lat_lon)
+        if away > self.plan.cell_size_m:
+            self.say(uid, f"warning: vehicle is {away:.0f} m from its airport {task.name!r}; check that system id "
+                          f"{uid} is the UAV of the plan")
+        if not mission:
+            return True
+        self._set_stage(uid, Stage.UPLOADING)
+        link = self.link_of[uid]
+        autopilot = st.autopilot
+        try:
+            report = await upload_verified(link, uid, task.mission_wire(autopilot), autopilot,
+                                           timeout_s=opts.transfer_timeout_s)
+        except MissionTransferError as exc:
+            self._set_stage(uid, Stage.FAILED, f"mission {exc}")
+            return False
+        self.upload_reports[uid] = {"mission": report}
+        extra = []
+        if opts.fence:
+            for kind, items in ((MissionType.FENCE, task.fence_wire()), (MissionType.RALLY, task.rally_wire())):
+                if not items:
+                    continue
+                try:
+                    self.upload_reports[uid][kind.name.lower()] = await upload_verified(
+                        link, uid, items, autopilot, kind, timeout_s=opts.transfer_timeout_s)
+                    extra.append(f"{len(items)} {kind.name.lower()}")
+                except MissionTransferError as exc:
+                    self.say(uid, f"warning: {exc}; flying without it")
+        self.say(uid, f"mission verified: {report.items} items"
+                      f"{' + ' + ', '.join(extra) if extra else ''} in {report.elapsed_s:.2f} s "
+                      f"({report.resends} re-sends{', legacy MISSION_REQUEST used' if report.legacy_requests else ''})")
+        return True
+
+    async def launch(self, uid: int) -> bool:
+        """Arm (retrying while the autopilot refuses, as real ones do for a while after boot)
+        and start the mission."""
+        opts, st = self.options, self.status[uid]
+        self._set_stage(uid, Stage.ARMING)
+        end = time.monotonic() + opts.arm_timeout_s
+        told = False
+        while True:
+            if self._interrupted or uid in self._stay_on_ground or any(o[0] == uid for o in self._orders):
+                self._set_stage(uid, Stage.LANDED, "not launched (return ordered before take-off)")
+                return False
+            try:
+                await self.command(uid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+                break
+            except CommandError as exc:
+                if exc.result not in REFUSED_FOR_NOW or time.monotonic() > end:
+                    self._set_stage(uid, Stage.FAILED, f"cannot arm: {exc}{' (' + st.last_text + ')' if st.last_text else ''}")
+                    return False
+                if not told:
+                    self.say(uid, f"arming refused ({st.last_text or exc}); retrying for up to {opts.arm_timeout_s:g} s")
+                    told = True
+                await asyncio.sleep(1.0)
+        first = st.autopilot.first_mission_seq() if st.autopilot else 0
+        try:
+            await self.command(uid, mavlink.MAV_CMD_MISSION_START, first, 0)
+        except CommandError:
+            try:
+                await self.set_mode(uid, "AUTO")
+            except CommandError as exc:
+                self._set_stage(uid, Stage.FAILED, f"cannot start the mission: {exc}")
+                return False
+        self._set_stage(uid, Stage.SEARCH, "mission started")
+        return True
+
+    async def _prepare_and_launch(self, uid: int) -> None:
+        self._busy.add(uid)
+        try:
+            if await self.prepare(uid) and self.options.fly:
+                await self.launch(uid)
+        except LinkError as exc:
+            self._set_stage(uid, Stage.FAILED, str(exc))
+        finally:
+            self._busy.discard(uid)
+
+    async def upload_all(self) -> dict[int, bool]:
+        """Prepare every vehicle concurrently; True where the upload verified."""
+        results = await asyncio.gather(*(self.prepare(uid) for uid in self.plan.uavs), return_exceptions=True)
+        out = {}
+        for uid, res in zip(self.plan.uavs, results):
+            if isinstance(res, BaseException):
+                self._set_stage(uid, Stage.FAILED, str(res))
+                res = False
+            out[uid] = bool(res)
+        return out
+
+    # ---- the return ----------------------------------------------------------------------
+
+    def _pose_next(self, uid: int) -> tuple[int, int, int]:
+        traj = self.plan.uavs[uid].trajectory
+        p = traj[min(self.status[uid].track_index + 1, len(traj) - 1)]
+        return p.x, p.y, p.heading
+
+    def return_leg(self, uid: int) -> list[tuple[float, float]]:
+        """Lat/lon turn points of the lowest-cost OC-respecting way home from the pose after the
+        current step (the exact table's path), straight runs merged, ending at the airport cell."""
+        pose = self._pose_next(uid)
+        table = self.plan.return_table(uid)
+        path = [pose] + follow_table(table, pose, self.plan.oc.successors, self.plan.no_fly)
+        keep = [path[0]] + [path[i] for i in range(1, len(path) - 1) if path[i + 1][2] != path[i][2]] + [path[-1]]
+        return [self.plan.cell_lat_lon(x, y) for x, y, _ in keep] if len(path) > 1 else \
+            [self.plan.cell_lat_lon(pose[0], pose[1])]
+
+    async def send_home(self, uid: int, reason: str) -> None:
+        """Fly the planned return leg to the UAV's own airport: hold, upload the leg (the vehicle
+        must not fly AUTO while an ArduPilot mission is replaced), verify, start it; fall back to
+        the autopilot's RTL when any of that fails."""
+        st, task = self.status[uid], self.plan.uavs[uid]
+        if st.stage in FINAL_STAGES or st.stage in (Stage.RETURN, Stage.RTL):
+            return
+        st.return_reason = reason
+        if not st.airborne_seen and st.stage is not Stage.SEARCH:
+            self._stay_on_ground.add(uid)  # not launched yet: launch() sees it and stays on the ground
+            return
+        self._set_stage(uid, Stage.RETURN, f"going home ({reason})")
+        self._busy.add(uid)
+        started = time.monotonic()
+        try:
+            leg = self.return_leg(uid)
+            autopilot = st.autopilot or Autopilot.GENERIC
+            rel = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT
+            items = [WireItem.at(0, rel, mavlink.MAV_CMD_NAV_WAYPOINT, lat, lon, task.altitude_m) for lat, lon in leg]
+            lat0, lon0 = task.airport_lat_lon
+            items.append(WireItem.at(0, rel, mavlink.MAV_CMD_NAV_LAND, lat0, lon0, 0.0))
+            if autopilot.home_item(MissionType.MISSION):
+                items.insert(0, WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, lat0, lon0, 0.0))
+            await self.set_mode(uid, "GUIDED" if task.vehicle.value == "copter" else "LOITER")
+            await upload_verified(self.link_of[uid], uid, items, autopilot, timeout_s=self.options.transfer_timeout_s)
+            await self.command(uid, mavlink.MAV_CMD_MISSION_START, autopilot.first_mission_seq(), 0)
+            self.return_latency_s[uid] = time.monotonic() - started
+            self.say(uid, f"return leg of {len(leg)} waypoints uploaded and started")
+        except (LinkError, MissionTransferError, ValueError, KeyError) as exc:
+            self.say(uid, f"return leg failed ({exc}); commanding RTL")
+            await self.rtl(uid)
+        finally:
+            self._busy.discard(uid)
+
+    async def rtl(self, uid: int) -> bool:
+        try:
+            await self.command(uid, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, retries=5)
+        except LinkError as exc:
+            self.say(uid, f"RTL not acknowledged: {exc}")
+            return False
+        self._set_stage(uid, Stage.RTL, "autopilot RTL")
+        return True
+
+    def _spawn(self, coro) -> None:
+        task = asyncio.create_task(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    # ---- monitoring ----------------------------------------------------------------------
+
+    def _advance_track(self, uid: int) -> None:
+        st = self.status[uid]
+        if not st.has_position:
+            return
+        track = self._track_m[uid]
+        pos = np.array(self.plan.local_m(st.lat_deg, st.lon_deg))
+        i = st.track_index
+        while i + 1 < len(track) and np.hypot(*(track[i + 1] - pos)) <= np.hypot(*(track[i] - pos)):
+            i += 1
+        st.track_index = i
+
+    def evaluate(self, uid: int) -> bool:
+        """Update range and margin of one searching vehicle; True when it must turn home now."""
+        st, task = self.status[uid], self.plan.uavs[uid]
+        drain = battery_drain_pct_s(st.battery_pct, st.time_remaining_s, drain_rate_pct_s(list(st.battery_samples)))
+        st.range_left = range_left_steps(st.battery_pct, drain, self.model)
+        if st.stage is not Stage.SEARCH or not st.airborne_seen:
+            return False
+        last = len(task.trajectory) - 1
+        nxt = task.trajectory[min(st.track_index + 1, last)]
+        if nxt.stage != "search":
+            st.margin = math.inf  # the plan's own return: already the lowest-cost way home
+            return False
+        # the loop sees a vehicle every tick, not every step: look a few steps further ahead
+        cost = max(self.plan.steps_home(uid, (p.x, p.y, p.heading)) + j
+                   for j, p in enumerate(task.trajectory[st.track_index + 1: st.track_index + 1 + self.options.lookahead_steps])
+                   if p.stage == "search")
+        check = check_return(st.range_left, cost, landing_steps(task.altitude_m, self.model))
+        st.margin = check.margin
+        return check.must_return
+
+    def _update_stage(self, uid: int, now: float) -> None:
+        st = self.status[uid]
+        if st.last_heard_s is not None and st.stage not in FINAL_STAGES:
+            silent = now - st.last_heard_s > self.options.link_timeout_s
+            if silent and st.stage is not Stage.LOST:
+                self._stage_before_loss[uid] = st.stage
+                self._lost_since[uid] = now
+                self._set_stage(uid, Stage.LOST, f"no telemetry for {self.options.link_timeout_s:g} s; "
+                                                 "the others carry on")
+            elif not silent and st.stage is Stage.LOST:
+                self._lost_since.pop(uid, None)
+                self._set_stage(uid, self._stage_before_loss.pop(uid, Stage.SEARCH), "link back")
+        if st.stage in (Stage.SEARCH, Stage.RETURN, Stage.RTL) and st.airborne_seen and not st.airborne \
+                and (not st.armed or st.landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND):
+            st.battery_at_landing = st.battery_pct
+            self._set_stage(uid, Stage.LANDED, f"battery {st.battery_pct:.0f}%" if st.battery_pct is not None else "")
+        elif st.stage is Stage.SEARCH and st.mode_name in ("RTL", "LAND") and uid not in self._busy:
+            st.return_reason = "autopilot"
+            self._set_stage(uid, Stage.RTL, f"autopilot switched to {st.mode_name} ({st.last_text or 'no reason given'})")
+
+    def finished(self, now: float) -> bool:
+        for uid, st in self.status.items():
+            if st.stage in FINAL_STAGES:
+                continue
+            if st.stage is Stage.LOST and now - self._lost_since.get(uid, now) >= self.options.lost_giveup_s:
+                continue
+            return False
+        return True
+
+    def tick(self, now: float) -> None:
+        """One pass of the GCS loop: stages, return orders, the trigger for every vehicle."""
+        elapsed = now - self.t0
+        for uid, after in list(self.options.return_after_s.items()):
+            if elapsed >= after:
+                del self.options.return_after_s[uid]
+                self._orders.append((uid, "order"))
+        orders, self._orders = self._orders, []
+        for uid, reason in orders:
+            self.say(uid, f"return ordered ({reason})")
+            self._spawn(self.send_home(uid, reason))
+        self._recover_readings(now)
+        for uid in self.status:
+            self._update_stage(uid, now)
+            if uid in self._busy:
+                continue
+            self._advance_track(uid)
+            if self.evaluate(uid):
+                st = self.status[uid]
+                self.say(uid, f"battery {st.battery_pct:.0f}% covers {st.range_left:.1f} steps, the way home needs "
+                              f"{st.range_left - st.margin:.1f}: returning")
+                self._spawn(self.send_home(uid, "battery"))
+
+    async def monitor(self) -> None:
+        """Run the GCS loop until all vehicles have landed (or failed, or stayed lost)."""
+        last_table = 0.0
+        while True:
+            start = time.monotonic()
+            if self._interrupted:
+                await self.bring_everyone_home()
+                return
+            self.tick(start)
+            self.loop_latency_s.append(time.monotonic() - start)
+            if self.options.live_table and start - last_table >= self.options.table_every_s:
+                last_table = start
+                sys.stdout.write("\x1b[H\x1b[2J" + render_table(self) + "\n\n" + "\n".join(self.recent) + "\n")
+                sys.stdout.flush()
+            if self.finished(start) and not self._tasks:
+                return
+            await asyncio.sleep(self.options.tick_s)
+
+    async def bring_everyone_home(self) -> None:
+        self.say(None, "interrupted: commanding RTL to every vehicle in the air")
+        for task in list(self._tasks):
+            task.cancel()
+        flying = [uid for uid, st in self.status.items()
+                  if st.stage not in FINAL_STAGES and (st.airborne or st.armed)]
+        for uid in flying:
+            self.status[uid].return_reason = "ctrl-c"
+        results = await asyncio.gather(*(self.rtl(uid) for uid in flying), return_exceptions=True)
+        for uid, ok in zip(flying, results):
+            if ok is not True:
+                self.say(uid, "did not confirm RTL: check it yourself")
+
+    async def run(self) -> None:
+        """Prepare and launch every vehicle concurrently, then monitor until the end."""
+        for uid in self.plan.uavs:
+            self._spawn(self._prepare_and_launch(uid))
+        await self.monitor()
+
+
+def _distance_m(plan: FleetPlan, a: tuple[float, float], b: tuple[float, float]) -> float:
+    ea, na = plan.local_m(*a)
+    eb, nb = plan.local_m(*b)
+    return math.hypot(ea - eb, na - nb)
+
+
+# ---- the simulated fleet ------------------------------------------------------------------
+
+
+def start_sim(plan: FleetPlan, *, speedup: float, profile: str = "ardupilot", seed: int = 0, pc: float = 0.9,
+              pf: float = 0.1, drain: dict[int, float] | None = None, loss: float = 0.0,
+              endurance_s: float = 1200.0):
+    """The built-in simulated fleet on free loopback ports: vehicle i (system id i) at UAV i's
+    airport with its start heading, the plan's targets, a sensor on the plan's grid."""
+    from sim import BatteryConfig, FleetOptions, HomePose, LinkFaults, SimFleet, VehicleConfig
+    from sim.sensor import SensorConfig
+
+    ids = sorted(plan.uavs)
+    if ids != list(range(1, len(ids) + 1)):
+        raise UserError(f"--sim needs UAV ids 1..N, the plan has {ids}")
+    homes = [HomePose(*plan.uavs[i].airport_lat_lon, 0.0, plan.uavs[i].start_heading * 45.0) for i in ids]
+    targets = tuple(plan.cell_lat_lon(x, y) for x, y in plan.targets)
+    vehicle = plan.uavs[ids[0]].vehicle.value
+    config = VehicleConfig(vehicle_type=vehicle, profile=profile,
+                           sensor=SensorConfig(cell_size_m=plan.cell_size_m, pc=pc, pf=pf),
+                           battery=BatteryConfig(endurance_s=endurance_s))
+    fleet = SimFleet(homes, config, FleetOptions(base_port=0, speedup=speedup, targets=targets, seed=seed,
+                                                 faults=LinkFaults(loss=loss, seed=seed)))
+    _align_sensor_grid(fleet, plan, targets, seed)
+    for uid, k in (drain or {}).items():
+        fleet.vehicle(uid).set_drain_multiplier(k)
+    return fleet
+
+
+def _align_sensor_grid(fleet, plan: FleetPlan, targets, seed: int) -> None:
+    """The simulator anchors its sensor grid at vehicle 1's home (a plan cell centre), half a
+    cell off the plan's grid; re-anchor each vehicle's sensor at the plan grid's corner so a
+    simulated cell is a plan cell. (Asked of sim/: a FleetOptions grid origin would replace this.)"""
+    from sim.sensor import DownwardSensor
+
+    lat, lon = plan.frame.local2geodetic(plan.grid.east0_m, plan.grid.north0_m)
+    off_e, off_n = fleet.vehicles[0].frame.geodetic2en(float(lat), float(lon))
+
+    class Shifted:
+        def __init__(self, frame) -> None:
+            self.frame = frame
+
+        def geodetic2en(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
+            e, n = self.frame.geodetic2en(lat_deg, lon_deg)
+            return e - off_e, n - off_n
+
+        def en2geodetic(self, east_m: float, north_m: float) -> tuple[float, float]:
+            return self.frame.en2geodetic(east_m + off_e, north_m + off_n)
+
+    class PlanGridSensor(DownwardSensor):
+        def update(self, east_m, north_m, alt_m, time_s):
+            return super().update(east_m - off_e, north_m - off_n, alt_m, time_s)
+
+    for v in fleet.vehicles:
+        frame = Shifted(v.frame)
+        cells = DownwardSensor.cells_of(list(targets), frame, v.config.sensor.cell_size_m)
+        v.sensor = PlanGridSensor(v.config.sensor, frame, cells, random.Random(seed * 1_000_003 + v.sysid))
+
+
+# ---- the command line ---------------------------------------------------------------------
+
+
+def add_connection_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--plan", metavar="DIR", help="a gcs plan --area output folder")
+    p.add_argument("--connect", metavar="CONN", action="append", default=[],
+                   help="udpout:HOST:PORT or udpin:HOST:PORT, repeatable (one for all vehicles, or one per UAV); "
+                        "UAV N is the vehicle with MAVLink system id N")
+    p.add_argument("--sim", action="store_true", help="start the built-in simulated fleet at the plan's airports")
+    p.add_argument("--speedup", type=float, default=10.0, help="simulated time / real time with --sim")
+    p.add_argument("--sim-profile", choices=("ardupilot", "px4"), default="ardupilot", help="autopilot the sim imitates")
+    p.add_argument("--sim-loss", type=float, default=0.0, help="packet loss probability on every simulated link")
+    p.add_argument("--no-fence", action="store_true", help="do not upload geofence and rally points")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    from gcs.missions import planning as area_plan
+
+    p = sub.add_parser("fly", help="upload, fly and watch the whole fleet until it has landed",
+                       formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
+    add_connection_arguments(p)
+    p.add_argument("--reserve-pct", type=float, default=30.0, help="battery kept back by the return trigger")
+    p.add_argument("--cruise-speed", type=float, default=10.0, help="vehicles' cruise speed, m/s (range estimate)")
+    p.add_argument("--descent-speed", type=float, default=1.5, help="vehicles' landing descent rate, m/s")
+    p.add_argument("--return-after", metavar="UAV:SECONDS", action="append", default=[],
+                   help="order UAV home after SECONDS (real time), as the operator's 'r UAV' would")
+    p.add_argument("--stdin-orders", action="store_true",
+                   help="read return orders ('r ID') from stdin even when it is not a terminal")
+    p.add_argument("--link-timeout", type=float, default=3.0, help="seconds without telemetry before a vehicle is lost")
+    p.add_argument("--lost-giveup", type=float, default=20.0, help="seconds a lost vehicle is waited for at the end")
+    p.add_argument("--sim-endurance", type=float, default=1200.0, help="with --sim: flight endurance of a full battery, s")
+    p.add_argument("--sim-drain", metavar="UAV:K", action="append", default=[],
+                   help="with --sim: UAV's battery drains K times faster than nominal")
+    p.add_argument("--online", action="store_true",
+                   help="planner in the loop: re-decide every step from live positions and readings (needs --area)")
+    # planning options for --area (the plan command's own arguments)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--np", dest="np_steps", type=int, default=5)
+    p.add_argument("--oc", default="3")
+    p.add_argument("--range", dest="range_steps", type=int, default=130)
+    p.add_argument("--strategy", default="exhaustive")
+    p.add_argument("--return", dest="return_planner", default="exact")
+    p.add_argument("--reserve", type=int, default=0)
+    p.add_argument("--range-aware-search", action="store_true")
+    p.add_argument("--pc", type=float, default=0.9)
+    p.add_argument("--pf", type=float, default=0.1)
+    p.add_argument("--footprint", type=int, default=0)
+    p.add_argument("--out", default=None, help="with --area: folder for the plan (default: a temporary folder)")
+    p.add_argument("--quiet", action="store_true")
+    area_plan.add_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _pairs(values: list[str], what: str, kind=float) -> dict[int, float]:
+    out = {}
+    for text in values:
+        try:
+            uid, value = text.split(":")
+            out[int(uid)] = kind(value)
+        except ValueError:
+            raise UserError(f"{what} {text!r}: expected UAV:NUMBER") from None
+    return out
+
+
+def plan_namespace(args: argparse.Namespace) -> argparse.Namespace:
+    """The `gcs plan --area` arguments for this flight: the plan command's own parser and
+    defaults, overlaid with the planning options given to `gcs fly` (no Rerun recording)."""
+    from gcs.cli import build_parser
+
+    ns = build_parser().parse_args(["plan", "--area", args.area])
+    for name, value in vars(args).items():
+        if hasattr(ns, name) and name not in ("func", "command"):
+            setattr(ns, name, value)
+    if hasattr(ns, "no_rrd"):
+        ns.no_rrd = True
+    return ns
+
+
+def resolve_plan(args: argparse.Namespace) -> FleetPlan:
+    """`--plan DIR`, or `--area FILE` planned first by the plan command itself."""
+    if getattr(args, "area", None):
+        from gcs.commands import plan as plan_command
+
+        if args.plan:
+            raise UserError("give --plan or --area, not both")
+        args.out = args.out or tempfile.mkdtemp(prefix="gcs-fly-")
+        plan_command.run(plan_namespace(args))
+        return load_plan_dir(args.out)
+    if not args.plan:
+        raise UserError("give --plan DIR (a gcs plan --area folder) or --area FILE")
+    return load_plan_dir(args.plan)
+
+
+def connection_strings(args: argparse.Namespace, plan: FleetPlan) -> list[str]:
+    if args.sim and args.connect:
+        raise UserError("--sim starts its own vehicles: leave out --connect")
+    if not args.sim and not args.connect:
+        raise UserError("give --connect udpout:HOST:PORT (one, or one per UAV) or --sim")
+    for c in args.connect:
+        try:
+            parse_connection(c)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+    if len(args.connect) > 1 and len(args.connect) != len(plan.uavs):
+        raise UserError(f"{len(args.connect)} connections for {len(plan.uavs)} UAVs: give one, or one per UAV")
+    return list(args.connect)
+
+
+async def fly_async(plan: FleetPlan, connections: list[str], options: FlyOptions,
+                    stdin_orders: bool = False, online=None) -> FlightController:
+    """Fly the plan (or, with `online` an `ObservedSearch`, search with the planner in the loop)."""
+    async with AsyncExitStack() as stack:
+        links = [await stack.enter_async_context(MavLink(c)) for c in connections]
+        controller = FlightController(plan, links, options)
+        loop = asyncio.get_running_loop()
+        try:
+            loop.add_signal_handler(signal.SIGINT, controller.interrupt)
+        except (NotImplementedError, RuntimeError):
+            pass
+        if stdin_orders:
+            _start_stdin_reader(loop, controller)
+        try:
+            if online is not None:
+                from gcs.online import OnlineFlight
+
+                await OnlineFlight(controller, online).run()
+            else:
+                await controller.run()
+        finally:
+            try:
+                loop.remove_signal_handler(signal.SIGINT)
+            except (NotImplementedError, RuntimeError):
+                pass
+    return controller
+
+
+def _start_stdin_reader(loop: asyncio.AbstractEventLoop, controller: FlightController) -> None:
+    """`r ID` (or `rtl ID`) on stdin orders UAV ID home; `r all` orders every UAV home."""
+
+    def order(line: str) -> None:
+        parts = line.split()
+        if len(parts) != 2 or parts[0].lower() not in ("r", "rtl", "return"):
+            controller.say(None, f"unknown input {line.strip()!r}: type 'r ID' to send UAV ID home")
+            return
+        targets = list(controller.status) if parts[1] == "all" else [parts[1]]
+        for t in targets:
+            try:
+                controller.order_return(int(t))
+            except ValueError as exc:
+                controller.say(None, f"error: {exc}")
+
+    def read() -> None:
+        for line in sys.stdin:
+            if line.strip():
+                loop.call_soon_threadsafe(order, line)
+
+    threading.Thread(target=read, name="stdin-orders", daemon=True).start()
+
+
+def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
+    returns = _pairs(args.return_after, "--return-after")
+    unknown = [u for u in returns if u not in plan.uavs]
+    if unknown:
+        raise UserError(f"--return-after: unknown UAV {unknown[0]} (the plan has {', '.join(map(str, sorted(plan.uavs)))})")
+    if not 0 <= args.reserve_pct < 100:
+        raise UserError("--reserve-pct must be in [0, 100)")
+    return FlyOptions(speed_m_s=args.cruise_speed, reserve_pct=args.reserve_pct, descent_m_s=args.descent_speed,
+                      link_timeout_s=args.link_timeout, lost_giveup_s=args.lost_giveup, return_after_s=returns,
+                      fence=not args.no_fence, live_table=sys.stdout.isatty())
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.online and not getattr(args, "area", None):
+        raise UserError("--online needs --area (the priors of the search map live in the area file)")
+    drains = _pairs(args.sim_drain, "--sim-drain")
+    if args.plan and not Path(args.plan).is_dir() and not getattr(args, "area", None):
+        raise UserError(f"plan folder {args.plan} does not exist (make one with: gcs plan --area AREA.geojson --out {args.plan})")
+    if not args.sim and not args.connect:
+        raise UserError("give --connect udpout:HOST:PORT (one, or one per UAV) or --sim")
+    for c in args.connect:
+        try:
+            parse_connection(c)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+    plan = resolve_plan(args)
+    connections = connection_strings(args, plan)
+    options = options_from(args, plan)
+    if any(u not in plan.uavs for u in drains):
+        raise UserError("--sim-drain: unknown UAV")
+    online = None
+    if args.online:
+        from gcs.missions import planning as area_plan
+        from gcs.online import ObservedSearch
+
+        setup = area_plan.build_area_search(plan_namespace(args))
+        online = ObservedSearch(setup.search.scenario, setup.search.config, seed=args.seed)
+    fleet = None
+    if args.sim:
+        fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile, seed=args.seed, pc=args.pc,
+                          pf=args.pf, drain=drains, loss=args.sim_loss,
+                          endurance_s=args.sim_endurance).start()
+        connections = fleet.connection_strings()
+        print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}", flush=True)
+    try:
+        controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online))
+    finally:
+        if fleet is not None:
+            fleet.stop()
+    print(render_summary(controller))
+    if controller._interrupted:
+        return 130
+    return 0 if all(st.stage is Stage.LANDED for st in controller.status.values()) else 1

@@ -1,0 +1,354 @@
+"""The ground-station side of the MAVLink mission protocol (mavlink.io, "Mission Protocol").
+
+`Upload` and `Download` are pure state machines: `start(now)`, `handle(msg, now)` and
+`poll(now)` return the messages to send; time is passed in; nothing here touches a socket.
+`transfer()` is the async driver over a `gcs.link.MavLink`, and `upload_verified()` uploads,
+reads the list back and compares it item by item.
+
+Protocol behaviour handled (upload): MISSION_COUNT, then answer every MISSION_REQUEST_INT with
+MISSION_ITEM_INT and every legacy MISSION_REQUEST with MISSION_ITEM (ArduPilot still asks with
+it on some links and versions); a duplicate or out-of-order request is answered with the item
+asked for; a timeout re-sends the last message (the COUNT, or the last item) up to
+`max_retries` times; MISSION_ACK INVALID_SEQUENCE is not final (a stale item crossed a
+re-request, the vehicle asks again); any other error ACK ends the transfer with that result.
+
+Autopilot conventions (`Autopilot`):
+- ArduPilot keeps the home position as mission item 0: we upload a placeholder there (the
+  airport), a read-back returns the vehicle's own home in it, so item 0 is not compared; fence
+  and rally lists have no home item. ArduPilot stores altitudes in centimetres and params as
+  float32, so values are compared with tolerances; and it replaces the mission item by item
+  while the upload runs (not atomically), so never upload to a vehicle flying AUTO: hold it
+  first (the return leg does).
+- PX4 keeps no home item and replaces the mission only once the upload completed."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import time
+from dataclasses import dataclass, replace
+from enum import Enum
+
+from gcs.link import AUTOPILOT_COMPONENT_ID, MavLink, mavlink
+
+__all__ = ["Autopilot", "Download", "MissionTransferError", "MissionType", "Upload", "WireItem",
+           "compare_items", "download", "transfer", "upload_verified"]
+
+MAVMessage = mavlink.MAVLink_message
+GLOBAL_FRAMES = frozenset({
+    mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_INT,
+    mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+    mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
+})
+MISSION_MESSAGES = ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK", "MISSION_COUNT", "MISSION_ITEM_INT",
+                    "MISSION_ITEM")
+
+
+class MissionType(int, Enum):
+    MISSION = mavlink.MAV_MISSION_TYPE_MISSION
+    FENCE = mavlink.MAV_MISSION_TYPE_FENCE
+    RALLY = mavlink.MAV_MISSION_TYPE_RALLY
+
+
+class Autopilot(str, Enum):
+    ARDUPILOT = "ardupilot"
+    PX4 = "px4"
+    GENERIC = "generic"
+
+    @classmethod
+    def from_heartbeat(cls, autopilot: int) -> Autopilot:
+        """From HEARTBEAT.autopilot (MAV_AUTOPILOT)."""
+        if autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA:
+            return cls.ARDUPILOT
+        if autopilot == mavlink.MAV_AUTOPILOT_PX4:
+            return cls.PX4
+        return cls.GENERIC
+
+    def home_item(self, mission_type: MissionType) -> bool:
+        """Whether item 0 of this list is the home position."""
+        return self is Autopilot.ARDUPILOT and mission_type is MissionType.MISSION
+
+    def first_mission_seq(self) -> int:
+        return 1 if self is Autopilot.ARDUPILOT else 0
+
+
+class MissionTransferError(Exception):
+    """A failed transfer; `result` is the MAV_MISSION_RESULT, None for a timeout."""
+
+    def __init__(self, operation: str, result: int | None, detail: str = "") -> None:
+        self.operation = operation
+        self.result = result
+        name = mavlink.enums["MAV_MISSION_RESULT"][result].name if result is not None else "TIMEOUT"
+        super().__init__(f"{operation} failed: {name}{': ' + detail if detail else ''}")
+
+
+@dataclass(frozen=True, slots=True)
+class WireItem:
+    """One item with MISSION_ITEM_INT's fields; x, y in degE7 for global frames."""
+
+    seq: int
+    frame: int
+    command: int
+    param1: float = 0.0
+    param2: float = 0.0
+    param3: float = 0.0
+    param4: float = 0.0
+    x: int = 0
+    y: int = 0
+    z: float = 0.0
+    current: int = 0
+    autocontinue: int = 1
+    mission_type: int = MissionType.MISSION
+
+    @classmethod
+    def at(cls, seq: int, frame: int, command: int, lat_deg: float, lon_deg: float, alt_m: float,
+           params: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0), mission_type: int = MissionType.MISSION
+           ) -> WireItem:
+        return cls(seq, int(frame), int(command), *(float(p) for p in params), round(lat_deg * 1e7),
+                   round(lon_deg * 1e7), float(alt_m), mission_type=int(mission_type))
+
+    @classmethod
+    def from_msg(cls, msg: MAVMessage) -> WireItem:
+        """From MISSION_ITEM_INT, or legacy MISSION_ITEM (float degrees)."""
+        x, y = msg.x, msg.y
+        if msg.get_type() == "MISSION_ITEM":
+            scale = 1e7 if msg.frame in GLOBAL_FRAMES else 1e4
+            x, y = round(x * scale), round(y * scale)
+        return cls(msg.seq, msg.frame, msg.command, msg.param1, msg.param2, msg.param3, msg.param4, int(x), int(y),
+                   msg.z, msg.current, msg.autocontinue, msg.mission_type)
+
+    def to_msg(self, target: tuple[int, int], *, legacy: bool = False) -> MAVMessage:
+        args = (target[0], target[1], self.seq, self.frame, self.command, self.current, self.autocontinue,
+                self.param1, self.param2, self.param3, self.param4)
+        if legacy:
+            scale = 1e7 if self.frame in GLOBAL_FRAMES else 1e4
+            return mavlink.MAVLink_mission_item_message(*args, self.x / scale, self.y / scale, self.z, self.mission_type)
+        return mavlink.MAVLink_mission_item_int_message(*args, self.x, self.y, self.z, self.mission_type)
+
+
+def renumber(items: list[WireItem], mission_type: int) -> list[WireItem]:
+    return [replace(it, seq=i, mission_type=int(mission_type)) for i, it in enumerate(items)]
+
+
+class _Machine:
+    """Shared timing: a deadline per expected answer, re-sending the last message on timeout."""
+
+    operation = "transfer"
+
+    def __init__(self, target: tuple[int, int], mission_type: int, timeout_s: float, max_retries: int) -> None:
+        self.target = target
+        self.mission_type = int(mission_type)
+        self.timeout_s = timeout_s
+        self.max_retries = max_retries
+        self.retries = 0
+        self.resends = 0
+        self.deadline = math.inf
+        self.done = False
+        self.error: MissionTransferError | None = None
+        self._last: MAVMessage | None = None
+
+    @property
+    def finished(self) -> bool:
+        return self.done or self.error is not None
+
+    def _send(self, msg: MAVMessage, now: float) -> list[MAVMessage]:
+        self._last = msg
+        self.deadline = now + self.timeout_s
+        return [msg]
+
+    def _progress(self) -> None:
+        self.retries = 0
+
+    def _fail(self, result: int | None, detail: str = "") -> list[MAVMessage]:
+        self.error = MissionTransferError(f"{self.operation} ({MissionType(self.mission_type).name.lower()})",
+                                          result, detail)
+        self.deadline = math.inf
+        return []
+
+    def _mine(self, msg: MAVMessage) -> bool:
+        return msg.get_srcSystem() == self.target[0] and getattr(msg, "mission_type", 0) == self.mission_type
+
+    def poll(self, now: float) -> list[MAVMessage]:
+        """Re-send the last message when its answer is overdue; fail after `max_retries`."""
+        if self.finished or now < self.deadline or self._last is None:
+            return []
+        if self.retries >= self.max_retries:
+            return self._fail(None, f"no answer after {self.max_retries} re-sends")
+        self.retries += 1
+        self.resends += 1
+        return self._send(self._last, now)
+
+
+class Upload(_Machine):
+    """Send `items` (already numbered from 0) as the vehicle requests them."""
+
+    operation = "upload"
+
+    def __init__(self, target: tuple[int, int], items: list[WireItem], mission_type: int = MissionType.MISSION, *,
+                 timeout_s: float = 0.5, max_retries: int = 10) -> None:
+        super().__init__(target, mission_type, timeout_s, max_retries)
+        self.items = renumber(items, mission_type)
+        self.requested: set[int] = set()
+        self.legacy_requests = 0
+
+    def start(self, now: float) -> list[MAVMessage]:
+        msg = mavlink.MAVLink_mission_count_message(*self.target, len(self.items), self.mission_type)
+        return self._send(msg, now)
+
+    def handle(self, msg: MAVMessage, now: float) -> list[MAVMessage]:
+        if self.finished or not self._mine(msg):
+            return []
+        kind = msg.get_type()
+        if kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
+            if not 0 <= msg.seq < len(self.items):
+                return []  # a request beyond our list: stale, from another transfer
+            self.legacy_requests += kind == "MISSION_REQUEST"
+            if msg.seq not in self.requested:
+                self.requested.add(msg.seq)
+                self._progress()
+            return self._send(self.items[msg.seq].to_msg(self.target, legacy=kind == "MISSION_REQUEST"), now)
+        if kind == "MISSION_ACK":
+            if msg.type == mavlink.MAV_MISSION_ACCEPTED:
+                if not self.items or len(self.items) - 1 in self.requested:
+                    self.done = True
+                    self.deadline = math.inf
+                return []  # an ACK before our last item was asked for is stale
+            if msg.type == mavlink.MAV_MISSION_INVALID_SEQUENCE:
+                return []
+            return self._fail(msg.type, "refused by the vehicle")
+        return []
+
+
+class Download(_Machine):
+    """Read the vehicle's list: REQUEST_LIST, COUNT, then REQUEST_INT / ITEM_INT per item."""
+
+    operation = "read-back"
+
+    def __init__(self, target: tuple[int, int], mission_type: int = MissionType.MISSION, *,
+                 timeout_s: float = 0.5, max_retries: int = 10) -> None:
+        super().__init__(target, mission_type, timeout_s, max_retries)
+        self.count: int | None = None
+        self.items: list[WireItem] = []
+
+    def start(self, now: float) -> list[MAVMessage]:
+        return self._send(mavlink.MAVLink_mission_request_list_message(*self.target, self.mission_type), now)
+
+    def _request_next(self, now: float) -> list[MAVMessage]:
+        if self.count is not None and len(self.items) >= self.count:
+            self.done = True
+            self.deadline = math.inf
+            return [mavlink.MAVLink_mission_ack_message(*self.target, mavlink.MAV_MISSION_ACCEPTED, self.mission_type)]
+        return self._send(mavlink.MAVLink_mission_request_int_message(*self.target, len(self.items),
+                                                                      self.mission_type), now)
+
+    def handle(self, msg: MAVMessage, now: float) -> list[MAVMessage]:
+        if self.finished or not self._mine(msg):
+            return []
+        kind = msg.get_type()
+        if kind == "MISSION_COUNT":
+            if self.count is None:
+                self.count = msg.count
+                self._progress()
+                return self._request_next(now)
+            return []
+        if kind in ("MISSION_ITEM_INT", "MISSION_ITEM") and self.count is not None:
+            if msg.seq != len(self.items):
+                return []  # a duplicate or an answer to an older request
+            self.items.append(WireItem.from_msg(msg))
+            self._progress()
+            return self._request_next(now)
+        if kind == "MISSION_ACK" and msg.type != mavlink.MAV_MISSION_ACCEPTED:
+            if msg.type == mavlink.MAV_MISSION_DENIED and self.count is None:
+                return []  # busy with another transfer: our timeout asks again
+            return self._fail(msg.type, "refused by the vehicle")
+        return []
+
+
+def compare_items(sent: list[WireItem], got: list[WireItem], *, skip_home: bool) -> list[str]:
+    """Differences between an uploaded list and its read-back, allowing the rounding real
+    autopilots do (ArduPilot: altitude in cm, params as float32); item 0 skipped for a home item."""
+    problems = []
+    if len(sent) != len(got):
+        return [f"{len(got)} items read back, {len(sent)} sent"]
+    for a, b in zip(sent, got):
+        if skip_home and a.seq == 0:
+            continue
+        if (a.command, a.frame) != (b.command, b.frame):
+            problems.append(f"item {a.seq}: command/frame {b.command}/{b.frame}, sent {a.command}/{a.frame}")
+            continue
+        if abs(a.x - b.x) > 1 or abs(a.y - b.y) > 1:
+            problems.append(f"item {a.seq}: position differs")
+        if not _close(a.z, b.z, 0.011):
+            problems.append(f"item {a.seq}: altitude {b.z:g}, sent {a.z:g}")
+        for f in ("param1", "param2", "param3", "param4"):
+            if not _close(getattr(a, f), getattr(b, f), 1e-3):
+                problems.append(f"item {a.seq}: {f} {getattr(b, f):g}, sent {getattr(a, f):g}")
+    return problems
+
+
+def _close(a: float, b: float, tol: float) -> bool:
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    return abs(a - b) <= max(tol, 1e-5 * abs(a))
+
+
+async def transfer(link: MavLink, machine: Upload | Download) -> None:
+    """Drive a state machine over `link` until it finishes; raise its error."""
+    async with link.listen(machine.target[0], MISSION_MESSAGES) as queue:
+        for msg in machine.start(time.monotonic()):
+            link.send(msg)
+        while not machine.finished:
+            wait = max(0.0, machine.deadline - time.monotonic())
+            try:
+                msg = await asyncio.wait_for(queue.get(), wait)
+                out = machine.handle(msg, time.monotonic())
+            except TimeoutError:
+                out = machine.poll(time.monotonic())
+            for m in out:
+                link.send(m)
+    if machine.error is not None:
+        raise machine.error
+
+
+async def download(link: MavLink, sysid: int, mission_type: int = MissionType.MISSION, *,
+                   timeout_s: float = 0.5) -> list[WireItem]:
+    machine = Download((sysid, AUTOPILOT_COMPONENT_ID), mission_type, timeout_s=timeout_s)
+    await transfer(link, machine)
+    return machine.items
+
+
+@dataclass(frozen=True, slots=True)
+class UploadReport:
+    items: int
+    attempts: int
+    resends: int
+    legacy_requests: int
+    elapsed_s: float
+
+
+async def upload_verified(link: MavLink, sysid: int, items: list[WireItem], autopilot: Autopilot,
+                          mission_type: int = MissionType.MISSION, *, timeout_s: float = 0.5,
+                          attempts: int = 3) -> UploadReport:
+    """Upload `items` (for ArduPilot's mission list, item 0 must be the home placeholder), read
+    them back and compare; retries the whole upload when the read-back differs."""
+    items = renumber(items, mission_type)
+    start = time.monotonic()
+    resends = legacy = 0
+    problems: list[str] = []
+    for attempt in range(1, attempts + 1):
+        up = Upload((sysid, AUTOPILOT_COMPONENT_ID), items, mission_type, timeout_s=timeout_s)
+        try:
+            await transfer(link, up)
+            back = await download(link, sysid, mission_type, timeout_s=timeout_s)
+        except MissionTransferError as exc:
+            resends += up.resends
+            if exc.result is not None or attempt == attempts:
+                raise
+            continue
+        resends += up.resends
+        legacy += up.legacy_requests
+        problems = compare_items(items, back, skip_home=autopilot.home_item(MissionType(mission_type)))
+        if not problems:
+            return UploadReport(len(items), attempt, resends, legacy, time.monotonic() - start)
+    raise MissionTransferError(f"verify ({MissionType(mission_type).name.lower()})", None,
+                               "; ".join(problems[:3]))

@@ -1,0 +1,277 @@
+"""Online mode: the planner in the loop. Every step the DTSCS search decides each vehicle's next
+cell from the vehicles' observed cells and the shared map, which is Bayes-updated (eq. 2-4) with
+every reading the vehicles report (CAMERA_IMAGE_CAPTURED, positive or negative); the vehicles are
+steered in GUIDED with SET_POSITION_TARGET_GLOBAL_INT (ArduPilot) or DO_REPOSITION (PX4).
+
+Steps are flown in lock step: all searching vehicles get their next cell, and the next decision
+is taken when every one of them has reached it (or a step timeout passed). The return decision
+is the planner's (eq. 23-24, its exact table, the joint conflict-free ways home); battery state
+enters it as a range change (`set_range`), operator orders as `order_return`.
+
+`ObservedSearch` is `planner.dtscs.ClosedSearch` with its simulated sensing replaced by the
+vehicles' readings. It overrides `step()` and so reads ClosedSearch's private helpers; a planner
+API taking an observation hook (see docs/fly.md) would remove that coupling."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import time
+
+import numpy as np
+
+from gcs.fleet import Stage
+from gcs.link import CommandError, LinkError, mavlink
+from gcs.mission_transfer import Autopilot
+from gcs.return_trigger import battery_drain_pct_s, drain_rate_pct_s, landing_steps, range_left_steps
+from planner.dtscs import ClosedSearch, RangeStatus, StepRecord
+from planner.environment import tep_after_no_report, tep_after_report
+from planner.plan import ReturnReason, Stage as PlanStage, TrajectoryPoint
+
+__all__ = ["ObservedSearch", "OnlineFlight"]
+
+POSITION_ONLY_MASK = 0b0000_1101_1111_1000  # ignore velocity, acceleration, yaw, yaw rate
+LANDING_ACCURACY_M = 1.0
+
+
+class ObservedSearch(ClosedSearch):
+    """DTSCS fed by observations: `observe()` folds in one reading, `step(observed)` decides and
+    moves every UAV one step from the vehicles' observed cells."""
+
+    def observe(self, cell: tuple[int, int], hit: bool, pc: float, pf: float) -> bool:
+        """Bayes update of one reading (eq. 2 or 3, and eq. 4); True when it found a target."""
+        x, y = cell
+        m = self.map
+        m.tep[x, y] = tep_after_report(m.tep[x, y], pc, pf) if hit else tep_after_no_report(m.tep[x, y], pc, pf)
+        m.eu[x, y] *= 0.5
+        m.visits[x, y] += 1
+        if not hit:
+            return False
+        for i, (tx, ty) in enumerate(self.scenario.targets):
+            if (tx, ty) == (x, y) and self.found_step[i] is None:
+                self.found_step[i] = self.step_index
+                return True
+        if not self.target_grid[x, y]:
+            self.false_alarms += 1
+        return False
+
+    def step(self, observed: dict[int, tuple[int, int]] | None = None) -> StepRecord:
+        """ClosedSearch.step with the observed cells in place of the simulated ones and without
+        simulated sensing."""
+        if self.done:
+            raise RuntimeError("the mission is over")
+        for uid, cell in (observed or {}).items():
+            u = self.uavs.get(uid)
+            if u is not None and u.stage is PlanStage.SEARCH and cell is not None and not self.map.no_fly[cell]:
+                u.x, u.y = cell
+        returns = []
+        for uid, u in self.uavs.items():
+            if u.stage is not PlanStage.SEARCH:
+                continue
+            if uid in self._orders:
+                returns.append(self._start_return(u, ReturnReason.ORDER))
+            elif u.steps_flown + u.home_cost > u.range_steps - self.config.reserve_steps:
+                returns.append(self._start_return(u, ReturnReason.RANGE_CUT))
+        self._orders.clear()
+        decisions = self._decide_searchers(returns)
+        self.step_index += 1
+        k = self.step_index
+        for uid, u in self.uavs.items():
+            if u.stage is PlanStage.LANDED:
+                continue
+            if u.stage is PlanStage.SEARCH:
+                u.x, u.y, u.heading = decisions[uid].first_step()
+                u.home_path = u.next_home_path
+                u.search_steps += 1
+                rest = decisions[uid].path[1:, :2]
+                u.predicted = np.full((self.config.np_steps, 2), -1, dtype=np.int64)
+                u.predicted[: len(rest)] = rest
+            elif u.return_plan:
+                u.x, u.y, u.heading = u.return_plan.popleft()
+                u.return_steps += 1
+            else:
+                u.stage = PlanStage.LANDED
+                continue
+            u.trajectory.append(TrajectoryPoint(k, u.x, u.y, u.heading, u.stage))
+            if u.stage is PlanStage.RETURN and not u.return_plan:
+                u.stage = PlanStage.LANDED
+        ranges = {uid: RangeStatus(u.range_steps - u.steps_flown, u.home_cost, u.range_steps - u.steps_flown - u.home_cost)
+                  for uid, u in self.uavs.items()}
+        poses = {uid: (u.x, u.y, u.heading, u.stage) for uid, u in self.uavs.items()}
+        return StepRecord(k, poses, decisions, returns, np.zeros((0, 4), dtype=np.int64), [], ranges,
+                          self.map.tep, self.map.eu)
+
+
+class OnlineFlight:
+    """Drives an `ObservedSearch` with a `FlightController`'s links and telemetry."""
+
+    def __init__(self, controller, search: ObservedSearch, *, arrive_m: float | None = None,
+                 step_timeout_s: float = 10.0) -> None:
+        self.c = controller
+        self.search = search
+        self.plan = controller.plan
+        self.arrive_m = arrive_m or 0.25 * self.plan.cell_size_m
+        self.step_timeout_s = step_timeout_s
+        self.targets: dict[int, tuple[float, float]] = {}
+        self.seen: dict[int, int] = {uid: 0 for uid in self.plan.uavs}
+        self.landing: set[int] = set()
+
+    # ---- readings ----------------------------------------------------------------------
+
+    def _fold_readings(self) -> None:
+        for uid, st in self.c.status.items():
+            new = st.detections[self.seen[uid]:]
+            self.seen[uid] = len(st.detections)
+            for d in new:
+                cell = self.plan.cell_of(d.lat_deg, d.lon_deg)
+                if cell is None:
+                    continue
+                self.search.observe(cell, d.hit, self.pc, self.pf)
+
+    @property
+    def pc(self) -> float:
+        return self.search.scenario.sensor.pc
+
+    @property
+    def pf(self) -> float:
+        return self.search.scenario.sensor.pf
+
+    # ---- commands ----------------------------------------------------------------------
+
+    async def _take_off(self, uid: int) -> bool:
+        c, st, task = self.c, self.c.status[uid], self.plan.uavs[uid]
+        if not await c.prepare(uid, mission=False):
+            return False
+        c._set_stage(uid, Stage.ARMING)
+        try:
+            await c.set_mode(uid, "GUIDED")
+            end = time.monotonic() + c.options.arm_timeout_s
+            while True:
+                try:
+                    await c.command(uid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+                    break
+                except CommandError as exc:
+                    if time.monotonic() > end:
+                        raise
+                    c.say(uid, f"arming refused ({st.last_text or exc}); retrying")
+                    await asyncio.sleep(1.0)
+            await c.command(uid, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, task.altitude_m)
+        except LinkError as exc:
+            c._set_stage(uid, Stage.FAILED, f"take-off: {exc}")
+            return False
+        if not await c._wait(lambda: st.rel_alt_m >= task.altitude_m - 1.0, 120.0):
+            c._set_stage(uid, Stage.FAILED, "did not reach its altitude")
+            return False
+        c._set_stage(uid, Stage.SEARCH, "online search")
+        return True
+
+    def _steer(self, uid: int) -> None:
+        """(Re-)send the current target; cheap, so it is repeated until the vehicle arrives."""
+        c, st = self.c, self.c.status[uid]
+        link = c.link_of.get(uid)
+        if link is None or uid not in self.targets:
+            return
+        lat, lon = self.targets[uid]
+        alt = self.plan.uavs[uid].altitude_m
+        if st.autopilot is Autopilot.PX4:
+            link.send(mavlink.MAVLink_command_int_message(
+                uid, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_DO_REPOSITION, 0, 0, -1,
+                mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0, math.nan, round(lat * 1e7), round(lon * 1e7), alt))
+        else:
+            link.send(mavlink.MAVLink_set_position_target_global_int_message(
+                0, uid, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, POSITION_ONLY_MASK, round(lat * 1e7),
+                round(lon * 1e7), alt, 0, 0, 0, 0, 0, 0, 0, 0))
+
+    def _arrived(self, uid: int, within_m: float | None = None) -> bool:
+        st = self.c.status[uid]
+        if uid not in self.targets or not st.has_position:
+            return True
+        e0, n0 = self.plan.local_m(*self.targets[uid])
+        e1, n1 = self.plan.local_m(st.lat_deg, st.lon_deg)
+        return math.hypot(e1 - e0, n1 - n0) <= (within_m or self.arrive_m)
+
+    async def _land(self, uid: int) -> None:
+        c = self.c
+        self.targets[uid] = self.plan.uavs[uid].airport_lat_lon
+        end = time.monotonic() + self.step_timeout_s
+        while not self._arrived(uid, LANDING_ACCURACY_M) and time.monotonic() < end:
+            self._steer(uid)
+            await asyncio.sleep(self.c.options.tick_s)
+        try:
+            await c.command(uid, mavlink.MAV_CMD_NAV_LAND, 0, 0, 0, math.nan, *self.plan.uavs[uid].airport_lat_lon, 0)
+        except LinkError as exc:
+            c.say(uid, f"LAND not acknowledged ({exc}); commanding RTL")
+            await c.rtl(uid)
+        self.targets.pop(uid, None)
+
+    # ---- the loop ----------------------------------------------------------------------
+
+    def _battery_range(self) -> None:
+        """Battery range (steps left above the reserve, minus the descent) as a range change."""
+        for uid, st in self.c.status.items():
+            u = self.search.uavs[uid]
+            if u.stage is not PlanStage.SEARCH:
+                continue
+            drain = battery_drain_pct_s(st.battery_pct, st.time_remaining_s, drain_rate_pct_s(list(st.battery_samples)))
+            left = range_left_steps(st.battery_pct, drain, self.c.model)
+            st.range_left = left
+            if math.isfinite(left):
+                steps = u.steps_flown + int(left - landing_steps(self.plan.uavs[uid].altitude_m, self.c.model))
+                if steps < u.range_steps:
+                    self.search.set_range(uid, max(1, steps))
+            st.margin = u.range_steps - u.steps_flown - u.home_cost
+
+    async def run(self) -> None:
+        c, search = self.c, self.search
+        ok = await asyncio.gather(*(self._take_off(uid) for uid in self.plan.uavs))
+        for uid, good in zip(self.plan.uavs, ok):
+            if not good:
+                search.order_return(uid)  # stays out of the search; its plan ends at once
+        flying = {uid for uid, good in zip(self.plan.uavs, ok) if good}
+        landing_tasks = []
+        while not search.done and not c._interrupted:
+            end = time.monotonic() + self.step_timeout_s
+            while not all(self._arrived(uid) for uid in flying) and time.monotonic() < end and not c._interrupted:
+                for uid in flying:
+                    if not self._arrived(uid):
+                        self._steer(uid)
+                await asyncio.sleep(c.options.tick_s)
+            start = time.monotonic()
+            c._recover_readings(start)
+            self._fold_readings()
+            for uid, reason in c._orders:
+                if uid in flying:
+                    search.order_return(uid)
+                    c.status[uid].return_reason = reason
+            c._orders.clear()
+            self._battery_range()
+            observed = {uid: c.plan.cell_of(c.status[uid].lat_deg, c.status[uid].lon_deg)
+                        for uid in flying if c.status[uid].has_position}
+            record = search.step(observed)
+            for ev in record.returns:
+                st = c.status[ev.uav_id]
+                st.return_reason = st.return_reason or {"range_cut": "battery"}.get(ev.reason.value, ev.reason.value)
+                c._set_stage(ev.uav_id, Stage.RETURN, f"going home ({ev.reason.value})")
+            for uid in list(flying):
+                x, y, _, stage = record.poses[uid]
+                if stage is PlanStage.LANDED:
+                    flying.discard(uid)
+                    landing_tasks.append(asyncio.create_task(self._land(uid)))
+                else:
+                    self.targets[uid] = self.plan.cell_lat_lon(x, y)
+                    self._steer(uid)
+            c.loop_latency_s.append(time.monotonic() - start)
+            for uid in self.plan.uavs:
+                c._update_stage(uid, time.monotonic())
+        if c._interrupted:
+            await c.bring_everyone_home()
+            return
+        await asyncio.gather(*landing_tasks)
+        end = time.monotonic() + 300.0
+        while not c.finished(time.monotonic()) and time.monotonic() < end and not c._interrupted:
+            for uid in self.plan.uavs:
+                c._update_stage(uid, time.monotonic())
+            await asyncio.sleep(c.options.tick_s)
+        if c._interrupted:
+            await c.bring_everyone_home()
+        self._fold_readings()
