@@ -8,9 +8,8 @@ is taken when every one of them has reached it (or a step timeout passed). The r
 is the planner's (eq. 23-24, its exact table, the joint conflict-free ways home); battery state
 enters it as a range change (`set_range`), operator orders as `order_return`.
 
-`ObservedSearch` is `planner.dtscs.ClosedSearch` with its simulated sensing replaced by the
-vehicles' readings. It overrides `step()` and so reads ClosedSearch's private helpers; a planner
-API taking an observation hook (see docs/fly.md) would remove that coupling."""
+The search is `planner.dtscs.ClosedSearch` without simulated sensing: readings enter through its
+`observe()`, the vehicles' observed cells through `set_position()`."""
 
 from __future__ import annotations
 
@@ -18,94 +17,30 @@ import asyncio
 import math
 import time
 
-import numpy as np
 
 from gcs.fleet import Stage
 from gcs.link import CommandError, LinkError, mavlink
 from gcs.mission_transfer import Autopilot
 from gcs.return_trigger import battery_drain_pct_s, drain_rate_pct_s, landing_steps, range_left_steps
-from planner.dtscs import ClosedSearch, RangeStatus, StepRecord
-from planner.environment import tep_after_no_report, tep_after_report
-from planner.plan import ReturnReason, Stage as PlanStage, TrajectoryPoint
+from planner.dtscs import ClosedSearch
+from planner.plan import Stage as PlanStage
 
-__all__ = ["ObservedSearch", "OnlineFlight"]
+__all__ = ["OnlineFlight", "observed_search"]
 
 POSITION_ONLY_MASK = 0b0000_1101_1111_1000  # ignore velocity, acceleration, yaw, yaw rate
 LANDING_ACCURACY_M = 1.0
 
 
-class ObservedSearch(ClosedSearch):
-    """DTSCS fed by observations: `observe()` folds in one reading, `step(observed)` decides and
-    moves every UAV one step from the vehicles' observed cells."""
-
-    def observe(self, cell: tuple[int, int], hit: bool, pc: float, pf: float) -> bool:
-        """Bayes update of one reading (eq. 2 or 3, and eq. 4); True when it found a target."""
-        x, y = cell
-        m = self.map
-        m.tep[x, y] = tep_after_report(m.tep[x, y], pc, pf) if hit else tep_after_no_report(m.tep[x, y], pc, pf)
-        m.eu[x, y] *= 0.5
-        m.visits[x, y] += 1
-        if not hit:
-            return False
-        for i, (tx, ty) in enumerate(self.scenario.targets):
-            if (tx, ty) == (x, y) and self.found_step[i] is None:
-                self.found_step[i] = self.step_index
-                return True
-        if not self.target_grid[x, y]:
-            self.false_alarms += 1
-        return False
-
-    def step(self, observed: dict[int, tuple[int, int]] | None = None) -> StepRecord:
-        """ClosedSearch.step with the observed cells in place of the simulated ones and without
-        simulated sensing."""
-        if self.done:
-            raise RuntimeError("the mission is over")
-        for uid, cell in (observed or {}).items():
-            u = self.uavs.get(uid)
-            if u is not None and u.stage is PlanStage.SEARCH and cell is not None and not self.map.no_fly[cell]:
-                u.x, u.y = cell
-        returns = []
-        for uid, u in self.uavs.items():
-            if u.stage is not PlanStage.SEARCH:
-                continue
-            if uid in self._orders:
-                returns.append(self._start_return(u, ReturnReason.ORDER))
-            elif u.steps_flown + u.home_cost > u.range_steps - self.config.reserve_steps:
-                returns.append(self._start_return(u, ReturnReason.RANGE_CUT))
-        self._orders.clear()
-        decisions = self._decide_searchers(returns)
-        self.step_index += 1
-        k = self.step_index
-        for uid, u in self.uavs.items():
-            if u.stage is PlanStage.LANDED:
-                continue
-            if u.stage is PlanStage.SEARCH:
-                u.x, u.y, u.heading = decisions[uid].first_step()
-                u.home_path = u.next_home_path
-                u.search_steps += 1
-                rest = decisions[uid].path[1:, :2]
-                u.predicted = np.full((self.config.np_steps, 2), -1, dtype=np.int64)
-                u.predicted[: len(rest)] = rest
-            elif u.return_plan:
-                u.x, u.y, u.heading = u.return_plan.popleft()
-                u.return_steps += 1
-            else:
-                u.stage = PlanStage.LANDED
-                continue
-            u.trajectory.append(TrajectoryPoint(k, u.x, u.y, u.heading, u.stage))
-            if u.stage is PlanStage.RETURN and not u.return_plan:
-                u.stage = PlanStage.LANDED
-        ranges = {uid: RangeStatus(u.range_steps - u.steps_flown, u.home_cost, u.range_steps - u.steps_flown - u.home_cost)
-                  for uid, u in self.uavs.items()}
-        poses = {uid: (u.x, u.y, u.heading, u.stage) for uid, u in self.uavs.items()}
-        return StepRecord(k, poses, decisions, returns, np.zeros((0, 4), dtype=np.int64), [], ranges,
-                          self.map.tep, self.map.eu)
+def observed_search(scenario, config, seed: int) -> ClosedSearch:
+    """The DTSCS search fed by the vehicles: no simulated sensing, readings through `observe()`,
+    observed cells through `set_position()`."""
+    return ClosedSearch(scenario, config, seed=seed, simulate_sensing=False)
 
 
 class OnlineFlight:
-    """Drives an `ObservedSearch` with a `FlightController`'s links and telemetry."""
+    """Drives an `observed_search` with a `FlightController`'s links and telemetry."""
 
-    def __init__(self, controller, search: ObservedSearch, *, arrive_m: float | None = None,
+    def __init__(self, controller, search: ClosedSearch, *, arrive_m: float | None = None,
                  step_timeout_s: float = 10.0) -> None:
         self.c = controller
         self.search = search
@@ -126,7 +61,7 @@ class OnlineFlight:
                 cell = self.plan.cell_of(d.lat_deg, d.lon_deg)
                 if cell is None:
                     continue
-                self.search.observe(cell, d.hit, self.pc, self.pf)
+                self.search.observe(cell, d.hit, self.pc, self.pf, by=uid)
 
     @property
     def pc(self) -> float:
@@ -245,9 +180,10 @@ class OnlineFlight:
                     c.status[uid].return_reason = reason
             c._orders.clear()
             self._battery_range()
-            observed = {uid: c.plan.cell_of(c.status[uid].lat_deg, c.status[uid].lon_deg)
-                        for uid in flying if c.status[uid].has_position}
-            record = search.step(observed)
+            for uid in flying:
+                if c.status[uid].has_position:
+                    search.set_position(uid, c.plan.cell_of(c.status[uid].lat_deg, c.status[uid].lon_deg))
+            record = search.step()
             for ev in record.returns:
                 st = c.status[ev.uav_id]
                 st.return_reason = st.return_reason or {"range_cut": "battery"}.get(ev.reason.value, ev.reason.value)

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planner.environment import sense
+from planner.environment import eu_after_visit, sense, tep_after_no_report, tep_after_report
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
 from planner.plan import Plan, ReturnReason, Stage, TargetOutcome, TrajectoryPoint, UavPlan
 from planner.return_exact import follow_table, return_table, space_time_return
@@ -134,11 +134,17 @@ def first_step_feasible(table: np.ndarray, successors: np.ndarray, blocked: np.n
 
 
 class ClosedSearch:
-    """The DTSCS scheme flown step by step over a scenario (Algorithm 3)."""
+    """The DTSCS scheme flown step by step over a scenario (Algorithm 3).
+
+    With `simulate_sensing` (the default) every cell flown is observed by the scenario's sensor
+    against its targets. Without it the map changes only through `observe()`, the readings real
+    vehicles report, and `set_position()` moves a searching UAV to the cell it was seen in: the
+    planner in the loop of a live flight."""
 
     def __init__(self, scenario: Scenario, config: MissionConfig | None = None, seed: int = 0,
-                 strategy: SearchStrategy | None = None) -> None:
+                 strategy: SearchStrategy | None = None, simulate_sensing: bool = True) -> None:
         self.scenario = scenario
+        self.simulate_sensing = simulate_sensing
         self.config = config or MissionConfig()
         self.strategy = strategy or make_strategy(self.config.strategy)
         self.map = scenario.search_map.copy()
@@ -182,6 +188,36 @@ class ClosedSearch:
         if range_steps < 1:
             raise ValueError("range must be at least 1 step")
         self._uav(uav_id).range_steps = int(range_steps)
+
+    def set_position(self, uav_id: int, cell: tuple[int, int]) -> None:
+        """A searching UAV was observed in `cell` (heading kept): the next decision starts there.
+        Ignored for UAVs on their way home (their committed path stands) and for blocked cells."""
+        u = self._uav(uav_id)
+        x, y = int(cell[0]), int(cell[1])
+        nx, ny = self.map.shape
+        if u.stage is Stage.SEARCH and 0 <= x < nx and 0 <= y < ny and not self.map.no_fly[x, y]:
+            u.x, u.y = x, y
+
+    def observe(self, cell: tuple[int, int], reported: bool, pc: float, pf: float, by: int | None = None) -> bool:
+        """Fold one sensor reading (by UAV `by`) into the shared map (eq. 2 or 3, and eq. 4),
+        counting first finds and false alarms; True when it found a target for the first time."""
+        x, y = cell
+        m = self.map
+        m.tep[x, y] = tep_after_report(m.tep[x, y], pc, pf) if reported else tep_after_no_report(m.tep[x, y], pc, pf)
+        m.eu[x, y] = eu_after_visit(m.eu[x, y])
+        m.visits[x, y] += 1
+        if not reported:
+            return False
+        if not self.target_grid[x, y]:
+            self.false_alarms += 1
+            return False
+        found = False
+        for i, (tx, ty) in enumerate(self.scenario.targets):
+            if (tx, ty) == (x, y) and self.found_step[i] is None:
+                self.found_step[i] = self.step_index
+                self.found_by[i] = by
+                found = True
+        return found
 
     def _uav(self, uav_id: int) -> _Uav:
         if uav_id not in self.uavs:
@@ -328,8 +364,10 @@ class ClosedSearch:
             if u.stage is Stage.RETURN and not u.return_plan:
                 u.stage = Stage.LANDED
 
-        reports = sense(self.map, self.target_grid, np.array(moved, dtype=np.int64).reshape(-1, 2),
-                        self.scenario.sensor, self.sensor_rng) if moved else np.zeros((0, 4), dtype=np.int64)
+        reports = np.zeros((0, 4), dtype=np.int64)
+        if moved and self.simulate_sensing:
+            reports = sense(self.map, self.target_grid, np.array(moved, dtype=np.int64).reshape(-1, 2),
+                            self.scenario.sensor, self.sensor_rng)
         found = self._score_reports(reports, k)
         ranges = {uid: RangeStatus(u.range_steps - u.steps_flown, u.home_cost,
                                    u.range_steps - u.steps_flown - u.home_cost)

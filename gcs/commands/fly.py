@@ -26,13 +26,12 @@ from pathlib import Path
 import numpy as np
 
 from gcs.errors import UserError
-from gcs.fleet import FINAL_STAGES, FleetPlan, Stage, UavTask, VehicleStatus, load_plan_dir, set_mode_params
+from gcs.fleet import FINAL_STAGES, FleetPlan, Stage, VehicleStatus, load_plan_dir, set_mode_params
 from gcs.link import CommandError, LinkError, MavLink, mavlink, parse_connection
 from gcs.mission_transfer import Autopilot, MissionTransferError, MissionType, WireItem, upload_verified
 from gcs.return_trigger import (RangeModel, battery_drain_pct_s, check_return, drain_rate_pct_s, landing_steps,
                                 range_left_steps)
 from gcs.status_table import render_summary, render_table
-from planner.motion import HEADING_DX, HEADING_DY
 from planner.return_exact import follow_table
 
 STREAMS_HZ = {  # message -> rate asked with MAV_CMD_SET_MESSAGE_INTERVAL (vehicle time)
@@ -640,7 +639,7 @@ def connection_strings(args: argparse.Namespace, plan: FleetPlan) -> list[str]:
 
 async def fly_async(plan: FleetPlan, connections: list[str], options: FlyOptions,
                     stdin_orders: bool = False, online=None) -> FlightController:
-    """Fly the plan (or, with `online` an `ObservedSearch`, search with the planner in the loop)."""
+    """Fly the plan (or, with `online` an observed search, search with the planner in the loop)."""
     async with AsyncExitStack() as stack:
         links = [await stack.enter_async_context(MavLink(c)) for c in connections]
         controller = FlightController(plan, links, options)
@@ -722,10 +721,10 @@ def run(args: argparse.Namespace) -> int:
     online = None
     if args.online:
         from gcs.missions import planning as area_plan
-        from gcs.online import ObservedSearch
+        from gcs.online import observed_search
 
         setup = area_plan.build_area_search(plan_namespace(args))
-        online = ObservedSearch(setup.search.scenario, setup.search.config, seed=args.seed)
+        online = observed_search(setup.search.scenario, setup.search.config, seed=args.seed)
     fleet = None
     if args.sim:
         fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile, seed=args.seed, pc=args.pc,

@@ -129,7 +129,7 @@ def test_online_mode_searches_adaptively_and_lands_everyone(plan_dir, plan):
 
     from gcs.commands.fly import fly_async, start_sim
     from gcs.missions import planning as area_plan
-    from gcs.online import ObservedSearch
+    from gcs.online import observed_search
     from gcs.status_table import targets_found
     from tests.fly.conftest import ROOT
 
@@ -139,7 +139,7 @@ def test_online_mode_searches_adaptively_and_lands_everyone(plan_dir, plan):
                               pc=0.9, pf=0.1, footprint=0, np_steps=5, oc="3", strategy="exhaustive",
                               return_planner="exact", reserve=0, range_aware_search=False, seed=0)
     setup = area_plan.build_area_search(args)
-    search = ObservedSearch(setup.search.scenario, setup.search.config, seed=0)
+    search = observed_search(setup.search.scenario, setup.search.config, seed=0)
     fleet = start_sim(plan, speedup=40.0, seed=0).start()
     try:
         online = asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),

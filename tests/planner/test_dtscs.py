@@ -129,3 +129,32 @@ def test_return_order_at_the_airport_lands_at_once():
     assert len(first.trajectory) == 1 and first.eta == 0.0
     with pytest.raises(ValueError):
         search.order_return(99)
+
+
+def test_observed_search_changes_the_map_only_through_readings():
+    scenario = paper_scenario(seed=4, range_steps=60)
+    search = ClosedSearch(scenario, MissionConfig(np_steps=2), seed=4, simulate_sensing=False)
+    before = search.map.tep.copy()
+    record = search.step()
+    assert len(record.reports) == 0 and np.array_equal(search.map.tep, before)
+    tx, ty = (int(v) for v in scenario.targets[0])
+    assert search.observe((tx, ty), True, 0.9, 0.1, by=2) is True
+    assert search.map.tep[tx, ty] > before[tx, ty]
+    assert search.map.eu[tx, ty] == scenario.search_map.eu[tx, ty] / 2
+    assert search.observe((tx, ty), True, 0.9, 0.1) is False
+    empty = next((x, y) for x in range(50) for y in range(50) if not search.target_grid[x, y] and not search.map.no_fly[x, y])
+    assert search.observe(empty, True, 0.9, 0.1) is False and search.false_alarms == 1
+    plan = search.plan()
+    assert plan.targets[0].found_step == 1 and plan.targets[0].found_by == 2
+
+
+def test_set_position_moves_a_searcher_to_the_observed_cell():
+    search = ClosedSearch(paper_scenario(seed=4, range_steps=60), MissionConfig(np_steps=2), seed=4)
+    search.step()
+    search.set_position(1, (3, 20))
+    assert (search.uavs[1].x, search.uavs[1].y) == (3, 20)
+    search.set_position(1, (10, 35))  # a no-fly cell: ignored
+    assert (search.uavs[1].x, search.uavs[1].y) == (3, 20)
+    record = search.step()
+    x, y, _h, _stage = record.poses[1]
+    assert max(abs(x - 3), abs(y - 20)) == 1
