@@ -6,8 +6,12 @@ Run: .venv/bin/python benchmarks/stress_safety.py [--seeds 400]"""
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 from tqdm import tqdm
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the plan checker lives with the tests
 
 from planner.dtscs import MissionConfig, fly
 from planner.motion import OC3, OC4, OC8
