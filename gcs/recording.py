@@ -35,6 +35,7 @@ from urllib.parse import urlparse
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 import rerun as rr
 import rerun.blueprint as rrb
 
@@ -584,14 +585,19 @@ class RecordingTables:
     temporal: dict[str, pa.Table]
     static: dict[str, pa.Table]
     blueprints: int
+    timeline: str = TIMELINE
 
-    def column(self, entity: str, component: str) -> tuple[list[int], list]:
+    def column(self, entity: str, component: str) -> tuple[list, list]:
         table = self.temporal[entity]
-        return table.column(TIMELINE).to_pylist(), table.column(component).to_pylist()
+        times = table.column(self.timeline)
+        if pa.types.is_duration(times.type):  # flight_time: seconds as floats
+            times = pc.divide(times.cast(pa.int64()).cast(pa.float64()), 1e9)
+        return times.to_pylist(), table.column(component).to_pylist()
 
 
-def read_recording(path: str | Path) -> RecordingTables:
-    """Every chunk of the first recording in a .rrd file, through Rerun's chunk reader."""
+def read_recording(path: str | Path, timeline: str = TIMELINE) -> RecordingTables:
+    """Every chunk of the first recording in a .rrd file, through Rerun's chunk reader; the
+    temporal rows are those on `timeline` (`step` for plans, `flight_time` for flights)."""
     from rerun.chunk import RrdReader
 
     with warnings.catch_warnings():
@@ -608,6 +614,6 @@ def read_recording(path: str | Path) -> RecordingTables:
         table = pa.concat_tables(tables, promote_options="permissive")
         if is_static:
             static[entity] = table
-        elif TIMELINE in table.column_names:
-            temporal[entity] = table.sort_by(TIMELINE)
-    return RecordingTables(temporal, static, blueprints)
+        elif timeline in table.column_names:
+            temporal[entity] = table.sort_by(timeline)
+    return RecordingTables(temporal, static, blueprints, timeline)

@@ -95,6 +95,8 @@ class MissionClient:
                 self.resends += 1
                 continue
             if msg.get_type() == "MISSION_ACK":
+                if msg.type == mavlink.MAV_MISSION_ACCEPTED:  # a late or duplicated ACK of an earlier upload
+                    continue
                 raise MissionTransferError("download", msg.type)
             count = msg.count
         items: list[MissionItem] = []

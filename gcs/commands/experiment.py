@@ -1,5 +1,6 @@
 """`gcs experiment NAME`: reproduce a figure of the paper's Section 6 (fig6, fig8, fig10, fig12,
-or all), writing its CSV tables and a PNG plot into --out."""
+or all), writing its CSV tables and a PNG plot into --out, and every figure's series to the Rerun
+recording experiment.rrd there (docs/recording.md)."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--footprint", type=int, default=0, help="sensor footprint radius in cells (0: the cell below)")
     p.add_argument("--range", dest="range_steps", type=int, default=130, help="range T_i of every UAV, in steps")
     p.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    p.add_argument("--no-rrd", action="store_true", help="write no Rerun recording (experiment.rrd)")
     p.set_defaults(func=run)
 
 
@@ -37,9 +39,17 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} is a file, not a folder")
-    settings = ExperimentSettings(out, args.runs, args.seed, args.footprint, args.range_steps, args.quiet)
+    figures: list = []
+    settings = ExperimentSettings(out, args.runs, args.seed, args.footprint, args.range_steps, args.quiet,
+                                  on_figure=None if args.no_rrd else lambda name, fig: figures.append((name, fig)))
     for name in NAMES if args.name == "all" else (args.name,):
         written = EXPERIMENTS[name](settings)
         if not args.quiet:
             print(f"{name}: " + ", ".join(str(p) for p in written))
+    if figures:
+        from gcs.flight_recording import record_figures  # rerun takes ~0.45 s to import
+
+        rrd = record_figures(out / "experiment.rrd", figures, name=f"experiment {args.name}")
+        if not args.quiet:
+            print(f"recording {rrd}")
     return 0

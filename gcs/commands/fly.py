@@ -578,6 +578,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--footprint", type=int, default=0)
     p.add_argument("--out", default=None, help="with --area: folder for the plan (default: a temporary folder)")
     p.add_argument("--quiet", action="store_true")
+    p.add_argument("--rrd", metavar="PATH", help="Rerun recording of the flight (default: flight.rrd in the plan folder)")
+    p.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
+    p.add_argument("--rerun-connect", nargs="?", const="rerun+http://127.0.0.1:9876/proxy", metavar="ADDR",
+                   help="also stream the flight to a running Rerun viewer (ADDR default: %(const)s)")
     area_plan.add_arguments(p)
     p.set_defaults(func=run)
 
@@ -604,6 +608,7 @@ def plan_namespace(args: argparse.Namespace) -> argparse.Namespace:
             setattr(ns, name, value)
     if hasattr(ns, "no_rrd"):
         ns.no_rrd = True
+        ns.rerun_connect = None
     return ns
 
 
@@ -638,11 +643,14 @@ def connection_strings(args: argparse.Namespace, plan: FleetPlan) -> list[str]:
 
 
 async def fly_async(plan: FleetPlan, connections: list[str], options: FlyOptions,
-                    stdin_orders: bool = False, online=None) -> FlightController:
-    """Fly the plan (or, with `online` an observed search, search with the planner in the loop)."""
+                    stdin_orders: bool = False, online=None, recorder=None) -> FlightController:
+    """Fly the plan (or, with `online` an observed search, search with the planner in the loop);
+    `recorder` (a `gcs.flight_recording.FlightRecorder`) records it."""
     async with AsyncExitStack() as stack:
         links = [await stack.enter_async_context(MavLink(c)) for c in connections]
         controller = FlightController(plan, links, options)
+        if recorder is not None:
+            await stack.enter_async_context(recorder.attach(controller))
         loop = asyncio.get_running_loop()
         try:
             loop.add_signal_handler(signal.SIGINT, controller.interrupt)
@@ -700,6 +708,24 @@ def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
                       fence=not args.no_fence, live_table=sys.stdout.isatty())
 
 
+def flight_recorder(args: argparse.Namespace, plan: FleetPlan):
+    """The flight's Rerun recorder (`flight.rrd` in the plan folder unless `--rrd` / `--no-rrd`),
+    or None when nothing is recorded; rerun is imported only then."""
+    from gcs.commands.plan import recording_path
+
+    rrd = recording_path(args, Path(plan.folder) / "flight.rrd")
+    if rrd is None and args.rerun_connect is None:
+        return None
+    from gcs.flight_recording import FlightRecorder
+
+    recorder = FlightRecorder(rrd, args.rerun_connect, plan, name=f"flight {Path(plan.folder).name}")
+    if args.rerun_connect is not None:
+        from gcs.recording import check_viewer
+
+        check_viewer(args.rerun_connect)
+    return recorder
+
+
 def run(args: argparse.Namespace) -> int:
     if args.online and not getattr(args, "area", None):
         raise UserError("--online needs --area (the priors of the search map live in the area file)")
@@ -716,6 +742,7 @@ def run(args: argparse.Namespace) -> int:
     plan = resolve_plan(args)
     connections = connection_strings(args, plan)
     options = options_from(args, plan)
+    recorder = flight_recorder(args, plan)
     if any(u not in plan.uavs for u in drains):
         raise UserError("--sim-drain: unknown UAV")
     online = None
@@ -733,11 +760,14 @@ def run(args: argparse.Namespace) -> int:
         connections = fleet.connection_strings()
         print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}", flush=True)
     try:
-        controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online))
+        controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online,
+                                           recorder=recorder))
     finally:
         if fleet is not None:
             fleet.stop()
     print(render_summary(controller))
+    if recorder is not None and recorder.rrd_path is not None:
+        print(f"recording {recorder.rrd_path}")
     if controller._interrupted:
         return 130
     return 0 if all(st.stage is Stage.LANDED for st in controller.status.values()) else 1

@@ -8,7 +8,7 @@ import io
 import os
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,6 +36,7 @@ class ExperimentSettings:
     footprint: int = 0
     range_steps: int = 130
     quiet: bool = False
+    on_figure: Callable[[str, Figure], None] | None = None  # called with each figure once published
 
     def runs_or(self, default: int) -> int:
         return self.runs if self.runs is not None else default
@@ -81,9 +82,10 @@ def csv_text(header: list[str], rows: list[list]) -> str:
     return buffer.getvalue()
 
 
-def publish(out: Path, name: str, tables: dict[str, str], figure: Figure) -> list[Path]:
+def publish(out: Path, name: str, tables: dict[str, str], figure: Figure,
+            on_figure: Callable[[str, Figure], None] | None = None) -> list[Path]:
     """Write `tables` (file suffix -> CSV text) and the figure as `name*.csv` and `name.png`,
-    all or none."""
+    all or none; then hand the figure to `on_figure` (the experiment's recording)."""
     paths = [out / f"{name}{suffix}.csv" for suffix in tables] + [out / f"{name}.png"]
     with staged_outputs(paths) as staged:
         for (suffix, text), path in zip(tables.items(), paths):
@@ -91,6 +93,8 @@ def publish(out: Path, name: str, tables: dict[str, str], figure: Figure) -> lis
         figure.savefig(staged[paths[-1]], format="png", dpi=120, bbox_inches="tight")
         for tmp in staged.values():
             os.chmod(tmp, 0o666 & ~_umask())       # temporary files are created 0600
+    if on_figure is not None:
+        on_figure(name, figure)
     return paths
 
 

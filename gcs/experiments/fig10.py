@@ -82,7 +82,7 @@ def run(settings: ExperimentSettings, subdivisions: tuple[int, ...] = SUBDIVISIO
         "_returns": csv_text(["subdivision", "oc", "task", "seed", "st_steps", "exact_steps", "astar_steps", "phi"],
                              rows),
     }
-    return publish(settings.out, "fig10", tables, figure(summary))
+    return publish(settings.out, "fig10", tables, figure(summary), settings.on_figure)
 
 
 def figure(summary: list) -> Figure:

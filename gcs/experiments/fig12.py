@@ -55,7 +55,7 @@ def run(settings: ExperimentSettings) -> list:
         "_runs": csv_text(["oc", "seed", "uav", "search_steps", "return_steps", "range_steps", "eta"], rows),
         "_steps": csv_text(["oc", "uav", "step", "eta"], curves),
     }
-    return publish(settings.out, "fig12", tables, figure(summary, curves))
+    return publish(settings.out, "fig12", tables, figure(summary, curves), settings.on_figure)
 
 
 def figure(summary: list, curves: list) -> Figure:

@@ -49,7 +49,7 @@ def run(settings: ExperimentSettings) -> list:
                       "targets_std", "paths_scored_per_decision", "paths_per_uav"], summary),
         "_steps": csv_text(["np", "step", "fitness_per_step_mean"], steps),
     }
-    return publish(settings.out, "fig6", tables, figure(summary, steps))
+    return publish(settings.out, "fig6", tables, figure(summary, steps), settings.on_figure)
 
 
 def figure(summary: list, steps: list) -> Figure:

@@ -148,7 +148,7 @@ def run(settings: ExperimentSettings) -> list:
         "_convergence": csv_text(["strategy", "iteration", "paths_scored", "fraction_of_optimum_mean",
                                   "fraction_of_optimum_std", "decisions"], convergence),
     }
-    return publish(settings.out, "fig8", tables, figure(summary, convergence))
+    return publish(settings.out, "fig8", tables, figure(summary, convergence), settings.on_figure)
 
 
 def figure(summary: list, convergence: list) -> Figure:

@@ -1,0 +1,447 @@
+"""Rerun recordings of flights (`gcs fly`) and experiments (`gcs experiment`).
+
+`FlightRecorder` samples a `FlightController`'s vehicle states (it never writes them), as the bus's
+`FlightFeed` does: telemetry at a bounded rate per UAV, state changes as events. Everything is
+logged on the `flight_time` timeline (seconds since the GCS loop started, its own clock) and on
+`wall_time`:
+
+- `geo/uav/<id>` position (GeoPoints), `geo/uav/<id>/trail` the segment flown since the last
+  sample (GeoLineStrings; the layout shows all past segments), `geo/plan/<id>` the planned path
+  (static), `geo/airports`, `geo/targets` (static), `geo/detections` positive readings (the new
+  ones in each row; the layout shows all past rows);
+- `uav/<id>/battery` battery %, `uav/<id>/mission` current mission item, `uav/<id>/range/left` and
+  `uav/<id>/range/margin` the return trigger's inputs (steps, when known), `uav/<id>/state`
+  stage, flight mode, mission item, altitude, ground speed (values);
+- `events`: take-off, stage changes (return triggered and why, RTL, landed, lost link, link back,
+  failures), the start of the plan's own return, flight-mode changes, positive readings.
+
+`record_figures` logs matplotlib figures' series (`gcs experiment`) as scalar plots."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+import re
+import time
+from collections import defaultdict
+from collections.abc import AsyncIterator, Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+
+from gcs.overview import uav_colour
+from gcs.recording import APPLICATION_ID, FLUSH_TIMEOUT_S, GEO_STRING, _lighter, _strips_array, check_viewer
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from gcs.commands.fly import FlightController
+    from gcs.fleet import FleetPlan
+
+FLIGHT_TIME = "flight_time"
+WALL_TIME = "wall_time"
+DEFAULT_SAMPLE_HZ = 5.0
+
+_RETURN_STAGES = ("return", "rtl")
+
+
+class _TimedRows:
+    """Rows of one entity on the flight and wall clocks, sent column-wise."""
+
+    def __init__(self, columns: Callable, strips: dict | None = None) -> None:
+        self.columns = columns
+        self.strips = strips or {}
+        self._clear()
+
+    def _clear(self) -> None:
+        self.flight_s: list[float] = []
+        self.wall_s: list[float] = []
+        self.lengths: list[int] = []
+        self.values: dict[str, list] = defaultdict(list)
+
+    def add(self, flight_s: float, wall_s: float, n: int, **fields) -> None:
+        self.flight_s.append(flight_s)
+        self.wall_s.append(wall_s)
+        self.lengths.append(n)
+        for name, value in fields.items():
+            self.values[name].append(value)
+
+    def send(self, rec: rr.RecordingStream, path: str) -> None:
+        if not self.lengths:
+            return
+        merged = {}
+        for name, parts in self.values.items():
+            if name in self.strips:
+                merged[name] = _strips_array([s for part in parts for s in part], self.strips[name])
+            else:
+                merged[name] = [item for part in parts for item in part]
+        times = [rr.TimeColumn(FLIGHT_TIME, duration=np.asarray(self.flight_s)),
+                 rr.TimeColumn(WALL_TIME, timestamp=np.asarray(self.wall_s))]
+        rec.send_columns(path, times, self.columns(**merged).partition(self.lengths))
+        self._clear()
+
+
+def _finite(value: float | None) -> bool:
+    return value is not None and math.isfinite(value)
+
+
+class FlightRecorder:
+    """Logs a flight to a .rrd file (`rrd_path`), a running viewer (`connect`), or both.
+
+        async with recorder.attach(controller):
+            await controller.run()
+
+    `sample_hz` bounds the telemetry rows per UAV; state changes are looked for every
+    `poll_s` (the controller's tick), so a stage shorter than that may be missed. Rows are sent
+    every `flush_interval_s` (default 1 s with a viewer, else 5 s) and when the block ends."""
+
+    def __init__(self, rrd_path: str | Path | None, connect: str | None, plan: FleetPlan, *, name: str = "flight",
+                 sample_hz: float = DEFAULT_SAMPLE_HZ, poll_s: float = 0.05,
+                 flush_interval_s: float | None = None) -> None:
+        if sample_hz <= 0:
+            raise ValueError("sample_hz must be positive")
+        self.rrd_path = Path(rrd_path) if rrd_path is not None else None
+        self.connect = connect
+        self.plan = plan
+        self.name = name
+        self.sample_every_s = 1.0 / sample_hz
+        self.poll_s = poll_s
+        # every send is a chunk of ~1 KB overhead per entity: often for a viewer, seldom for a file
+        self.flush_interval_s = flush_interval_s if flush_interval_s is not None else (1.0 if connect else 5.0)
+        self.rec: rr.RecordingStream | None = None
+        self.t0 = time.monotonic()
+        self._rows: dict[str, _TimedRows] = {}
+        self._last_sample: dict[int, float] = {}
+        self._last_geo: dict[int, tuple[float, float]] = {}
+        self._stage: dict[int, str] = {}
+        self._mode: dict[int, str] = {}
+        self._airborne: dict[int, bool] = {}
+        self._detections: dict[int, int] = {}
+        self._planned_return: set[int] = set()
+        self._last_flush = 0.0
+        self._sink_failed = False
+
+    @property
+    def enabled(self) -> bool:
+        return self.rrd_path is not None or self.connect is not None
+
+    # -- life cycle ---------------------------------------------------------------------------
+
+    def open(self) -> None:
+        if not self.enabled or self.rec is not None:
+            return
+        if self.connect is not None:
+            check_viewer(self.connect)
+        rec = rr.RecordingStream(APPLICATION_ID)
+        sinks = []
+        if self.rrd_path is not None:
+            self.rrd_path.parent.mkdir(parents=True, exist_ok=True)
+            sinks.append(rr.FileSink(str(self.rrd_path)))
+        if self.connect is not None:
+            sinks.append(rr.GrpcSink(self.connect))
+        rec.set_sinks(*sinks, default_blueprint=flight_blueprint(sorted(self.plan.uavs)))
+        rec.send_recording_name(self.name)
+        self.rec = rec
+        self._log_static()
+        self._last_flush = time.monotonic()
+
+    def close(self) -> None:
+        if self.rec is None:
+            return
+        self._flush()
+        with contextlib.suppress(RuntimeError):
+            self.rec.disconnect()
+        self.rec = None
+
+    @contextlib.asynccontextmanager
+    async def attach(self, controller: FlightController) -> AsyncIterator[FlightRecorder]:
+        """Sample `controller` in a background task while the block runs; the last state, an
+        interruption event when the block raised, and every buffered row on the way out."""
+        self.t0 = controller.t0
+        self.open()
+        task = asyncio.create_task(self._run(controller), name="rerun-flight-recorder")
+        try:
+            yield self
+        except BaseException as exc:
+            what = "Ctrl-C" if isinstance(exc, (KeyboardInterrupt, asyncio.CancelledError)) else f"{type(exc).__name__}: {exc}"
+            self._event(time.monotonic(), None, f"flight interrupted ({what})", "ERROR")
+            raise
+        finally:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+            self.sample(controller, time.monotonic(), force=True)
+            if controller._interrupted:
+                self._event(time.monotonic(), None, "interrupted by the operator: RTL commanded", "WARN")
+            self.close()
+
+    async def _run(self, controller: FlightController) -> None:
+        while True:
+            self.sample(controller, time.monotonic())
+            await asyncio.sleep(self.poll_s)
+
+    # -- what is logged -----------------------------------------------------------------------
+
+    def _row(self, path: str, columns: Callable, **strips) -> _TimedRows:
+        rows = self._rows.get(path)
+        if rows is None:
+            rows = self._rows[path] = _TimedRows(columns, strips)
+        return rows
+
+    def _add(self, path: str, columns: Callable, now: float, n: int, strips: dict | None = None, **fields) -> None:
+        self._row(path, columns, **(strips or {})).add(now - self.t0, time.time(), n, **fields)
+
+    def _event(self, now: float, uid: int | None, text: str, level: str = "INFO") -> None:
+        line = f"UAV {uid}: {text}" if uid is not None else text
+        self._add("events", rr.TextLog.columns, now, 1, text=[line], level=[level])
+
+    def _log_static(self) -> None:
+        assert self.rec is not None
+        plan = self.plan
+        ids = sorted(plan.uavs)
+        self.rec.log("geo/airports", rr.GeoPoints(lat_lon=[plan.uavs[u].airport_lat_lon for u in ids],
+                                                  radii=rr.Radius.ui_points(6.0),
+                                                  colors=[uav_colour(i) for i in range(len(ids))]), static=True)
+        if plan.targets:
+            self.rec.log("geo/targets", rr.GeoPoints(lat_lon=[plan.cell_lat_lon(x, y) for x, y in plan.targets],
+                                                     radii=rr.Radius.ui_points(3.0), colors=(120, 0, 0)), static=True)
+        self.rec.log("geo/detections", rr.GeoPoints.from_fields(radii=[rr.Radius.ui_points(4.0)], colors=[(0, 230, 0)]),
+                     static=True)
+        for i, uid in enumerate(ids):
+            task, colour = plan.uavs[uid], uav_colour(i)
+            search = [(p.lat_deg, p.lon_deg) for p in task.trajectory if p.stage == "search"]
+            back = [(p.lat_deg, p.lon_deg) for p in task.trajectory[max(0, len(search) - 1):] if p.stage != "search"]
+            strings, colours = [search], [colour]
+            if back:
+                strings.append([search[-1], *back] if search else back)
+                colours.append(_lighter(colour))
+            self.rec.log(f"geo/plan/{uid}", rr.GeoLineStrings(lat_lon=strings, colors=colours,
+                                                              radii=rr.Radius.ui_points(1.0)), static=True)
+            self.rec.log(f"geo/uav/{uid}", rr.GeoPoints.from_fields(radii=[rr.Radius.ui_points(7.0)], colors=[colour]),
+                         static=True)
+            self.rec.log(f"geo/uav/{uid}/trail", rr.GeoLineStrings.from_fields(radii=[rr.Radius.ui_points(2.5)],
+                                                                               colors=[colour]), static=True)
+            self.rec.log(f"uav/{uid}/battery", rr.SeriesLines(names="battery %", colors=colour), static=True)
+            self.rec.log(f"uav/{uid}/mission", rr.SeriesLines(names="mission item", colors=colour), static=True)
+            self.rec.log(f"uav/{uid}/range/left", rr.SeriesLines(names="range left (steps)", colors=colour), static=True)
+            self.rec.log(f"uav/{uid}/range/margin", rr.SeriesLines(names="return margin (steps)",
+                                                                   colors=(220, 50, 50)), static=True)
+
+    def sample(self, controller: FlightController, now: float, *, force: bool = False) -> None:
+        """One pass: events for every change, telemetry rows where `sample_hz` allows."""
+        if self.rec is None:
+            return
+        for uid, st in sorted(controller.status.items()):
+            self._events(uid, st, now)
+            last = self._last_sample.get(uid)
+            if force or last is None or now - last >= self.sample_every_s:
+                self._last_sample[uid] = now
+                self._telemetry(uid, st, now)
+        if now - self._last_flush >= self.flush_interval_s:
+            self._flush()
+
+    def _telemetry(self, uid: int, st, now: float) -> None:
+        base = f"uav/{uid}"
+        if st.has_position:
+            here = (st.lat_deg, st.lon_deg)
+            self._add(f"geo/uav/{uid}", rr.GeoPoints.columns, now, 1, positions=[here])
+            before = self._last_geo.get(uid)
+            if before is not None and before != here:
+                colour = uav_colour(sorted(self.plan.uavs).index(uid))
+                if st.stage.value in _RETURN_STAGES:
+                    colour = _lighter(colour)
+                self._add(f"geo/uav/{uid}/trail", rr.GeoLineStrings.columns, now, 1,
+                          strips={"line_strings": GEO_STRING},
+                          line_strings=[np.array((before, here))], colors=[colour])
+            self._last_geo[uid] = here
+        if st.battery_pct is not None:
+            self._add(f"{base}/battery", rr.Scalars.columns, now, 1, scalars=[st.battery_pct])
+        if st.mission_total or st.mission_seq:
+            self._add(f"{base}/mission", rr.Scalars.columns, now, 1, scalars=[st.mission_seq])
+        if _finite(st.range_left):
+            self._add(f"{base}/range/left", rr.Scalars.columns, now, 1, scalars=[st.range_left])
+        if _finite(st.margin):
+            self._add(f"{base}/range/margin", rr.Scalars.columns, now, 1, scalars=[st.margin])
+        self._add(f"{base}/state", rr.AnyValues.columns, now, 1, stage=[st.stage.value], mode=[st.mode_name],
+                  mission_item=[st.mission_seq], mission_total=[st.mission_total], alt_m=[st.rel_alt_m],
+                  ground_speed_m_s=[st.ground_speed_m_s])
+
+    def _events(self, uid: int, st, now: float) -> None:
+        stage, before = st.stage.value, self._stage.get(uid)
+        if st.airborne_seen and not self._airborne.get(uid, False):
+            self._event(now, uid, f"take-off: airborne, {st.rel_alt_m:.0f} m, mode {st.mode_name}")
+        self._airborne[uid] = st.airborne_seen
+        if stage != before:
+            note = f" - {st.note}" if st.note else ""
+            level = "INFO"
+            if stage in _RETURN_STAGES:
+                level = "WARN"
+                why = f" (reason: {st.return_reason})" if st.return_reason else ""
+                trigger = ""
+                if _finite(st.range_left):
+                    trigger = f"; range left {st.range_left:.1f} steps"
+                    if _finite(st.margin):
+                        trigger += f", margin {st.margin:.1f}"
+                battery = f", battery {st.battery_pct:.0f}%" if st.battery_pct is not None else ""
+                text = f"return triggered{why}: {stage}{note}{trigger}{battery}"
+            elif stage == "landed":
+                text = f"landed{note}"
+            elif stage == "lost":
+                level, text = "WARN", f"lost link{note}"
+            elif stage == "failed":
+                level, text = "ERROR", f"failed{note}"
+            elif before == "lost":
+                text = f"link back: {stage}{note}"
+            else:
+                text = f"{stage}{note}"
+            self._event(now, uid, text, level)
+        self._stage[uid] = stage
+        trajectory = self.plan.uavs[uid].trajectory if uid in self.plan.uavs else []
+        if (stage == "search" and uid not in self._planned_return and 0 < st.track_index < len(trajectory)
+                and trajectory[st.track_index].stage != "search"):
+            self._planned_return.add(uid)
+            self._event(now, uid, f"planned return begins (step {trajectory[st.track_index].step} of the plan)")
+        mode = st.mode_name
+        if mode != self._mode.get(uid, "-") and mode != "-":
+            self._event(now, uid, f"flight mode {self._mode.get(uid, '-')} -> {mode}", "DEBUG")
+        self._mode[uid] = mode
+        new = st.detections[self._detections.get(uid, 0):]
+        self._detections[uid] = len(st.detections)
+        hits = [d for d in new if d.hit]
+        for d in hits:
+            cell = self.plan.cell_of(d.lat_deg, d.lon_deg)
+            where = f"cell ({cell[0] + 1}, {cell[1] + 1})" if cell is not None else f"({d.lat_deg:.6f}, {d.lon_deg:.6f})"
+            self._event(now, uid, f"detection: positive reading at {where}")
+        if hits:
+            self._add("geo/detections", rr.GeoPoints.columns, now, len(hits),
+                      positions=[(d.lat_deg, d.lon_deg) for d in hits])
+
+    def _flush(self) -> None:
+        if self.rec is None:
+            return
+        for path, rows in self._rows.items():
+            rows.send(self.rec, path)
+        try:
+            self.rec.flush(timeout_sec=FLUSH_TIMEOUT_S)
+        except RuntimeError as exc:  # a viewer that went away must not stop the flight
+            if not self._sink_failed:
+                print(f"warning: Rerun: {exc}; the flight goes on", flush=True)
+            self._sink_failed = True
+        self._last_flush = time.monotonic()
+
+
+def flight_blueprint(uav_ids: list[int]) -> rrb.Blueprint:
+    """The map (trails over the whole past), per-UAV tabs of battery, return trigger and mission
+    progress, and the event log."""
+    whole_past = rrb.VisibleTimeRanges(rrb.VisibleTimeRange(FLIGHT_TIME, start=rrb.TimeRangeBoundary.infinite(),
+                                                            end=rrb.TimeRangeBoundary.cursor_relative()))
+    detections = rrb.VisibleTimeRanges(rrb.VisibleTimeRange(FLIGHT_TIME, start=rrb.TimeRangeBoundary.infinite(),
+                                                            end=rrb.TimeRangeBoundary.cursor_relative()))
+    overrides = {f"/geo/uav/{u}/trail": whole_past for u in uav_ids}
+    overrides["/geo/detections"] = detections
+    map_view = rrb.MapView(name="map", origin="/geo", overrides=overrides)
+    tabs = [rrb.Vertical(rrb.TimeSeriesView(name=f"UAV {u}: battery %", origin=f"/uav/{u}/battery"),
+                         rrb.TimeSeriesView(name=f"UAV {u}: return trigger (steps)", origin=f"/uav/{u}/range"),
+                         rrb.TimeSeriesView(name=f"UAV {u}: mission item", origin=f"/uav/{u}/mission"),
+                         name=f"UAV {u}") for u in uav_ids]
+    right = rrb.Vertical(rrb.Tabs(*tabs, name="UAVs") if tabs else rrb.Vertical(),
+                         rrb.TextLogView(name="events", origin="/events"), row_shares=[2, 1])
+    return rrb.Blueprint(rrb.Horizontal(map_view, right, column_shares=[3, 2]),
+                         rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed"),
+                         rrb.TimePanel(state="collapsed"))
+
+
+# -- experiments ------------------------------------------------------------------------------------
+
+def _slug(text: str, default: str) -> str:
+    text = re.sub(r"^\(\w\)\s*", "", text.strip())  # a panel letter, "(a) "
+    text = text.split("(")[0].strip().lower()
+    slug = re.sub(r"[^a-z0-9]+", "_", text).strip("_")
+    return slug or default
+
+
+def figure_series(figure: Figure) -> list[tuple[str, str, list[float], list[float], bool]]:
+    """Every plotted series of a matplotlib figure: (axes slug, series name, x, y, bars) for
+    lines (plot, errorbar: the data line, not its caps) and bar groups. Axes are named by their
+    title (without the panel letter), series by their label."""
+    from matplotlib.container import BarContainer, ErrorbarContainer
+
+    out = []
+    for i, ax in enumerate(figure.axes):
+        axes_name = _slug(ax.get_title(), f"axes{i + 1}")
+        caps, labels = set(), {}
+        for container in ax.containers:
+            if isinstance(container, ErrorbarContainer):
+                caps.update(container.lines[1])
+                if container.lines[0] is not None:
+                    labels[container.lines[0]] = container.get_label() or ""
+        unnamed = 0
+        for line in ax.get_lines():
+            if line in caps:
+                continue
+            unnamed += 1
+            label = labels.get(line, line.get_label())
+            if not label or label.startswith("_"):
+                label = f"series{unnamed}"
+            x = [float(v) for v in np.asarray(line.get_xdata(), dtype=float)]
+            y = [float(v) for v in np.asarray(line.get_ydata(), dtype=float)]
+            if x:
+                out.append((axes_name, label, x, y, False))
+        bars = [c for c in ax.containers if isinstance(c, BarContainer)]
+        for j, container in enumerate(bars):
+            label = container.get_label()
+            if not label or label.startswith("_"):
+                label = f"bars{j + 1}"
+            x = [p.get_x() + p.get_width() / 2 for p in container.patches]
+            y = [p.get_height() for p in container.patches]
+            if x:
+                out.append((axes_name, label, x, y, True))
+    return out
+
+
+def record_figures(rrd_path: str | Path, figures: list[tuple[str, Figure]], name: str = "experiments") -> Path:
+    """Log every figure's series as scalar plots, one entity per series,
+    `<figure>/<axes title>/<series label>`, on a sequence timeline named after the axes'
+    x label (`np`, `time_step`, `iteration`, ...) when the x values are whole numbers, else on
+    `index` (the point's position in the series). One time-series view per axes. Written
+    atomically (a temporary file renamed at the end)."""
+    from gcs.atomic import staged_outputs
+
+    rrd_path = Path(rrd_path)
+    rrd_path.parent.mkdir(parents=True, exist_ok=True)
+    with staged_outputs([rrd_path]) as staged:
+        _write_figures(staged[rrd_path], figures, name)
+    return rrd_path
+
+
+def _write_figures(rrd_path: Path, figures: list[tuple[str, Figure]], name: str) -> None:
+    rec = rr.RecordingStream(APPLICATION_ID)
+    views = []
+    entities_by_axes: dict[str, list] = {}
+    for figure_name, figure in figures:
+        for axes_index, ax in enumerate(figure.axes):
+            entities_by_axes[f"{figure_name}/{_slug(ax.get_title(), f'axes{axes_index + 1}')}"] = [ax.get_xlabel(),
+                                                                                                  ax.get_ylabel()]
+    for origin, (xlabel, ylabel) in entities_by_axes.items():
+        views.append(rrb.TimeSeriesView(name=f"{origin}: {ylabel}", origin=f"/{origin}"))
+    blueprint = rrb.Blueprint(rrb.Grid(*views) if views else rrb.Vertical(), rrb.TimePanel(state="collapsed"))
+    rec.set_sinks(rr.FileSink(str(rrd_path)), default_blueprint=blueprint)
+    rec.send_recording_name(name)
+    for figure_name, figure in figures:
+        xlabels = {_slug(ax.get_title(), f"axes{i + 1}"): ax.get_xlabel() for i, ax in enumerate(figure.axes)}
+        for axes_name, label, x, y, bars in figure_series(figure):
+            path = f"{figure_name}/{axes_name}/{_slug(label, 'series')}"
+            if bars:  # grouped bars sit beside their whole-number position
+                x = [round(v) for v in x]
+            whole = all(math.isfinite(v) and float(v).is_integer() for v in x) and len(set(x)) == len(x)
+            timeline = _slug(xlabels.get(axes_name, ""), "x") if whole else "index"
+            seq = [int(v) for v in x] if whole else list(range(len(x)))
+            rec.log(path, rr.SeriesLines(names=label), static=True)
+            rec.send_columns(path, [rr.TimeColumn(timeline, sequence=seq)],
+                             rr.Scalars.columns(scalars=np.asarray(y, dtype=float)))
+    rec.flush(timeout_sec=FLUSH_TIMEOUT_S)
+    rec.disconnect()
