@@ -550,6 +550,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("fly", help="upload, fly and watch the whole fleet until it has landed",
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     add_connection_arguments(p)
+    from gcs.bus.flight import add_bus_arguments
+
+    add_bus_arguments(p)
     p.add_argument("--reserve-pct", type=float, default=30.0, help="battery kept back by the return trigger")
     p.add_argument("--cruise-speed", type=float, default=10.0, help="vehicles' cruise speed, m/s (range estimate)")
     p.add_argument("--descent-speed", type=float, default=1.5, help="vehicles' landing descent rate, m/s")
@@ -643,12 +646,17 @@ def connection_strings(args: argparse.Namespace, plan: FleetPlan) -> list[str]:
 
 
 async def fly_async(plan: FleetPlan, connections: list[str], options: FlyOptions,
-                    stdin_orders: bool = False, online=None, recorder=None) -> FlightController:
+                    stdin_orders: bool = False, online=None, recorder=None, bus: dict | None = None) -> FlightController:
     """Fly the plan (or, with `online` an observed search, search with the planner in the loop);
-    `recorder` (a `gcs.flight_recording.FlightRecorder`) records it."""
+    `recorder` (a `gcs.flight_recording.FlightRecorder`) records it; `bus` (keywords of
+    `gcs.bus.flight.attach_bus`) shares it over MQTT."""
     async with AsyncExitStack() as stack:
         links = [await stack.enter_async_context(MavLink(c)) for c in connections]
         controller = FlightController(plan, links, options)
+        if bus is not None:
+            from gcs.bus.flight import attach_bus
+
+            await stack.enter_async_context(attach_bus(controller, online=online, **bus))
         if recorder is not None:
             await stack.enter_async_context(recorder.attach(controller))
         loop = asyncio.get_running_loop()
@@ -739,6 +747,14 @@ def run(args: argparse.Namespace) -> int:
             parse_connection(c)
         except ValueError as exc:
             raise UserError(str(exc)) from None
+    bus = None
+    if args.mqtt:
+        from gcs.bus.flight import bus_options
+
+        try:
+            bus = bus_options(args)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
     plan = resolve_plan(args)
     connections = connection_strings(args, plan)
     options = options_from(args, plan)
@@ -761,7 +777,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}", flush=True)
     try:
         controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online,
-                                           recorder=recorder))
+                                           recorder=recorder, bus=bus))
     finally:
         if fleet is not None:
             fleet.stop()
