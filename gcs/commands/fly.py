@@ -14,7 +14,6 @@ import math
 import random
 import signal
 import sys
-import tempfile
 import threading
 import time
 from collections import deque
@@ -579,7 +578,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pc", type=float, default=0.9)
     p.add_argument("--pf", type=float, default=0.1)
     p.add_argument("--footprint", type=int, default=0)
-    p.add_argument("--out", default=None, help="with --area: folder for the plan (default: a temporary folder)")
+    p.add_argument("--out", default=None, help="with --area: folder for the plan, missions and flight recording (default: runs/<area name>)")
     p.add_argument("--quiet", action="store_true")
     p.add_argument("--rrd", metavar="PATH", help="Rerun recording of the flight (default: flight.rrd in the plan folder)")
     p.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
@@ -622,7 +621,9 @@ def resolve_plan(args: argparse.Namespace) -> FleetPlan:
 
         if args.plan:
             raise UserError("give --plan or --area, not both")
-        args.out = args.out or tempfile.mkdtemp(prefix="gcs-fly-")
+        from gcs.missions.planning import area_out_dir
+
+        args.out = str(area_out_dir(args))
         plan_command.run(plan_namespace(args))
         return load_plan_dir(args.out)
     if not args.plan:

@@ -161,8 +161,8 @@ def test_online_mode_searches_adaptively_and_lands_everyone(plan_dir, plan):
 
 
 def test_fly_area_with_operator_orders_on_stdin(tmp_path):
-    """`gcs fly --area ... --sim` plans through the plan command, then flies; `r ID` on stdin sends
-    that UAV home; an unknown UAV is one error line and the flight goes on."""
+    """`gcs fly --area ... --sim` plans through the plan command into runs/<area name>, then flies;
+    `r ID` on stdin sends that UAV home; an unknown UAV is one error line and the flight goes on."""
     import subprocess
     import sys
     import time
@@ -170,12 +170,14 @@ def test_fly_area_with_operator_orders_on_stdin(tmp_path):
     from tests.fly.conftest import ROOT
 
     proc = subprocess.Popen([sys.executable, "-m", "gcs.cli", "fly", "--area", str(ROOT / "missions" / "paper.geojson"),
-                             "--strategy", "exhaustive", "--out", str(tmp_path / "plan"), "--sim", "--speedup", "60",
+                             "--strategy", "exhaustive", "--sim", "--speedup", "60",
                              "--stdin-orders", "--link-timeout", "2"],
-                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=tmp_path)
+    out_dir = tmp_path / "runs" / "paper"
     for _ in range(200):  # planning first: wait until the fleet is up
         time.sleep(0.05)
-        if (tmp_path / "plan" / "plan.json").exists():
+        if (out_dir / "plan.json").exists():
             break
     time.sleep(3.0)
     proc.stdin.write("r 9\nr 3\n")
@@ -188,4 +190,4 @@ def test_fly_area_with_operator_orders_on_stdin(tmp_path):
     row3 = next(line for line in summary.splitlines() if line.lstrip().startswith("3 "))
     assert "landed" in row3 and "order" in row3
     assert "4/4 landed" in summary
-    assert (tmp_path / "plan" / "uav3.waypoints").exists()
+    assert (out_dir / "uav3.waypoints").exists() and (out_dir / "flight.rrd").exists()
