@@ -631,7 +631,8 @@ def resolve_plan(args: argparse.Namespace) -> FleetPlan:
     return load_plan_dir(args.plan)
 
 
-def connection_strings(args: argparse.Namespace, plan: FleetPlan) -> list[str]:
+def check_connections(args: argparse.Namespace) -> None:
+    """`--sim` or well-formed `--connect` strings, checked before any planning or upload."""
     if args.sim and args.connect:
         raise UserError("--sim starts its own vehicles: leave out --connect")
     if not args.sim and not args.connect:
@@ -641,6 +642,10 @@ def connection_strings(args: argparse.Namespace, plan: FleetPlan) -> list[str]:
             parse_connection(c)
         except ValueError as exc:
             raise UserError(str(exc)) from None
+
+
+def connection_strings(args: argparse.Namespace, plan: FleetPlan) -> list[str]:
+    check_connections(args)
     if len(args.connect) > 1 and len(args.connect) != len(plan.uavs):
         raise UserError(f"{len(args.connect)} connections for {len(plan.uavs)} UAVs: give one, or one per UAV")
     return list(args.connect)
@@ -741,13 +746,7 @@ def run(args: argparse.Namespace) -> int:
     drains = _pairs(args.sim_drain, "--sim-drain")
     if args.plan and not Path(args.plan).is_dir() and not getattr(args, "area", None):
         raise UserError(f"plan folder {args.plan} does not exist (make one with: gcs plan --area AREA.geojson --out {args.plan})")
-    if not args.sim and not args.connect:
-        raise UserError("give --connect udpout:HOST:PORT (one, or one per UAV) or --sim")
-    for c in args.connect:
-        try:
-            parse_connection(c)
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
+    check_connections(args)
     bus = None
     if args.mqtt:
         from gcs.bus.flight import bus_options

@@ -10,10 +10,11 @@ import argparse
 import asyncio
 from contextlib import AsyncExitStack
 
-from gcs.commands.fly import FlightController, FlyOptions, add_connection_arguments, connection_strings, start_sim
+from gcs.commands.fly import (FlightController, FlyOptions, add_connection_arguments, check_connections,
+                              connection_strings, start_sim)
 from gcs.errors import UserError
 from gcs.fleet import FleetPlan, load_plan_dir
-from gcs.link import MavLink, parse_connection
+from gcs.link import MavLink
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -36,13 +37,7 @@ async def upload_fleet(plan: FleetPlan, connections: list[str], options: FlyOpti
 def run(args: argparse.Namespace) -> int:
     if not args.plan:
         raise UserError("give --plan DIR (a gcs plan --area folder)")
-    if not args.sim and not args.connect:
-        raise UserError("give --connect udpout:HOST:PORT (one, or one per UAV) or --sim")
-    for c in args.connect:
-        try:
-            parse_connection(c)
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
+    check_connections(args)
     plan = load_plan_dir(args.plan)
     connections = connection_strings(args, plan)
     options = FlyOptions(transfer_timeout_s=args.timeout, connect_timeout_s=args.connect_timeout,
