@@ -1,0 +1,54 @@
+"""Online mode against the precomputed plan: targets found by `gcs fly --sim` flying the plan and
+by `gcs fly --sim --online` (the planner in the loop), over many seeds, as mean ± standard error.
+
+Live flights are not bit-repeatable (timing decides which cell a diagonal clips), so one seed says
+little; this is the comparison to read.
+
+Run: .venv/bin/python benchmarks/bench_online.py [--seeds 10] [--speedup 60]"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+FOUND = re.compile(r"targets found (\d+)/(\d+)")
+
+
+def targets_found(seed: int, speedup: float, online: bool) -> int:
+    with tempfile.TemporaryDirectory() as out:
+        cmd = [sys.executable, "-m", "gcs.cli", "fly", "--area", str(ROOT / "missions" / "paper.geojson"), "--sim",
+               "--speedup", str(speedup), "--seed", str(seed), "--no-rrd", "--out", out]
+        run = subprocess.run(cmd + (["--online"] if online else []), capture_output=True, text=True, timeout=600)
+        match = FOUND.search(run.stdout)
+        if run.returncode != 0 or match is None:
+            raise RuntimeError(f"seed {seed} online={online} failed: {run.stderr[-500:]}")
+        return int(match.group(1))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--seeds", type=int, default=10)
+    parser.add_argument("--speedup", type=float, default=60.0)
+    args = parser.parse_args()
+    rows = []
+    for seed in range(args.seeds):
+        rows.append((seed, targets_found(seed, args.speedup, False), targets_found(seed, args.speedup, True)))
+        print(f"seed {seed}: plan {rows[-1][1]}, online {rows[-1][2]}", flush=True)
+    for name, column in (("plan", 1), ("online", 2)):
+        values = [r[column] for r in rows]
+        se = statistics.stdev(values) / len(values) ** 0.5 if len(values) > 1 else 0.0
+        print(f"{name:>6}: {statistics.mean(values):.2f} ± {se:.2f} targets of 10 (mean ± s.e., {len(values)} seeds)")
+    diffs = [r[2] - r[1] for r in rows]
+    se = statistics.stdev(diffs) / len(diffs) ** 0.5 if len(diffs) > 1 else 0.0
+    print(f"online - plan: {statistics.mean(diffs):+.2f} ± {se:.2f}; online >= plan on {sum(d >= 0 for d in diffs)} "
+          f"of {len(diffs)} seeds")
+
+
+if __name__ == "__main__":
+    main()
