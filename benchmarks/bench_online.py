@@ -25,10 +25,10 @@ def targets_found(seed: int, speedup: float, online: bool) -> int:
         cmd = [sys.executable, "-m", "gcs.cli", "fly", "--area", str(ROOT / "missions" / "paper.geojson"), "--sim",
                "--speedup", str(speedup), "--seed", str(seed), "--no-rrd", "--out", out]
         run = subprocess.run(cmd + (["--online"] if online else []), capture_output=True, text=True, timeout=600)
-        match = FOUND.search(run.stdout)
-        if run.returncode != 0 or match is None:
+        found = FOUND.findall(run.stdout)  # the planning summary comes first, the flight's last
+        if run.returncode != 0 or not found:
             raise RuntimeError(f"seed {seed} online={online} failed: {run.stderr[-500:]}")
-        return int(match.group(1))
+        return int(found[-1][0])
 
 
 def main() -> None:
