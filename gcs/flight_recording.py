@@ -24,7 +24,6 @@ import contextlib
 import math
 import re
 import time
-from collections import defaultdict
 from collections.abc import AsyncIterator, Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -34,7 +33,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from gcs.overview import uav_colour
-from gcs.recording import APPLICATION_ID, FLUSH_TIMEOUT_S, GEO_STRING, _lighter, _strips_array, check_viewer
+from gcs.recording import APPLICATION_ID, FLUSH_TIMEOUT_S, GEO_STRING, _lighter, _Rows, check_viewer
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -49,40 +48,11 @@ DEFAULT_SAMPLE_HZ = 5.0
 _RETURN_STAGES = ("return", "rtl")
 
 
-class _TimedRows:
-    """Rows of one entity on the flight and wall clocks, sent column-wise."""
-
-    def __init__(self, columns: Callable, strips: dict | None = None) -> None:
-        self.columns = columns
-        self.strips = strips or {}
-        self._clear()
-
-    def _clear(self) -> None:
-        self.flight_s: list[float] = []
-        self.wall_s: list[float] = []
-        self.lengths: list[int] = []
-        self.values: dict[str, list] = defaultdict(list)
-
-    def add(self, flight_s: float, wall_s: float, n: int, **fields) -> None:
-        self.flight_s.append(flight_s)
-        self.wall_s.append(wall_s)
-        self.lengths.append(n)
-        for name, value in fields.items():
-            self.values[name].append(value)
-
-    def send(self, rec: rr.RecordingStream, path: str) -> None:
-        if not self.lengths:
-            return
-        merged = {}
-        for name, parts in self.values.items():
-            if name in self.strips:
-                merged[name] = _strips_array([s for part in parts for s in part], self.strips[name])
-            else:
-                merged[name] = [item for part in parts for item in part]
-        times = [rr.TimeColumn(FLIGHT_TIME, duration=np.asarray(self.flight_s)),
-                 rr.TimeColumn(WALL_TIME, timestamp=np.asarray(self.wall_s))]
-        rec.send_columns(path, times, self.columns(**merged).partition(self.lengths))
-        self._clear()
+def _flight_columns(times: list[tuple[float, float]]) -> list:
+    """Rows timed (seconds since the flight began, wall-clock seconds) on both clocks."""
+    flight_s, wall_s = zip(*times)
+    return [rr.TimeColumn(FLIGHT_TIME, duration=np.asarray(flight_s)),
+            rr.TimeColumn(WALL_TIME, timestamp=np.asarray(wall_s))]
 
 
 def _finite(value: float | None) -> bool:
@@ -114,7 +84,7 @@ class FlightRecorder:
         self.flush_interval_s = flush_interval_s if flush_interval_s is not None else (1.0 if connect else 5.0)
         self.rec: rr.RecordingStream | None = None
         self.t0 = time.monotonic()
-        self._rows: dict[str, _TimedRows] = {}
+        self._rows: dict[str, _Rows] = {}
         self._last_sample: dict[int, float] = {}
         self._last_geo: dict[int, tuple[float, float]] = {}
         self._stage: dict[int, str] = {}
@@ -186,14 +156,14 @@ class FlightRecorder:
 
     # -- what is logged -----------------------------------------------------------------------
 
-    def _row(self, path: str, columns: Callable, **strips) -> _TimedRows:
+    def _row(self, path: str, columns: Callable, **strips) -> _Rows:
         rows = self._rows.get(path)
         if rows is None:
-            rows = self._rows[path] = _TimedRows(columns, strips)
+            rows = self._rows[path] = _Rows(columns, strips, _flight_columns)
         return rows
 
     def _add(self, path: str, columns: Callable, now: float, n: int, strips: dict | None = None, **fields) -> None:
-        self._row(path, columns, **(strips or {})).add(now - self.t0, time.time(), n, **fields)
+        self._row(path, columns, **(strips or {})).add((now - self.t0, time.time()), n, **fields)
 
     def _event(self, now: float, uid: int | None, text: str, level: str = "INFO") -> None:
         line = f"UAV {uid}: {text}" if uid is not None else text

@@ -122,26 +122,34 @@ def _strips_array(strips: list[np.ndarray], datatype: pa.DataType) -> pa.Array:
     return pa.ListArray.from_arrays(pa.array(offsets), points).cast(datatype)
 
 
+def step_columns(times: list) -> list:
+    """The `step` sequence timeline of rows added with a step number as their time."""
+    return [rr.TimeColumn(TIMELINE, sequence=times)]
+
+
 class _Rows:
     """Rows of one entity waiting to be sent column-wise. Each row holds n instances of every
     field it sets (n may be 0: the entity shows nothing at that step). Fields named in
-    `strips` hold lists of (m, 2) arrays, one per instance, sent as one Arrow array."""
+    `strips` hold lists of (m, 2) arrays, one per instance, sent as one Arrow array.
+    `time_columns` turns the rows' times (as given to `add`) into Rerun time columns."""
 
-    def __init__(self, columns: Callable, strips: dict[str, pa.DataType] | None = None) -> None:
+    def __init__(self, columns: Callable, strips: dict[str, pa.DataType] | None = None,
+                 time_columns: Callable[[list], list] = step_columns) -> None:
         self.columns = columns
         self.strips = strips or {}
-        self.steps: list[int] = []
+        self.time_columns = time_columns
+        self.times: list = []
         self.lengths: list[int] = []
         self.values: dict[str, list] = defaultdict(list)
 
-    def add(self, step: int, n: int, **fields) -> None:
-        self.steps.append(step)
+    def add(self, time, n: int, **fields) -> None:
+        self.times.append(time)
         self.lengths.append(n)
         for name, value in fields.items():
             self.values[name].append(value)
 
     def send(self, rec: rr.RecordingStream, path: str) -> None:
-        if not self.steps:
+        if not self.times:
             return
         merged = {}
         for name, parts in self.values.items():
@@ -151,9 +159,8 @@ class _Rows:
                 merged[name] = np.concatenate(parts)
             else:
                 merged[name] = [item for part in parts for item in part]
-        rec.send_columns(path, [rr.TimeColumn(TIMELINE, sequence=self.steps)],
-                         self.columns(**merged).partition(self.lengths))
-        self.steps, self.lengths, self.values = [], [], defaultdict(list)
+        rec.send_columns(path, self.time_columns(self.times), self.columns(**merged).partition(self.lengths))
+        self.times, self.lengths, self.values = [], [], defaultdict(list)
 
 
 class _MapRows:
