@@ -26,7 +26,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from gcs.cli import main as gcs_main  # noqa: E402
-from gcs.commands.fly import FlightController, FlyOptions, start_sim  # noqa: E402
+from gcs.commands.fly import start_sim  # noqa: E402
+from gcs.flight import FlightController, FlyOptions  # noqa: E402
 from gcs.commands.upload import upload_fleet  # noqa: E402
 from gcs.fleet import FleetPlan, load_plan_dir  # noqa: E402
 from gcs.link import MavLink  # noqa: E402
@@ -104,12 +105,7 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--counts", default="4,16,64")
     ap.add_argument("--seconds", type=float, default=8.0)
-    ap.add_argument("--compare-online", metavar="SEEDS", default=None,
-                    help="instead: targets found online vs precomputed for these seeds, e.g. 0,1,2")
     args = ap.parse_args()
-    if args.compare_online:
-        compare_online([int(s) for s in args.compare_online.split(",")])
-        return
     plan = make_plan()
     items = sum(len(t.mission_wire(Autopilot.ARDUPILOT))
                 + len(t.fence_wire()) + len(t.rally_wire()) for t in plan.uavs.values())
@@ -129,46 +125,6 @@ def main() -> None:
         print(f"{n:>8} {len(ticks):>6} {pct(ticks, .5) * 1e3:>11.3f} {pct(ticks, .95) * 1e3:>11.3f} "
               f"{max(ticks) * 1e3:>11.3f} {statistics.median(ticks) / n * 1e6:>14.1f} "
               f"{statistics.median(ret) * 1e3:>13.1f} {max(ret) * 1e3:>13.1f} {len(controller.return_latency_s):>8}")
-
-
-
-
-def compare_online(seeds: list[int], speedup: float = 20.0) -> None:
-    """Targets found (positive readings in target cells) by the precomputed plan and by online
-    mode, both flown through the simulator with the same targets and sensor seed."""
-    import argparse as _ap
-
-    from gcs.missions import planning as area_plan
-    from gcs.online import ObservedSearch
-    from gcs.status_table import targets_found
-
-    print(f"{'seed':>4} {'plan (planner sim)':>18} {'plan flown':>10} {'online':>6}")
-    for seed in seeds:
-        out = Path(tempfile.mkdtemp(prefix="bench-online-")) / "paper"
-        gcs_main(["plan", "--area", str(ROOT / "missions" / "paper.geojson"), "--strategy", "exhaustive",
-                  "--seed", str(seed), "--out", str(out), "--quiet"])
-        plan = load_plan_dir(out)
-        args = _ap.Namespace(area=str(ROOT / "missions" / "paper.geojson"), cell_size_m=None, speed_m_s=12.0,
-                             range_m=None, endurance_s=900.0, altitude_m=60.0, altitude_step_m=10.0, vehicle="copter",
-                             margin_m=0.0, default_tep=0.5, default_eu=0.5, max_cells=1_000_000, pc=0.9, pf=0.1,
-                             footprint=0, np_steps=5, oc="3", strategy="exhaustive", return_planner="exact",
-                             reserve=0, range_aware_search=False, seed=seed)
-        found = []
-        for online in (False, True):
-            search = None
-            if online:
-                setup = area_plan.build_area_search(args)
-                search = ObservedSearch(setup.search.scenario, setup.search.config, seed=seed)
-            fleet = start_sim(plan, speedup=speedup, seed=seed).start()
-            try:
-                from gcs.commands.fly import fly_async
-
-                controller = asyncio.run(fly_async(plan, fleet.connection_strings(),
-                                                   FlyOptions(tick_s=0.01, transfer_timeout_s=0.1), online=search))
-            finally:
-                fleet.stop()
-            found.append(len(targets_found(controller)[0]))
-        print(f"{seed:>4} {plan.raw['summary']['targets_found']:>18} {found[0]:>10} {found[1]:>6}", flush=True)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 """Rerun recordings of flights (`gcs fly`) and experiments (`gcs experiment`).
 
-`FlightRecorder` samples a `FlightController`'s vehicle states (it never writes them), as the bus's
-`FlightFeed` does: telemetry at a bounded rate per UAV, state changes as events. Everything is
+`FlightRecorder` listens to a `FlightController`'s events and samples its vehicle states (it
+never writes them), as the bus's `FlightFeed` does: telemetry at a bounded rate per UAV, every
+stage change, take-off, mode change and reading as it happens. Everything is
 logged on the `flight_time` timeline (seconds since the GCS loop started, its own clock) and on
 `wall_time`:
 
@@ -32,13 +33,14 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from gcs.flight import FlightEvent, ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.overview import uav_colour
 from gcs.recording import APPLICATION_ID, FLUSH_TIMEOUT_S, GEO_STRING, _lighter, _Rows, check_viewer
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from gcs.commands.fly import FlightController
+    from gcs.flight import FlightController
     from gcs.fleet import FleetPlan
 
 FLIGHT_TIME = "flight_time"
@@ -65,8 +67,8 @@ class FlightRecorder:
         async with recorder.attach(controller):
             await controller.run()
 
-    `sample_hz` bounds the telemetry rows per UAV; state changes are looked for every
-    `poll_s` (the controller's tick), so a stage shorter than that may be missed. Rows are sent
+    `sample_hz` bounds the telemetry rows per UAV, sampled every `poll_s`; events (stages,
+    take-off, modes, readings) are logged the moment the controller raises them. Rows are sent
     every `flush_interval_s` (default 1 s with a viewer, else 5 s) and when the block ends."""
 
     def __init__(self, rrd_path: str | Path | None, connect: str | None, plan: FleetPlan, *, name: str = "flight",
@@ -87,11 +89,8 @@ class FlightRecorder:
         self._rows: dict[str, _Rows] = {}
         self._last_sample: dict[int, float] = {}
         self._last_geo: dict[int, tuple[float, float]] = {}
-        self._stage: dict[int, str] = {}
-        self._mode: dict[int, str] = {}
-        self._airborne: dict[int, bool] = {}
-        self._detections: dict[int, int] = {}
         self._planned_return: set[int] = set()
+        self._controller: FlightController | None = None
         self._last_flush = 0.0
         self._sink_failed = False
 
@@ -129,10 +128,13 @@ class FlightRecorder:
 
     @contextlib.asynccontextmanager
     async def attach(self, controller: FlightController) -> AsyncIterator[FlightRecorder]:
-        """Sample `controller` in a background task while the block runs; the last state, an
+        """Log `controller`'s events as they happen and sample its telemetry in a background task
+        while the block runs; the last state, an
         interruption event when the block raised, and every buffered row on the way out."""
         self.t0 = controller.t0
+        self._controller = controller
         self.open()
+        unsubscribe = controller.subscribe(self.on_event)
         task = asyncio.create_task(self._run(controller), name="rerun-flight-recorder")
         try:
             yield self
@@ -141,6 +143,7 @@ class FlightRecorder:
             self._event(time.monotonic(), None, f"flight interrupted ({what})", "ERROR")
             raise
         finally:
+            unsubscribe()
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
@@ -202,11 +205,11 @@ class FlightRecorder:
                                                                    colors=(220, 50, 50)), static=True)
 
     def sample(self, controller: FlightController, now: float, *, force: bool = False) -> None:
-        """One pass: events for every change, telemetry rows where `sample_hz` allows."""
+        """One pass: telemetry rows where `sample_hz` allows, and the planned return's start."""
         if self.rec is None:
             return
         for uid, st in sorted(controller.status.items()):
-            self._events(uid, st, now)
+            self._planned_return_begins(uid, st, now)
             last = self._last_sample.get(uid)
             if force or last is None or now - last >= self.sample_every_s:
                 self._last_sample[uid] = now
@@ -240,55 +243,56 @@ class FlightRecorder:
                   mission_item=[st.mission_seq], mission_total=[st.mission_total], alt_m=[st.rel_alt_m],
                   ground_speed_m_s=[st.ground_speed_m_s])
 
-    def _events(self, uid: int, st, now: float) -> None:
-        stage, before = st.stage.value, self._stage.get(uid)
-        if st.airborne_seen and not self._airborne.get(uid, False):
-            self._event(now, uid, f"take-off: airborne, {st.rel_alt_m:.0f} m, mode {st.mode_name}")
-        self._airborne[uid] = st.airborne_seen
-        if stage != before:
-            note = f" - {st.note}" if st.note else ""
-            level = "INFO"
-            if stage in _RETURN_STAGES:
-                level = "WARN"
-                why = f" (reason: {st.return_reason})" if st.return_reason else ""
-                trigger = ""
-                if _finite(st.range_left):
-                    trigger = f"; range left {st.range_left:.1f} steps"
-                    if _finite(st.margin):
-                        trigger += f", margin {st.margin:.1f}"
-                battery = f", battery {st.battery_pct:.0f}%" if st.battery_pct is not None else ""
-                text = f"return triggered{why}: {stage}{note}{trigger}{battery}"
-            elif stage == "landed":
-                text = f"landed{note}"
-            elif stage == "lost":
-                level, text = "WARN", f"lost link{note}"
-            elif stage == "failed":
-                level, text = "ERROR", f"failed{note}"
-            elif before == "lost":
-                text = f"link back: {stage}{note}"
-            else:
-                text = f"{stage}{note}"
-            self._event(now, uid, text, level)
-        self._stage[uid] = stage
+    def on_event(self, event: FlightEvent, now: float) -> None:
+        """Log one controller event as it happens."""
+        if self.rec is None:
+            return
+        uid = event.uav_id
+        st = self._controller.status[uid]
+        if isinstance(event, TookOff):
+            self._event(now, uid, f"take-off: airborne, {event.alt_m:.0f} m, mode {event.mode}")
+        elif isinstance(event, ModeChanged):
+            if event.after != "-":
+                self._event(now, uid, f"flight mode {event.before} -> {event.after}", "DEBUG")
+        elif isinstance(event, ReadingReceived):
+            d = event.detection
+            if d.hit:
+                cell = self.plan.cell_of(d.lat_deg, d.lon_deg)
+                where = f"cell ({cell[0] + 1}, {cell[1] + 1})" if cell is not None else f"({d.lat_deg:.6f}, {d.lon_deg:.6f})"
+                self._event(now, uid, f"detection: positive reading at {where}")
+                self._add("geo/detections", rr.GeoPoints.columns, now, 1, positions=[(d.lat_deg, d.lon_deg)])
+        elif isinstance(event, StageChanged):
+            self._event(now, uid, *self._stage_text(event, st))
+
+    @staticmethod
+    def _stage_text(event: StageChanged, st) -> tuple[str, str]:
+        stage, before = event.after.value, event.before.value
+        note = f" - {event.note}" if event.note else ""
+        if stage in _RETURN_STAGES:
+            why = f" (reason: {st.return_reason})" if st.return_reason else ""
+            trigger = ""
+            if _finite(st.range_left):
+                trigger = f"; range left {st.range_left:.1f} steps"
+                if _finite(st.margin):
+                    trigger += f", margin {st.margin:.1f}"
+            battery = f", battery {st.battery_pct:.0f}%" if st.battery_pct is not None else ""
+            return f"return triggered{why}: {stage}{note}{trigger}{battery}", "WARN"
+        if stage == "landed":
+            return f"landed{note}", "INFO"
+        if stage == "lost":
+            return f"lost link{note}", "WARN"
+        if stage == "failed":
+            return f"failed{note}", "ERROR"
+        if before == "lost":
+            return f"link back: {stage}{note}", "INFO"
+        return f"{stage}{note}", "INFO"
+
+    def _planned_return_begins(self, uid: int, st, now: float) -> None:
         trajectory = self.plan.uavs[uid].trajectory if uid in self.plan.uavs else []
-        if (stage == "search" and uid not in self._planned_return and 0 < st.track_index < len(trajectory)
+        if (st.stage.value == "search" and uid not in self._planned_return and 0 < st.track_index < len(trajectory)
                 and trajectory[st.track_index].stage != "search"):
             self._planned_return.add(uid)
             self._event(now, uid, f"planned return begins (step {trajectory[st.track_index].step} of the plan)")
-        mode = st.mode_name
-        if mode != self._mode.get(uid, "-") and mode != "-":
-            self._event(now, uid, f"flight mode {self._mode.get(uid, '-')} -> {mode}", "DEBUG")
-        self._mode[uid] = mode
-        new = st.detections[self._detections.get(uid, 0):]
-        self._detections[uid] = len(st.detections)
-        hits = [d for d in new if d.hit]
-        for d in hits:
-            cell = self.plan.cell_of(d.lat_deg, d.lon_deg)
-            where = f"cell ({cell[0] + 1}, {cell[1] + 1})" if cell is not None else f"({d.lat_deg:.6f}, {d.lon_deg:.6f})"
-            self._event(now, uid, f"detection: positive reading at {where}")
-        if hits:
-            self._add("geo/detections", rr.GeoPoints.columns, now, len(hits),
-                      positions=[(d.lat_deg, d.lon_deg) for d in hits])
 
     def _flush(self) -> None:
         if self.rec is None:

@@ -3,8 +3,10 @@ cell from the vehicles' observed cells and the shared map, which is Bayes-update
 every reading the vehicles report (CAMERA_IMAGE_CAPTURED, positive or negative); the vehicles are
 steered in GUIDED with SET_POSITION_TARGET_GLOBAL_INT (ArduPilot) or DO_REPOSITION (PX4).
 
-Steps are flown in lock step: all searching vehicles get their next cell, and the next decision
-is taken when every one of them has reached it (or a step timeout passed). The return decision
+Steps are flown in lock step: every flying vehicle gets its next cell, and the next decision is
+taken when every one of them has reached it and its reading of that cell has arrived (or a
+timeout passed), so the map a decision sees is the one the planner would have after the same
+steps. A vehicle whose last step reached its airport cell lands from there. The return decision
 is the planner's (eq. 23-24, its exact table, the joint conflict-free ways home); battery state
 enters it as a range change (`set_range`), operator orders as `order_return`.
 
@@ -41,12 +43,14 @@ class OnlineFlight:
     """Drives an `observed_search` with a `FlightController`'s links and telemetry."""
 
     def __init__(self, controller, search: ClosedSearch, *, arrive_m: float | None = None,
-                 step_timeout_s: float = 10.0) -> None:
+                 step_timeout_s: float = 10.0, reading_timeout_s: float = 2.0) -> None:
         self.c = controller
         self.search = search
         self.plan = controller.plan
         self.arrive_m = arrive_m or 0.25 * self.plan.cell_size_m
         self.step_timeout_s = step_timeout_s
+        self.reading_timeout_s = reading_timeout_s
+        self.expected: dict[int, tuple[tuple[int, int], int]] = {}
         self.targets: dict[int, tuple[float, float]] = {}
         self.seen: dict[int, int] = {uid: 0 for uid in self.plan.uavs}
         self.landing: set[int] = set()
@@ -62,6 +66,17 @@ class OnlineFlight:
                 if cell is None:
                     continue
                 self.search.observe(cell, d.hit, self.pc, self.pf, by=uid)
+
+    def _has_reading(self, uid: int) -> bool:
+        """The vehicle's reading of the cell it was sent to has arrived (or none is expected)."""
+        if uid not in self.expected:
+            return True
+        cell, since = self.expected[uid]
+        detections = self.c.status[uid].detections
+        return any(self.plan.cell_of(d.lat_deg, d.lon_deg) == cell for d in detections[since:])
+
+    def _expect(self, uid: int, cell: tuple[int, int]) -> None:
+        self.expected[uid] = (cell, len(self.c.status[uid].detections))
 
     @property
     def pc(self) -> float:
@@ -98,6 +113,8 @@ class OnlineFlight:
             c._set_stage(uid, Stage.FAILED, "did not reach its altitude")
             return False
         c._set_stage(uid, Stage.SEARCH, "online search")
+        self.targets[uid] = self.plan.cell_lat_lon(*task.airport_cell)  # step 0: over the airport cell
+        self.expected[uid] = (task.airport_cell, 0)  # read on the way up, or on reaching its centre
         return True
 
     def _steer(self, uid: int) -> None:
@@ -156,6 +173,25 @@ class OnlineFlight:
                     self.search.set_range(uid, max(1, steps))
             st.margin = u.range_steps - u.steps_flown - u.home_cost
 
+    async def _fly_step(self, uids: set[int]) -> None:
+        """Steer `uids` to their cells until all are there and have reported them, or time is up."""
+        c = self.c
+        end = time.monotonic() + self.step_timeout_s
+        while not all(self._arrived(uid) for uid in uids) and time.monotonic() < end and not c._interrupted:
+            for uid in uids:
+                if not self._arrived(uid):
+                    self._steer(uid)
+            await asyncio.sleep(c.options.tick_s)
+        end = time.monotonic() + self.reading_timeout_s
+        while not all(self._has_reading(uid) for uid in uids) and time.monotonic() < end and not c._interrupted:
+            c._recover_readings(time.monotonic())
+            await asyncio.sleep(c.options.tick_s)
+        for uid in uids:
+            if not self._has_reading(uid):
+                c.say(uid, f"no reading of cell {self.expected[uid][0]} within {self.reading_timeout_s:g} s; "
+                           "deciding without it")
+            self.expected.pop(uid, None)
+
     async def run(self) -> None:
         c, search = self.c, self.search
         ok = await asyncio.gather(*(self._take_off(uid) for uid in self.plan.uavs))
@@ -163,14 +199,14 @@ class OnlineFlight:
             if not good:
                 search.order_return(uid)  # stays out of the search; its plan ends at once
         flying = {uid for uid, good in zip(self.plan.uavs, ok) if good}
+        at_airport: set[int] = set()
         landing_tasks = []
-        while not search.done and not c._interrupted:
-            end = time.monotonic() + self.step_timeout_s
-            while not all(self._arrived(uid) for uid in flying) and time.monotonic() < end and not c._interrupted:
-                for uid in flying:
-                    if not self._arrived(uid):
-                        self._steer(uid)
-                await asyncio.sleep(c.options.tick_s)
+        while not c._interrupted:
+            await self._fly_step(flying | at_airport)
+            landing_tasks += [asyncio.create_task(self._land(uid)) for uid in at_airport]
+            at_airport.clear()
+            if search.done:
+                break
             start = time.monotonic()
             c._recover_readings(start)
             self._fold_readings()
@@ -190,12 +226,13 @@ class OnlineFlight:
                 c._set_stage(ev.uav_id, Stage.RETURN, f"going home ({ev.reason.value})")
             for uid in list(flying):
                 x, y, _, stage = record.poses[uid]
+                if uid not in self.targets or self.plan.cell_of(*self.targets[uid]) != (x, y):
+                    self._expect(uid, (x, y))  # a vehicle reads a cell again only after leaving it
+                self.targets[uid] = self.plan.cell_lat_lon(x, y)
+                self._steer(uid)
                 if stage is PlanStage.LANDED:
                     flying.discard(uid)
-                    landing_tasks.append(asyncio.create_task(self._land(uid)))
-                else:
-                    self.targets[uid] = self.plan.cell_lat_lon(x, y)
-                    self._steer(uid)
+                    at_airport.add(uid)
             c.loop_latency_s.append(time.monotonic() - start)
             for uid in self.plan.uavs:
                 c._update_stage(uid, time.monotonic())

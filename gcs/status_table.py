@@ -7,7 +7,7 @@ import math
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from gcs.commands.fly import FlightController
+    from gcs.flight import FlightController
     from gcs.fleet import FleetPlan, VehicleStatus
 
 __all__ = ["render_summary", "render_table", "targets_found"]

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planner.environment import eu_after_visit, sense, tep_after_no_report, tep_after_report
+from planner.environment import eu_after_visit, footprint_cells, sense, tep_after_no_report, tep_after_report
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
 from planner.plan import Plan, ReturnReason, Stage, TargetOutcome, TrajectoryPoint, UavPlan
 from planner.return_exact import follow_table, return_table, space_time_return
@@ -23,6 +23,7 @@ from planner.reward import RewardWeights, airport_reward_map
 from planner.scenario import Scenario, UavSpec
 from planner.search import SearchStrategy, make_strategy
 from planner.search.problem import Decision, Searcher, StepProblem
+from planner.sensor_noise import reading_draw
 
 RETURN_PLANNERS = ("exact", "st")
 
@@ -136,8 +137,9 @@ def first_step_feasible(table: np.ndarray, successors: np.ndarray, blocked: np.n
 class ClosedSearch:
     """The DTSCS scheme flown step by step over a scenario (Algorithm 3).
 
-    With `simulate_sensing` (the default) every cell flown is observed by the scenario's sensor
-    against its targets. Without it the map changes only through `observe()`, the readings real
+    With `simulate_sensing` (the default) every cell flown, and each airport as its UAV climbs out
+    of it (step 0), is observed by the scenario's sensor against its targets; each reading's noise
+    is `reading_draw(seed, UAV, cell, visit)`, the same world the simulated vehicles fly in. Without it the map changes only through `observe()`, the readings real
     vehicles report, and `set_position()` moves a searching UAV to the cell it was seen in: the
     planner in the loop of a live flight."""
 
@@ -153,9 +155,9 @@ class ClosedSearch:
         airports = np.array([u.airport for u in scenario.uavs], dtype=np.int64)
         self.fa_map = airport_reward_map(self.map.shape, airports)
         self.weights = self.config.weights.as_array()
-        seeds = np.random.SeedSequence(seed).spawn(2)
-        self.sensor_rng = np.random.default_rng(seeds[0])
-        self.strategy_rng = np.random.default_rng(seeds[1])
+        self.seed = seed
+        self.strategy_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
+        self._looks: dict[tuple[int, int, int], int] = {}
         self.step_index = 0
         self.false_alarms = 0
         self.found_step: list[int | None] = [None] * len(scenario.targets)
@@ -173,6 +175,7 @@ class ClosedSearch:
             uav = _Uav(spec, table, spec.airport[0], spec.airport[1], spec.heading, spec.range_steps)
             uav.trajectory.append(TrajectoryPoint(0, uav.x, uav.y, uav.heading, Stage.SEARCH))
             self.uavs[spec.uav_id] = uav
+        self._simulate_sensing([(uid, u.x, u.y) for uid, u in self.uavs.items()], 0)
 
     @property
     def done(self) -> bool:
@@ -359,21 +362,33 @@ class ClosedSearch:
             else:
                 u.stage = Stage.LANDED
                 continue
-            moved.append((u.x, u.y))
+            moved.append((uid, u.x, u.y))
             u.trajectory.append(TrajectoryPoint(k, u.x, u.y, u.heading, u.stage))
             if u.stage is Stage.RETURN and not u.return_plan:
                 u.stage = Stage.LANDED
 
-        reports = np.zeros((0, 4), dtype=np.int64)
-        if moved and self.simulate_sensing:
-            reports = sense(self.map, self.target_grid, np.array(moved, dtype=np.int64).reshape(-1, 2),
-                            self.scenario.sensor, self.sensor_rng)
-        found = self._score_reports(reports, k)
+        reports, found = self._simulate_sensing(moved, k)
         ranges = {uid: RangeStatus(u.range_steps - u.steps_flown, u.home_cost,
                                    u.range_steps - u.steps_flown - u.home_cost)
                   for uid, u in self.uavs.items()}
         poses = {uid: (u.x, u.y, u.heading, u.stage) for uid, u in self.uavs.items()}
         return StepRecord(k, poses, decisions, returns, reports, found, ranges, self.map.tep, self.map.eu)
+
+    def _simulate_sensing(self, looks: list[tuple[int, int, int]], k: int
+                          ) -> tuple[np.ndarray, list[tuple[int, int]]]:
+        """The scenario's sensor reads under every (UAV, x, y) of `looks` (eq. 2-4); the reports
+        and the first finds. Nothing happens without `simulate_sensing`."""
+        if not (looks and self.simulate_sensing):
+            return np.zeros((0, 4), dtype=np.int64), []
+        draws = []
+        for uid, x, y in looks:
+            for cell in footprint_cells(x, y, self.scenario.sensor.footprint_radius, self.map.shape):
+                visit = self._looks.get((uid, *cell), 0)
+                self._looks[(uid, *cell)] = visit + 1
+                draws.append(reading_draw(self.seed, uid, *cell, visit))
+        cells = np.array([(x, y) for _, x, y in looks], dtype=np.int64)
+        reports = sense(self.map, self.target_grid, cells, self.scenario.sensor, np.array(draws))
+        return reports, self._score_reports(reports, k)
 
     def _score_reports(self, reports: np.ndarray, k: int) -> list[tuple[int, int]]:
         """Count false alarms and first finds; returns (target index, uav id) of new finds."""

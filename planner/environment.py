@@ -107,18 +107,24 @@ def _sense(tep, eu, visits, target_grid, cells, draws, radius, pc, pf, reports):
     return n
 
 
-def footprint_size(radius: int) -> int:
-    return (2 * radius + 1) ** 2
+def footprint_cells(x: int, y: int, radius: int, shape: tuple[int, int]) -> list[tuple[int, int]]:
+    """The in-grid cells one reading from cell (x, y) covers, in the order `sense` takes its draws."""
+    nx, ny = shape
+    return [(cx, cy) for cx in range(x - radius, x + radius + 1) for cy in range(y - radius, y + radius + 1)
+            if 0 <= cx < nx and 0 <= cy < ny]
 
 
 def sense(search_map: SearchMap, target_grid: np.ndarray, cells: np.ndarray, sensor: Sensor,
-          rng: np.random.Generator) -> np.ndarray:
+          draws: np.ndarray) -> np.ndarray:
     """Observe `cells` (k x 2, one per vehicle), update the map in place and return the reports
-    as rows (x, y, reported, target_present)."""
+    as rows (x, y, reported, target_present). `draws` holds one uniform number per in-grid
+    footprint cell, in `footprint_cells` order."""
     cells = np.ascontiguousarray(cells, dtype=np.int64).reshape(-1, 2)
-    capacity = cells.shape[0] * footprint_size(sensor.footprint_radius)
-    draws = rng.random(capacity)
-    reports = np.zeros((capacity, 4), dtype=np.int64)
+    draws = np.ascontiguousarray(draws, dtype=np.float64)
+    observed = sum(len(footprint_cells(x, y, sensor.footprint_radius, search_map.shape)) for x, y in cells)
+    if observed != len(draws):
+        raise ValueError(f"{len(draws)} draws for {observed} observed cells")
+    reports = np.zeros((len(draws), 4), dtype=np.int64)
     n = _sense(search_map.tep, search_map.eu, search_map.visits, target_grid, cells, draws,
                sensor.footprint_radius, sensor.pc, sensor.pf, reports)
     return reports[:n]

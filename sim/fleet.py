@@ -27,7 +27,9 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class FleetOptions:
-    """Network and clock settings. base_port 0 lets the OS pick a free port per vehicle."""
+    """Network, clock and world settings. base_port 0 lets the OS pick a free port per vehicle.
+    `grid_origin` is the (lat, lon) of the sensor grid's south-west corner; by default vehicle
+    1's home is a cell centre."""
 
     base_port: int = 14540
     bind: str = "127.0.0.1"
@@ -38,6 +40,7 @@ class FleetOptions:
     signing_key: bytes | None = None
     targets: tuple[tuple[float, float], ...] = ()
     seed: int = 0
+    grid_origin: tuple[float, float] | None = None
 
 
 def homes_for(count: int, poses: Sequence[HomePose], spacing_m: float = 5.0) -> list[HomePose]:
@@ -68,8 +71,11 @@ class SimFleet:
         self.options = options = options or FleetOptions()
         self.config = config or VehicleConfig()
         frame = LocalFrame(homes[0].lat_deg, homes[0].lon_deg)
+        half = 0.5 * self.config.sensor.cell_size_m
+        origin = frame.geodetic2en(*options.grid_origin) if options.grid_origin else (-half, -half)
         self.vehicles = [
-            SimVehicle(i + 1, home, self.config, frame=frame, targets=list(options.targets), seed=options.seed)
+            SimVehicle(i + 1, home, self.config, frame=frame, targets=list(options.targets), seed=options.seed,
+                       grid_origin_en=origin)
             for i, home in enumerate(homes)
         ]
         self.links = [

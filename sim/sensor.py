@@ -1,17 +1,22 @@
 """A downward-looking detector: one noisy reading per grid cell the vehicle flies over.
 
-The grid is shared by the fleet (square cells of `cell_size_m` in the fleet's local frame), so
-cell (i, j) means the same ground for every vehicle. Entering a cell while airborne yields one
-observation: a target in the cell is reported with probability Pc, an empty cell is reported
-(a false alarm) with probability Pf. The draws come from a seeded generator, so runs repeat.
+The grid is shared by the fleet: square cells of `cell_size_m` counted from the fleet's grid
+origin (its south-west corner, in the fleet's local frame), so cell (i, j) means the same ground
+for every vehicle. A vehicle reads a cell once as it comes within `view_radius_cells` of the
+cell's centre while airborne (0.5: over the circle inside the cell, so a diagonal that only
+clips a neighbour's corner does not read it). A target in the cell is reported with probability
+Pc, an empty cell (a false alarm) with Pf. The noise of each reading is
+`planner.sensor_noise.reading_draw(seed, vehicle, cell, visit)`: the same world the planner
+simulates on the same seed, and the same readings however the flight's timing falls.
 """
 
 from __future__ import annotations
 
 import math
-import random
+from collections.abc import Iterable
 from dataclasses import dataclass
 
+from planner.sensor_noise import reading_draw
 from sim.geo import LocalFrame
 
 
@@ -21,6 +26,7 @@ class SensorConfig:
     pc: float = 0.9
     pf: float = 0.05
     min_alt_m: float = 2.0
+    view_radius_cells: float = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,41 +47,46 @@ class DownwardSensor:
         self,
         config: SensorConfig,
         frame: LocalFrame,
-        targets_en: frozenset[tuple[int, int]],
-        rng: random.Random,
+        targets: Iterable[tuple[float, float]],
+        *,
+        seed: int,
+        vehicle_id: int,
+        origin_en: tuple[float, float] = (0.0, 0.0),
     ) -> None:
         self.config = config
         self.frame = frame
-        self._target_cells = targets_en
-        self._rng = rng
+        self.origin_en = origin_en
+        self.seed = seed
+        self.vehicle_id = vehicle_id
+        self._target_cells = frozenset(self.cell_of(*frame.geodetic2en(lat, lon)) for lat, lon in targets)
         self._last_cell: tuple[int, int] | None = None
+        self._visits: dict[tuple[int, int], int] = {}
         self.observations: list[Observation] = []
 
-    @staticmethod
-    def cells_of(targets: list[tuple[float, float]], frame: LocalFrame, cell_size_m: float) -> frozenset[tuple[int, int]]:
-        """Grid cells holding the given (lat, lon) targets."""
-        return frozenset(_cell(*frame.geodetic2en(lat, lon), cell_size_m) for lat, lon in targets)
-
-    def cell_center(self, cell: tuple[int, int]) -> tuple[float, float]:
+    def cell_of(self, east_m: float, north_m: float) -> tuple[int, int]:
         size = self.config.cell_size_m
-        return self.frame.en2geodetic((cell[0] + 0.5) * size, (cell[1] + 0.5) * size)
+        return (math.floor((east_m - self.origin_en[0]) / size), math.floor((north_m - self.origin_en[1]) / size))
+
+    def cell_center_en(self, cell: tuple[int, int]) -> tuple[float, float]:
+        size = self.config.cell_size_m
+        return (self.origin_en[0] + (cell[0] + 0.5) * size, self.origin_en[1] + (cell[1] + 0.5) * size)
 
     def update(self, east_m: float, north_m: float, alt_m: float, time_s: float) -> Observation | None:
-        """A new observation when the vehicle has just entered a cell, else None."""
+        """A new observation when the vehicle has just come over a cell, else None."""
         if alt_m < self.config.min_alt_m:
             self._last_cell = None
             return None
-        cell = _cell(east_m, north_m, self.config.cell_size_m)
-        if cell == self._last_cell:
+        cell = self.cell_of(east_m, north_m)
+        centre = self.cell_center_en(cell)
+        if cell == self._last_cell or math.dist(centre, (east_m, north_m)) > self.config.view_radius_cells * self.config.cell_size_m:
             return None
         self._last_cell = cell
+        visit = self._visits.get(cell, 0)
+        self._visits[cell] = visit + 1
         present = cell in self._target_cells
-        reported = self._rng.random() < (self.config.pc if present else self.config.pf)
-        lat, lon = self.cell_center(cell)
+        reported = reading_draw(self.seed, self.vehicle_id, cell[0], cell[1], visit) < (
+            self.config.pc if present else self.config.pf)
+        lat, lon = self.frame.en2geodetic(*centre)
         obs = Observation(len(self.observations), cell, lat, lon, reported, present, time_s)
         self.observations.append(obs)
         return obs
-
-
-def _cell(east_m: float, north_m: float, size_m: float) -> tuple[int, int]:
-    return (math.floor(east_m / size_m), math.floor(north_m / size_m))

@@ -8,7 +8,6 @@ and the sockets.
 from __future__ import annotations
 
 import math
-import random
 from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -113,6 +112,7 @@ class SimVehicle:
         frame: LocalFrame | None = None,
         targets: list[tuple[float, float]] | None = None,
         seed: int = 0,
+        grid_origin_en: tuple[float, float] | None = None,
     ) -> None:
         self.sysid = sysid
         self.home = home
@@ -144,8 +144,9 @@ class SimVehicle:
         self._target_alt_m = 0.0
         self._speed_m_s: float | None = None
         self._rtl_alt_m = 0.0
-        cells = DownwardSensor.cells_of(targets or [], self.frame, config.sensor.cell_size_m)
-        self.sensor = DownwardSensor(config.sensor, self.frame, cells, random.Random(seed * 1_000_003 + sysid))
+        half = 0.5 * config.sensor.cell_size_m
+        self.sensor = DownwardSensor(config.sensor, self.frame, targets or [], seed=seed, vehicle_id=sysid,
+                                     origin_en=grid_origin_en or (east - half, north - half))
         self.streams = telemetry.StreamScheduler(telemetry.default_intervals_s(config.telemetry_hz))
         self.params: dict[str, float] = {
             "SYSID_THISMAV": float(sysid),

@@ -1,6 +1,6 @@
-"""The bus attached to `gcs fly`: `FlightFeed` reads a `FlightController`'s vehicle states (it
-never writes them), publishes their telemetry, turns their changes into events, and carries
-commands from the bus to the controller. `attach_bus` is the few lines `gcs fly --mqtt` needs:
+"""The bus attached to `gcs fly`: `FlightFeed` listens to a `FlightController`'s events (stage
+changes, take-offs, readings) and publishes each as it happens, samples the vehicles' telemetry
+(it never writes their state), and carries commands from the bus to the controller. `attach_bus` is the few lines `gcs fly --mqtt` needs:
 
     async with attach_bus(controller, args.mqtt, fleet=args.fleet, online=online):
         await controller.run()
@@ -19,8 +19,10 @@ from gcs.bus.connection import TlsOptions, parse_broker_url
 from gcs.bus.fleet_bus import FleetBus
 from gcs.bus.messages import Command, CommandKind, Telemetry
 
+from gcs.flight import FlightEvent, ReadingReceived, StageChanged, TookOff
+
 if TYPE_CHECKING:
-    from gcs.commands.fly import FlightController
+    from gcs.flight import FlightController
 
 __all__ = ["FlightFeed", "add_bus_arguments", "attach_bus", "bus_options"]
 
@@ -33,52 +35,46 @@ def _or_none(value: float | None) -> float | None:
 
 
 class FlightFeed:
-    """Samples a FlightController for a FleetBus; `sample()` is one pass, `run()` repeats it every
-    `sample_every_s` (the controller's own tick, 0.05 s): a stage shorter than that may be
-    skipped in the events (the bus still limits telemetry to its own rate)."""
+    """Feeds a FleetBus from a FlightController: events as the controller raises them,
+    telemetry sampled every `sample_every_s` (the bus limits it further to its own rate)."""
 
     def __init__(self, bus: FleetBus, controller: FlightController, online=None, sample_every_s: float = 0.05) -> None:
         self.bus = bus
         self.sample_every_s = sample_every_s
         self.c = controller
         self.online = online  # gcs.online.ObservedSearch, for range changes
-        self._stage: dict[int, str] = {}
-        self._airborne: dict[int, bool] = {}
-        self._detections: dict[int, int] = {}
         self._ordered: set[int] = set()
+        self.close = controller.subscribe(self.on_event)
 
     def sample(self) -> None:
         for uid, st in sorted(self.c.status.items()):
-            stage = st.stage.value
             has_position = st.has_position
             self.bus.telemetry(Telemetry(
-                uid, stage, lat_deg=st.lat_deg if has_position else None, lon_deg=st.lon_deg if has_position else None,
-                alt_m=st.rel_alt_m, heading_deg=st.heading_deg, battery_pct=st.battery_pct,
-                range_left_steps=_or_none(st.range_left), margin_steps=_or_none(st.margin)))
-            self._events(uid, st, stage)
+                uid, st.stage.value, lat_deg=st.lat_deg if has_position else None,
+                lon_deg=st.lon_deg if has_position else None, alt_m=st.rel_alt_m, heading_deg=st.heading_deg,
+                battery_pct=st.battery_pct, range_left_steps=_or_none(st.range_left), margin_steps=_or_none(st.margin)))
 
-    def _events(self, uid: int, st, stage: str) -> None:
-        before = self._stage.get(uid)
-        if st.airborne_seen and not self._airborne.get(uid, False):
-            self.bus.event(uid, "takeoff", text=f"airborne, {st.rel_alt_m:.0f} m", stage=stage)
-        self._airborne[uid] = st.airborne_seen
-        if before is not None and stage != before:
+    def on_event(self, event: FlightEvent, now: float) -> None:
+        uid = event.uav_id
+        st = self.c.status[uid]
+        stage = st.stage.value
+        if isinstance(event, TookOff):
+            self.bus.event(uid, "takeoff", text=f"airborne, {event.alt_m:.0f} m", stage=stage)
+        elif isinstance(event, StageChanged):
+            before, after = event.before.value, event.after.value
             if before == "lost":
-                self.bus.event(uid, "link_back", text=st.note, stage=stage)
-            kind = _EVENT_OF_STAGE.get(stage, "stage")
+                self.bus.event(uid, "link_back", text=st.note, stage=after)
+            kind = _EVENT_OF_STAGE.get(after, "stage")
             if not (before == "lost" and kind == "stage"):
                 reason = st.return_reason if kind in ("return", "rtl") else None
-                self.bus.event(uid, kind, reason=reason, text=st.note or stage, stage=stage,
-                               data={"from": before, "to": stage})
-        self._stage[uid] = stage
-        new = st.detections[self._detections.get(uid, 0):]
-        self._detections[uid] = len(st.detections)
-        for d in new:
-            if d.hit:
-                cell = self.c.plan.cell_of(d.lat_deg, d.lon_deg)
-                self.bus.event(uid, "detection", text="positive reading", stage=stage,
-                               data={"lat_deg": d.lat_deg, "lon_deg": d.lon_deg, "image_index": d.index,
-                                     "cell": None if cell is None else [cell[0] + 1, cell[1] + 1]})
+                self.bus.event(uid, kind, reason=reason, text=event.note or after, stage=after,
+                               data={"from": before, "to": after})
+        elif isinstance(event, ReadingReceived) and event.detection.hit:
+            d = event.detection
+            cell = self.c.plan.cell_of(d.lat_deg, d.lon_deg)
+            self.bus.event(uid, "detection", text="positive reading", stage=stage,
+                           data={"lat_deg": d.lat_deg, "lon_deg": d.lon_deg, "image_index": d.index,
+                                 "cell": None if cell is None else [cell[0] + 1, cell[1] + 1]})
 
     async def run(self) -> None:
         while True:
@@ -166,6 +162,7 @@ async def attach_bus(controller: FlightController, broker, *, fleet: str, statio
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await task
+            feed.close()
             feed.sample()
             if bus.connected:
                 with contextlib.suppress(TimeoutError):

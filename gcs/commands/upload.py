@@ -10,9 +10,9 @@ import argparse
 import asyncio
 from contextlib import AsyncExitStack
 
-from gcs.commands.fly import (FlightController, FlyOptions, add_connection_arguments, check_connections,
-                              connection_strings, start_sim)
+from gcs.commands.fly import add_connection_arguments, check_connections, connection_strings, start_sim
 from gcs.errors import UserError
+from gcs.flight import FlightController, FlyOptions
 from gcs.fleet import FleetPlan, load_plan_dir
 from gcs.link import MavLink
 

@@ -20,8 +20,8 @@ async def _persistent_subscriber(port: int, fleet: str, received: list, connects
     while True:
         try:
             async with aiomqtt.Client("127.0.0.1", port, identifier=f"{fleet}-watch", clean_session=False) as client:
+                await client.subscribe(f"gcs/{fleet}/uav/+/event", qos=1)  # SUBACK'd: the broker keeps the rest
                 connects.append(time.monotonic())
-                await client.subscribe(f"gcs/{fleet}/uav/+/event", qos=1)
                 async for message in client.messages:
                     received.append(json.loads(message.payload))
         except aiomqtt.MqttError:

@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from gcs.cli import main
-from gcs.commands.fly import FlightController, FlyOptions, fly_async, start_sim
+from gcs.commands.fly import start_sim
+from gcs.flight import FlightController, FlyOptions, fly_async
 from gcs.fleet import FleetPlan, load_plan_dir
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -36,7 +37,8 @@ def fast_options(**overrides) -> FlyOptions:
     return FlyOptions(**base)
 
 
-def fly(plan: FleetPlan, options: FlyOptions | None = None, *, during=None, **sim) -> tuple[FlightController, object]:
+def fly(plan: FleetPlan, options: FlyOptions | None = None, *, during=None, listeners=(),
+        **sim) -> tuple[FlightController, object]:
     """Fly `plan` against a fresh simulated fleet; `during(fleet)` runs once it is up."""
     sim.setdefault("speedup", SPEEDUP)
     fleet = start_sim(plan, **sim).start()
@@ -44,7 +46,7 @@ def fly(plan: FleetPlan, options: FlyOptions | None = None, *, during=None, **si
         if during is not None:
             during(fleet)
         controller = asyncio.run(asyncio.wait_for(
-            fly_async(plan, fleet.connection_strings(), options or fast_options()), 120))
+            fly_async(plan, fleet.connection_strings(), options or fast_options(), listeners=listeners), 120))
     finally:
         fleet.stop()
     assert not fleet.errors, fleet.errors

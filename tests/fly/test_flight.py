@@ -6,7 +6,10 @@ from __future__ import annotations
 import asyncio
 import math
 
-from gcs.commands.fly import FlyOptions
+import pytest
+
+from gcs.cli import main
+from gcs.flight import FlyOptions, ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.commands.upload import upload_fleet
 from gcs.fleet import Stage
 from gcs.status_table import render_summary, render_table
@@ -27,7 +30,12 @@ def _landed_home(plan, fleet, uid) -> float:
 
 
 def test_four_uavs_fly_the_plan_and_land_at_their_own_airports(plan):
-    controller, fleet = fly(plan)
+    events = []
+
+    def broken_listener(event, now):
+        raise RuntimeError("a listener bug")
+
+    controller, fleet = fly(plan, listeners=[broken_listener, lambda event, now: events.append(event)])
     for uid in plan.uavs:
         assert controller.status[uid].stage is Stage.LANDED
         assert controller.status[uid].return_reason is None  # the plan's own return
@@ -37,6 +45,14 @@ def test_four_uavs_fly_the_plan_and_land_at_their_own_airports(plan):
     summary = render_summary(controller)
     assert "4/4 landed" in summary
     assert "landed" in render_table(controller)
+    # the controller's events: every stage in order, one take-off, every reading, for each UAV
+    for uid in plan.uavs:
+        stages = [e.after for e in events if isinstance(e, StageChanged) and e.uav_id == uid]
+        assert stages == [Stage.PREPARING, Stage.UPLOADING, Stage.ARMING, Stage.SEARCH, Stage.LANDED], stages
+        assert sum(isinstance(e, TookOff) and e.uav_id == uid for e in events) == 1
+        readings = [e.detection for e in events if isinstance(e, ReadingReceived) and e.uav_id == uid]
+        assert readings == controller.status[uid].detections
+        assert any(isinstance(e, ModeChanged) and e.uav_id == uid and e.after == "AUTO" for e in events)
 
 
 def test_px4_profile_flies_without_a_home_item(plan):
@@ -75,7 +91,7 @@ def test_operator_return_order_sends_one_uav_home_at_once(plan):
 
 
 def test_unknown_uav_in_a_return_order_is_refused(plan):
-    from gcs.commands.fly import FlightController
+    from gcs.flight import FlightController
 
     controller = FlightController(plan, [], FlyOptions())
     try:
@@ -117,47 +133,62 @@ def test_upload_under_20_percent_packet_loss_still_verifies(plan):
     assert resends > 0  # the loss really hit the transfers
 
 
-def test_online_mode_searches_adaptively_and_lands_everyone(plan_dir, plan):
-    """The planner in the loop against the same simulated targets and sensor seed as the
-    precomputed plan; both flown through the simulator, targets counted from the readings.
+@pytest.mark.parametrize("seed", [0, 4])
+def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_seed(tmp_path, seed):
+    """The planner in the loop and the precomputed plan, both flown through the simulator on the
+    same seed: the same targets and the same sensor noise (drawn per UAV, cell and visit), targets
+    counted from the readings the vehicles sent.
 
-    The brief asked for "online finds at least as many targets as the precomputed plan on the
-    same seed". It does not always hold (one run on seed 0: online 5, precomputed 8 of 10; over
-    seeds 0-4 online 32, precomputed 30, see docs/fly.md), so that comparison is printed and
-    reported, not asserted; what is asserted is what online mode must always do."""
+    Online mode finds at least as many targets. Flown in lock step (each decision waits for
+    every vehicle's reading of its cell), it takes the planner's decisions on the map the planner
+    would have, so nominal flights match the plan's own prediction exactly: the same cells step by
+    step, the same finds, the same false alarms. A lost, late or misplaced reading, or a step
+    decided from a stale position, breaks that. (Seed 4: one UAV's search ends on its airport,
+    with no return leg.)"""
     import argparse
 
-    from gcs.commands.fly import fly_async, start_sim
+    from gcs.commands.fly import start_sim
+    from gcs.flight import fly_async
+    from gcs.fleet import load_plan_dir
     from gcs.missions import planning as area_plan
     from gcs.online import observed_search
     from gcs.status_table import targets_found
     from tests.fly.conftest import ROOT
 
-    args = argparse.Namespace(area=str(ROOT / "missions" / "paper.geojson"), cell_size_m=None, speed_m_s=12.0,
-                              range_m=None, endurance_s=900.0, altitude_m=60.0, altitude_step_m=10.0,
-                              vehicle="copter", margin_m=0.0, default_tep=0.5, default_eu=0.5, max_cells=1_000_000,
-                              pc=0.9, pf=0.1, footprint=0, np_steps=5, oc="3", strategy="exhaustive",
-                              return_planner="exact", reserve=0, range_aware_search=False, seed=0)
+    area = str(ROOT / "missions" / "paper.geojson")
+    assert main(["plan", "--area", area, "--seed", str(seed), "--strategy", "exhaustive", "--out", str(tmp_path),
+                 "--quiet", "--no-rrd"]) == 0
+    plan = load_plan_dir(tmp_path)
+    predicted = {(t["x"] - 1, t["y"] - 1) for t in plan.raw["targets"] if t["found_step"] is not None}
+    args = argparse.Namespace(area=area, cell_size_m=None, speed_m_s=12.0, range_m=None, endurance_s=900.0,
+                              altitude_m=60.0, altitude_step_m=10.0, vehicle="copter", margin_m=0.0,
+                              default_tep=0.5, default_eu=0.5, max_cells=1_000_000, pc=0.9, pf=0.1, footprint=0,
+                              np_steps=5, oc="3", strategy="exhaustive", return_planner="exact", reserve=0,
+                              range_aware_search=False, seed=seed)
     setup = area_plan.build_area_search(args)
-    search = observed_search(setup.search.scenario, setup.search.config, seed=0)
-    fleet = start_sim(plan, speedup=40.0, seed=0).start()
+    search = observed_search(setup.search.scenario, setup.search.config, seed=seed)
+    fleet = start_sim(plan, speedup=40.0, seed=seed).start()
     try:
         online = asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
                                                         online=search), 180))
     finally:
         fleet.stop()
-    precomputed, _ = fly(plan, seed=0)
-    online_found, _ = targets_found(online)
-    plan_found, _ = targets_found(precomputed)
-    print(f"targets found: online {len(online_found)}, precomputed plan {len(plan_found)} of {len(plan.targets)}")
+    assert not fleet.errors, fleet.errors
     for uid in plan.uavs:
         assert online.status[uid].stage is Stage.LANDED
         assert _landed_home(plan, fleet, uid) < 5.0
-    assert search.done and int(search.map.visits.sum()) > 400  # the map was updated from real readings
-    assert online_found and online_found <= set(plan.targets)
+    precomputed, _ = fly(plan, seed=seed)
     assert all(precomputed.status[u].stage is Stage.LANDED for u in plan.uavs)
-    returns = [u.return_reason for u in online.status.values()]
-    assert all(r in ("range", "separation", "boxed_in", "battery", "order") for r in returns)  # the planner's DTSCS
+    online_found, online_alarms = targets_found(online)
+    plan_found, plan_alarms = targets_found(precomputed)
+    print(f"seed {seed}: targets found online {len(online_found)}, precomputed {len(plan_found)}, "
+          f"predicted {len(predicted)} of {len(plan.targets)}")
+    assert len(online_found) >= len(plan_found)
+    flown = {u.uav_id: [(p.x, p.y) for p in u.trajectory] for u in search.plan().uavs}
+    for uid, task in plan.uavs.items():
+        assert flown[uid] == [(p.x, p.y) for p in task.trajectory], f"UAV {uid} left the planner's path"
+    assert online_found == plan_found == predicted
+    assert online_alarms == plan_alarms == plan.raw["summary"]["false_alarms"]
 
 
 def test_fly_area_with_operator_orders_on_stdin(tmp_path):
@@ -191,3 +222,28 @@ def test_fly_area_with_operator_orders_on_stdin(tmp_path):
     assert "landed" in row3 and "order" in row3
     assert "4/4 landed" in summary
     assert (out_dir / "uav3.waypoints").exists() and (out_dir / "flight.rrd").exists()
+
+
+def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch):
+    """A bug in the GCS loop mid-flight: every vehicle in the air is commanded RTL before the
+    command ends with one error (FlightAborted), never left flying unwatched."""
+    from gcs.commands.fly import start_sim
+    from gcs.flight import FlightAborted, FlightController, fly_async
+    from sim import Mode
+
+    real = FlightController.evaluate
+
+    def evaluate(self, uid):
+        if self.status[uid].stage is Stage.SEARCH and self.status[uid].track_index >= 3:
+            raise ZeroDivisionError("injected bug")
+        return real(self, uid)
+
+    monkeypatch.setattr(FlightController, "evaluate", evaluate)
+    fleet = start_sim(plan, speedup=20.0).start()
+    try:
+        with pytest.raises(FlightAborted, match="injected bug.*commanded RTL"):
+            asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options()), 120))
+        modes = {uid: fleet.vehicle(uid).state.mode for uid in plan.uavs}
+    finally:
+        fleet.stop()
+    assert all(mode is Mode.RTL for mode in modes.values()), modes

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from planner.environment import SearchMap, Sensor, eu_after_visit, sense, tep_after_no_report, tep_after_report
+from planner.environment import SearchMap, Sensor, eu_after_visit, footprint_cells, sense, tep_after_no_report, tep_after_report
 
 
 def test_bayes_after_report_matches_hand_computation():
@@ -54,9 +54,9 @@ def test_sense_kernel_matches_reference(radius):
     targets = (rng.random((7, 6)) < 0.3).astype(np.int64)
     cells = np.array([[0, 0], [3, 2], [6, 5], [3, 2]])
     m = SearchMap(tep.copy(), eu.copy(), np.zeros((7, 6), bool))
-    reports = sense(m, targets, cells, Sensor(0.8, 0.2, radius), np.random.default_rng(11))
-    capacity = len(cells) * (2 * radius + 1) ** 2
-    draws = np.random.default_rng(11).random(capacity)
+    observed = sum(len(footprint_cells(x, y, radius, (7, 6))) for x, y in cells)
+    draws = np.random.default_rng(11).random(observed)
+    reports = sense(m, targets, cells, Sensor(0.8, 0.2, radius), draws)
     ref_tep, ref_eu, ref_rows = _reference_sense(tep, eu, targets, cells, draws, radius, 0.8, 0.2)
     np.testing.assert_allclose(m.tep, ref_tep)
     np.testing.assert_allclose(m.eu, ref_eu)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import random
 
 import pymap3d
 import pytest
@@ -14,6 +13,7 @@ from sim.battery import Battery, BatteryConfig, FailsafeLevel, failsafe_level, f
 from sim.geo import LocalFrame
 from sim.kinematics import KinematicLimits, KinematicState, step_toward, wrap_pi
 from sim.modes import Mode, custom_mode_of, mode_from_custom
+from planner.sensor_noise import reading_draw
 from sim.sensor import DownwardSensor, SensorConfig
 
 PLANE = KinematicLimits(cruise_speed_m_s=20, turn_rate_rad_s=math.radians(20), climb_rate_m_s=5,
@@ -93,18 +93,52 @@ def test_battery_drains_with_flight_time_less_on_the_ground_and_fails_on_demand(
 def test_sensor_rates_match_pc_and_pf():
     frame = LocalFrame(-35.0, 149.0)
     cfg = SensorConfig(cell_size_m=10.0, pc=0.8, pf=0.1)
-    target = frame.en2geodetic(5.0, 5.0)
-    cells = DownwardSensor.cells_of([target], frame, 10.0)
-    assert cells == {(0, 0)}
-    sensor = DownwardSensor(cfg, frame, cells, random.Random(1))
+    sensor = DownwardSensor(cfg, frame, [frame.en2geodetic(5.0, 5.0)], seed=1, vehicle_id=1)
     hits_on_target = hits_elsewhere = 0
     for _ in range(2000):
-        hits_on_target += sensor.update(5.0, 5.0, 20.0, 0.0).reported
-        hits_elsewhere += sensor.update(15.0, 5.0, 20.0, 0.0).reported
+        on, off = sensor.update(5.0, 5.0, 20.0, 0.0), sensor.update(15.0, 5.0, 20.0, 0.0)
+        assert on.cell == (0, 0) and on.present and off.cell == (1, 0) and not off.present
+        hits_on_target += on.reported
+        hits_elsewhere += off.reported
     assert hits_on_target / 2000 == pytest.approx(0.8, abs=0.04)
     assert hits_elsewhere / 2000 == pytest.approx(0.1, abs=0.03)
     assert sensor.update(15.0, 5.0, 20.0, 0.0) is None  # same cell again: no new reading
     assert sensor.update(25.0, 5.0, 1.0, 0.0) is None  # below minimum altitude
+
+
+def test_sensor_reads_a_cell_over_its_centre_and_not_a_clipped_corner():
+    frame = LocalFrame(-35.0, 149.0)
+    sensor = DownwardSensor(SensorConfig(cell_size_m=10.0), frame, [], seed=0, vehicle_id=1, origin_en=(-5.0, -5.0))
+    cells = []
+    for i in range(101):  # a diagonal from the centre of cell (0, 0) to the centre of cell (1, 1)
+        obs = sensor.update(0.1 * i, 0.1 * i, 20.0, 0.0)
+        if obs is not None:
+            cells.append(obs.cell)
+    assert cells == [(0, 0), (1, 1)]  # passing the corner shared with (1, 0) and (0, 1) reads neither
+    assert sensor.update(9.0, 13.0, 20.0, 0.0) is None  # inside cell (1, 1) again
+    assert sensor.update(14.0, 16.0, 20.0, 0.0) is None  # in cell (1, 2) but 5.7 m from its centre
+    assert sensor.update(10.0, 19.0, 20.0, 0.0).cell == (1, 2)
+
+
+def test_sensor_noise_is_fixed_by_seed_vehicle_cell_and_visit():
+    """The same looks give the same readings whatever else the vehicle saw in between, and they
+    are the planner's simulated readings on the same seed."""
+    frame = LocalFrame(-35.0, 149.0)
+    cfg = SensorConfig(cell_size_m=10.0, pc=0.5, pf=0.5)
+    direct = DownwardSensor(cfg, frame, [], seed=7, vehicle_id=2)
+    detour = DownwardSensor(cfg, frame, [], seed=7, vehicle_id=2)
+    readings_direct, readings_detour = [], []
+    for visit in range(40):
+        readings_direct.append(direct.update(5.0, 5.0, 20.0, 0.0).reported)
+        direct.update(5.0, 15.0, 20.0, 0.0)
+        readings_detour.append(detour.update(5.0, 5.0, 20.0, 0.0).reported)
+        for north in (15.0, 25.0, 35.0):
+            detour.update(5.0, north, 20.0, 0.0)
+        assert readings_direct[-1] == (reading_draw(7, 2, 0, 0, visit) < 0.5)
+    assert readings_direct == readings_detour
+    assert 5 < sum(readings_direct) < 35
+    other = DownwardSensor(cfg, frame, [], seed=8, vehicle_id=2)
+    assert [other.update(5.0, 5.0 + 10 * (i % 2), 20.0, 0.0).reported for i in range(80)][::2] != readings_direct
 
 
 @pytest.mark.parametrize(
