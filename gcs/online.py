@@ -4,8 +4,9 @@ every reading the vehicles report (CAMERA_IMAGE_CAPTURED, positive or negative);
 steered in GUIDED with SET_POSITION_TARGET_GLOBAL_INT (ArduPilot) or DO_REPOSITION (PX4).
 
 Steps are flown in lock step: every flying vehicle gets its next cell, and the next decision is
-taken when every one of them has reached it and its reading of that cell has arrived (or a
-timeout passed), so the map a decision sees is the one the planner would have after the same
+taken when every one of them has reported that cell (a reading comes as a vehicle passes within
+half a cell of the centre, so vehicles fly on without stopping; a vehicle that arrived without
+reporting is waited for `reading_timeout_s`), so the map a decision sees is the one the planner would have after the same
 steps. A vehicle whose last step reached its airport cell lands from there. The return decision
 is the planner's (eq. 23-24, its exact table, the joint conflict-free ways home); battery state
 enters it as a range change (`set_range`), operator orders as `order_return`.
@@ -16,10 +17,12 @@ The search is `planner.dtscs.ClosedSearch` without simulated sensing: readings e
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 import time
 
 
+from gcs.flight import ReadingReceived
 from gcs.fleet import Stage
 from gcs.link import CommandError, LinkError, mavlink
 from gcs.mission_transfer import Autopilot
@@ -51,6 +54,9 @@ class OnlineFlight:
         self.step_timeout_s = step_timeout_s
         self.reading_timeout_s = reading_timeout_s
         self.expected: dict[int, tuple[tuple[int, int], int]] = {}
+        self.reported: dict[int, tuple[int, int]] = {}
+        self._range_cap: dict[int, int] = {}
+        self._range_set: dict[int, int] = {}
         self.targets: dict[int, tuple[float, float]] = {}
         self.seen: dict[int, int] = {uid: 0 for uid in self.plan.uavs}
         self.landing: set[int] = set()
@@ -159,40 +165,74 @@ class OnlineFlight:
     # ---- the loop ----------------------------------------------------------------------
 
     def _battery_range(self) -> None:
-        """Battery range (steps left above the reserve, minus the descent) as a range change."""
+        """Battery range (steps left above the reserve, minus the descent) as the range, re-read
+        every step: a pessimistic early estimate (the climb drains fast) must not cut the search
+        for good. Never above the planned range, or a range an operator set since."""
         for uid, st in self.c.status.items():
             u = self.search.uavs[uid]
             if u.stage is not PlanStage.SEARCH:
                 continue
+            if u.range_steps != self._range_set.get(uid, u.range_steps):
+                self._range_cap[uid] = u.range_steps  # changed by someone else (a bus command)
+            cap = self._range_cap.setdefault(uid, u.range_steps)
             drain = battery_drain_pct_s(st.battery_pct, st.time_remaining_s, drain_rate_pct_s(list(st.battery_samples)))
             left = range_left_steps(st.battery_pct, drain, self.c.model)
             st.range_left = left
+            want = cap
             if math.isfinite(left):
-                steps = u.steps_flown + int(left - landing_steps(self.plan.uavs[uid].altitude_m, self.c.model))
-                if steps < u.range_steps:
-                    self.search.set_range(uid, max(1, steps))
+                want = min(cap, max(1, u.steps_flown + int(left - landing_steps(self.plan.uavs[uid].altitude_m,
+                                                                                 self.c.model))))
+            if want != u.range_steps:
+                self.search.set_range(uid, want)
+            self._range_set[uid] = want
             st.margin = u.range_steps - u.steps_flown - u.home_cost
 
     async def _fly_step(self, uids: set[int]) -> None:
-        """Steer `uids` to their cells until all are there and have reported them, or time is up."""
+        """Steer `uids` to their cells until every one has reported its cell (the reading comes
+        within half a cell of the centre, so vehicles fly on without stopping), or has arrived
+        and its reading stayed away for `reading_timeout_s`, or the step timed out."""
         c = self.c
-        end = time.monotonic() + self.step_timeout_s
-        while not all(self._arrived(uid) for uid in uids) and time.monotonic() < end and not c._interrupted:
-            for uid in uids:
+        now = time.monotonic()
+        end, reading_end = now + self.step_timeout_s, None
+        while not c._interrupted and now < end:
+            waiting = [uid for uid in uids if not self._has_reading(uid)]
+            if not waiting:
+                break
+            if all(self._arrived(uid) for uid in waiting):
+                reading_end = reading_end or now + self.reading_timeout_s
+                if now >= reading_end:
+                    break
+                c._recover_readings(now)
+            for uid in waiting:
                 if not self._arrived(uid):
                     self._steer(uid)
-            await asyncio.sleep(c.options.tick_s)
-        end = time.monotonic() + self.reading_timeout_s
-        while not all(self._has_reading(uid) for uid in uids) and time.monotonic() < end and not c._interrupted:
-            c._recover_readings(time.monotonic())
-            await asyncio.sleep(c.options.tick_s)
+            self._reading.clear()
+            with contextlib.suppress(TimeoutError):  # woken by the reading itself, not the next tick
+                await asyncio.wait_for(self._reading.wait(), c.options.tick_s)
+            now = time.monotonic()
+        self.reported = {}
         for uid in uids:
-            if not self._has_reading(uid):
-                c.say(uid, f"no reading of cell {self.expected[uid][0]} within {self.reading_timeout_s:g} s; "
-                           "deciding without it")
+            if self._has_reading(uid):
+                if uid in self.expected:
+                    self.reported[uid] = self.expected[uid][0]
+            else:
+                c.say(uid, f"no reading of cell {self.expected[uid][0]} in time; deciding without it")
             self.expected.pop(uid, None)
 
+    def _on_event(self, event, now: float) -> None:
+        if isinstance(event, ReadingReceived):
+            self._reading.set()
+
     async def run(self) -> None:
+        c = self.c
+        self._reading = asyncio.Event()
+        unsubscribe = c.subscribe(self._on_event)
+        try:
+            await self._run()
+        finally:
+            unsubscribe()
+
+    async def _run(self) -> None:
         c, search = self.c, self.search
         ok = await asyncio.gather(*(self._take_off(uid) for uid in self.plan.uavs))
         for uid, good in zip(self.plan.uavs, ok):
@@ -216,8 +256,10 @@ class OnlineFlight:
                     c.status[uid].return_reason = reason
             c._orders.clear()
             self._battery_range()
-            for uid in flying:
-                if c.status[uid].has_position:
+            for uid in flying:  # the cell it reported is where it is; telemetry may be a sample behind
+                if uid in self.reported:
+                    search.set_position(uid, self.reported[uid])
+                elif c.status[uid].has_position:
                     search.set_position(uid, c.plan.cell_of(c.status[uid].lat_deg, c.status[uid].lon_deg))
             record = search.step()
             for ev in record.returns:

@@ -158,3 +158,34 @@ def test_set_position_moves_a_searcher_to_the_observed_cell():
     record = search.step()
     x, y, _h, _stage = record.poses[1]
     assert max(abs(x - 3), abs(y - 20)) == 1
+
+
+def test_simulated_readings_are_fixed_by_seed_uav_cell_and_visit():
+    """Every UAV reads its airport on the way up (step 0); each reading's noise is
+    `reading_draw(seed, uav, cell, visit)`, so a replay of the readings in any order agrees."""
+    from planner.sensor_noise import reading_draw
+
+    scenario = paper_scenario(2, range_steps=60)
+    search = ClosedSearch(scenario, MissionConfig(strategy="exhaustive"), seed=11)
+    for u in scenario.uavs:
+        assert search.map.visits[u.airport] == 1
+    for _ in search.run():
+        pass
+    plan = search.plan()
+    pc, pf = scenario.sensor.pc, scenario.sensor.pf
+    targets = {tuple(t) for t in scenario.targets}
+    expected_finds: dict[tuple[int, int], int] = {}
+    alarms = 0
+    for u in plan.uavs:
+        visits: dict[tuple[int, int], int] = {}
+        for p in u.trajectory:
+            cell = (p.x, p.y)
+            n = visits.get(cell, 0)
+            visits[cell] = n + 1
+            if reading_draw(11, u.uav_id, *cell, n) < (pc if cell in targets else pf):
+                if cell in targets:
+                    expected_finds[cell] = min(expected_finds.get(cell, p.step), p.step)
+                else:
+                    alarms += 1
+    assert {(t.x, t.y): t.found_step for t in plan.targets if t.found_step is not None} == expected_finds
+    assert plan.false_alarms == alarms and alarms > 0
