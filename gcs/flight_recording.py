@@ -35,7 +35,7 @@ import rerun.blueprint as rrb
 
 from gcs.flight import FlightEvent, ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.overview import uav_colour
-from gcs.recording import APPLICATION_ID, FLUSH_TIMEOUT_S, GEO_STRING, _lighter, _Rows, check_viewer
+from gcs.recording import APPLICATION_ID, FLUSH_TIMEOUT_S, GEO_STRING, _lighter, _Rows, open_stream
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -103,18 +103,7 @@ class FlightRecorder:
     def open(self) -> None:
         if not self.enabled or self.rec is not None:
             return
-        if self.connect is not None:
-            check_viewer(self.connect)
-        rec = rr.RecordingStream(APPLICATION_ID)
-        sinks = []
-        if self.rrd_path is not None:
-            self.rrd_path.parent.mkdir(parents=True, exist_ok=True)
-            sinks.append(rr.FileSink(str(self.rrd_path)))
-        if self.connect is not None:
-            sinks.append(rr.GrpcSink(self.connect))
-        rec.set_sinks(*sinks, default_blueprint=flight_blueprint(sorted(self.plan.uavs)))
-        rec.send_recording_name(self.name)
-        self.rec = rec
+        self.rec = open_stream(self.rrd_path, self.connect, self.name, flight_blueprint(sorted(self.plan.uavs)))
         self._log_static()
         self._last_flush = time.monotonic()
 

@@ -268,18 +268,8 @@ class PlanRecorder:
     def open(self) -> None:
         if not self.enabled or self.rec is not None:
             return
-        if self.connect is not None:
-            check_viewer(self.connect)
-        rec = rr.RecordingStream(APPLICATION_ID)
-        sinks = []
-        if self.rrd_path is not None:
-            self.rrd_path.parent.mkdir(parents=True, exist_ok=True)
-            sinks.append(rr.FileSink(str(self.rrd_path)))
-        if self.connect is not None:
-            sinks.append(rr.GrpcSink(self.connect))
-        rec.set_sinks(*sinks, default_blueprint=default_blueprint(self.scenario, self.cells_to_lat_lon is not None))
-        rec.send_recording_name(self.name)
-        self.rec = rec
+        self.rec = open_stream(self.rrd_path, self.connect, self.name,
+                               default_blueprint(self.scenario, self.cells_to_lat_lon is not None))
         self._log_static()
         self._start()
         self._last_flush = time.monotonic()
@@ -540,6 +530,22 @@ class PlanRecorder:
                 print(f"warning: Rerun: {exc}; the run goes on", file=sys.stderr)
             self._sink_failed = True
         self._last_flush = time.monotonic()
+
+
+def open_stream(rrd_path: Path | None, connect: str | None, name: str, blueprint) -> rr.RecordingStream:
+    """A recording stream to a .rrd file, a running viewer (checked first), or both."""
+    if connect is not None:
+        check_viewer(connect)
+    rec = rr.RecordingStream(APPLICATION_ID)
+    sinks = []
+    if rrd_path is not None:
+        rrd_path.parent.mkdir(parents=True, exist_ok=True)
+        sinks.append(rr.FileSink(str(rrd_path)))
+    if connect is not None:
+        sinks.append(rr.GrpcSink(connect))
+    rec.set_sinks(*sinks, default_blueprint=blueprint)
+    rec.send_recording_name(name)
+    return rec
 
 
 def check_viewer(url: str, timeout_s: float = 2.0) -> None:
