@@ -30,8 +30,8 @@ from gcs.commands.fly import start_sim  # noqa: E402
 from gcs.flight import FlightController, FlyOptions  # noqa: E402
 from gcs.commands.upload import upload_fleet  # noqa: E402
 from gcs.fleet import FleetPlan, load_plan_dir  # noqa: E402
-from gcs.link import MavLink  # noqa: E402
-from gcs.mission_transfer import Autopilot  # noqa: E402
+from gcs.links import MavLink  # noqa: E402
+from gcs.autopilots import Autopilot  # noqa: E402
 
 
 def make_plan() -> FleetPlan:

@@ -7,7 +7,8 @@ carry a `role` property. See docs/areas.md for the format and a complete example
 - `prior`    Polygon / MultiPolygon with `tep` and `eu` in [0, 1]: a prior target probability and
              uncertainty; later features win where they overlap.
 - `airport`  Point, one per UAV: `heading` (degrees clockwise from north, or N, NE, E, SE, S, SW, W,
-             NW), optional `range_m` or `endurance_s`, `altitude_m`, `name`.
+             NW), optional `range_m` or `endurance_s`, `altitude_m` (flight altitude above the airport),
+             `elevation_m` (the airport's ground altitude above mean sea level), `name`.
 - `target`   Point (optional): a target for simulation and evaluation.
 
 A suggested cell size may be given as `cell_size_m` in the area feature's properties or in the
@@ -46,6 +47,7 @@ class Airport:
     range_m: float | None = None
     endurance_s: float | None = None
     altitude_m: float | None = None
+    elevation_m: float | None = None
 
 
 @dataclass(frozen=True)
@@ -240,12 +242,14 @@ def parse_area(data, name: str = "area", source: str = "area file") -> AreaFile:
             if range_m is not None and endurance_s is not None:
                 raise UserError(f"{where}: give range_m or endurance_s, not both")
             altitude = props.get("altitude_m")
+            elevation = props.get("elevation_m")
             airports.append(Airport(
                 len(airports), str(props.get("name", f"UAV {len(airports) + 1}")), point.x, point.y,
                 _heading(props["heading"], where),
                 None if range_m is None else _number(range_m, f"{where}: range_m", positive=True),
                 None if endurance_s is None else _number(endurance_s, f"{where}: endurance_s", positive=True),
-                None if altitude is None else _number(altitude, f"{where}: altitude_m", positive=True)))
+                None if altitude is None else _number(altitude, f"{where}: altitude_m", positive=True),
+                None if elevation is None else _number(elevation, f"{where}: elevation_m", -500.0, 9000.0)))
         else:
             point = _geometry(feature, ("Point",), where)
             targets.append(Target(label, point.x, point.y))

@@ -18,9 +18,11 @@ from urllib.parse import parse_qs, urlsplit
 import numpy as np
 
 from gcs.errors import UserError
-from gcs.link import mavlink
-from gcs.mission_transfer import Autopilot, MissionType, WireItem
-from gcs.missions.items import UavMission, Vehicle, mission_items
+from gcs.links import mavlink
+from gcs.autopilots import Autopilot
+from gcs.mission_transfer import MissionType, WireItem
+from gcs.missions.items import (AltitudeReference, LandingApproach, MissionItem, UavMission, Vehicle, landing_items,
+                                mission_items, waypoint_items)
 from planner.georef import Grid, LocalFrame
 from planner.motion import OrientationConstraint, constraint_by_name
 from planner.return_exact import UNREACHABLE, return_table
@@ -59,20 +61,32 @@ class UavTask:
     trajectory: list[Pose]
     fence: list[tuple[bool, list[tuple[float, float]]]] = field(default_factory=list)
     rally: list[tuple[float, float, float]] = field(default_factory=list)
+    altitude_reference: AltitudeReference = AltitudeReference.HOME
+    elevation_m: float | None = None
+    approach: LandingApproach | None = None
 
     @property
     def mission(self) -> UavMission:
         lat, lon = self.airport_lat_lon
-        return UavMission(self.uav_id, self.name, self.vehicle, lat, lon, self.altitude_m, list(self.waypoints))
+        return UavMission(self.uav_id, self.name, self.vehicle, lat, lon, self.altitude_m, list(self.waypoints),
+                          self.elevation_m or 0.0, self.altitude_reference, self.approach)
 
     def mission_wire(self, autopilot: Autopilot) -> list[WireItem]:
         """The mission as wire items; ArduPilot gets the airport as its home placeholder (item 0)."""
-        items = [WireItem.at(0, it.frame, it.command, it.lat_deg, it.lon_deg, it.alt_m, it.params)
-                 for it in mission_items(self.mission)]
+        return self._wire(autopilot, mission_items(self.mission))
+
+    def return_wire(self, autopilot: Autopilot, leg: list[tuple[float, float]]) -> list[WireItem]:
+        """A mission that flies `leg` (lat, lon) at the UAV's altitude and lands as the plan does."""
+        mission = self.mission
+        return self._wire(autopilot, waypoint_items(mission, leg) + landing_items(mission))
+
+    def _wire(self, autopilot: Autopilot, items: list[MissionItem]) -> list[WireItem]:
+        wire = [WireItem.at(0, it.frame, it.command, it.lat_deg, it.lon_deg, it.alt_m, it.params) for it in items]
         if autopilot.home_item(MissionType.MISSION):
             lat, lon = self.airport_lat_lon
-            items.insert(0, WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, lat, lon, 0.0))
-        return items
+            wire.insert(0, WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, lat, lon,
+                                       self.elevation_m or 0.0))
+        return wire
 
     def fence_wire(self) -> list[WireItem]:
         """Polygon fence vertices (param1 = vertex count), MAV_MISSION_TYPE_FENCE."""
@@ -173,7 +187,9 @@ def load_plan_dir(folder: str | Path) -> FleetPlan:
             task = UavTask(uid, str(u.get("name", f"UAV{uid}")), Vehicle(u.get("vehicle", "copter")),
                            float(u["altitude_m"]), tuple(u["airport_lat_lon"]),
                            (int(u["airport"][0]) - 1, int(u["airport"][1]) - 1), int(u["start_heading"]),
-                           int(u["range"]), [tuple(w) for w in u["waypoints"]], trajectory)
+                           int(u["range"]), [tuple(w) for w in u["waypoints"]], trajectory,
+                           altitude_reference=AltitudeReference(u.get("altitude_reference", "home")),
+                           elevation_m=u.get("elevation_m"), approach=_approach(u.get("approach")))
             _read_qgc_plan(folder / f"uav{uid}.plan", task)
             uavs[uid] = task
         targets = [(int(t["x"]) - 1, int(t["y"]) - 1) for t in data.get("targets", [])]
@@ -184,6 +200,13 @@ def load_plan_dir(folder: str | Path) -> FleetPlan:
     if not uavs:
         raise _fail(folder, "plan.json has no UAVs")
     return FleetPlan(folder, uavs, frame, grid, no_fly, oc, targets, data)
+
+
+def _approach(data: dict | None) -> LandingApproach | None:
+    if data is None:
+        return None
+    (lat, lon), alt = data["lat_lon"], data["alt_m"]
+    return LandingApproach(float(lat), float(lon), float(alt))
 
 
 def _read_qgc_plan(path: Path, task: UavTask) -> None:
@@ -264,11 +287,52 @@ class VehicleStatus:
     margin: float = math.inf
     return_reason: str | None = None
     battery_at_landing: float | None = None
+    gps_fix_type: int | None = None
+    satellites: int | None = None
+    ekf_flags: int | None = None
+    home: tuple[float, float, float] | None = None  # lat, lon, altitude AMSL (HOME_POSITION)
+    origin_seen: bool = False
+    prearm_ok: bool | None = None
+    consumed_mah: float | None = None
+    odometer_m: float = 0.0
+    unsupported_streams: set = field(default_factory=set)
+
+    @property
+    def ekf_position_ok(self) -> bool | None:
+        """ArduPilot's estimator uses an absolute horizontal position (EKF_STATUS_REPORT has
+        POS_HORIZ_ABS and not CONST_POS_MODE); None until reported."""
+        if self.ekf_flags is None:
+            return None
+        return bool(self.ekf_flags & mavlink.EKF_POS_HORIZ_ABS) and not self.ekf_flags & mavlink.EKF_CONST_POS_MODE
+
+    def waiting_for(self) -> list[str]:
+        """What the vehicle still lacks before it can be armed and flown (empty when ready). The
+        signals are the ones measured on the autopilots (docs/autopilots.md): a 3-D GPS fix, the
+        estimator's position (ArduPilot's EKF flags) and a home position; a signal the vehicle
+        does not send (it refused that stream) is not waited for."""
+        missing = []
+        if self.gps_fix_type is None:
+            if mavlink.MAVLINK_MSG_ID_GPS_RAW_INT not in self.unsupported_streams:
+                missing.append("GPS")
+        elif self.gps_fix_type < mavlink.GPS_FIX_TYPE_3D_FIX:
+            missing.append("a 3-D GPS fix")
+        if self.autopilot is Autopilot.ARDUPILOT and self.ekf_position_ok is not True \
+                and mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT not in self.unsupported_streams:
+            missing.append("the EKF's position estimate")
+        if self.home is None and mavlink.MAVLINK_MSG_ID_HOME_POSITION not in self.unsupported_streams:
+            missing.append("a home position")
+        if not self.has_position:
+            missing.append("a position")
+        return missing
 
     @property
     def has_position(self) -> bool:
         """Real autopilots report 0, 0 until their estimator has a GPS origin."""
         return self.lat_deg is not None and not (self.lat_deg == 0.0 and self.lon_deg == 0.0)
+
+    @property
+    def fixed_wing(self) -> bool:
+        return self.mav_type == mavlink.MAV_TYPE_FIXED_WING
 
     @property
     def airborne(self) -> bool:
@@ -288,9 +352,12 @@ class VehicleStatus:
             self.mav_type = msg.type
             self.custom_mode = msg.custom_mode
             self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
-            self.mode_name = mode_name(self.autopilot, msg.type, msg.custom_mode)
+            self.mode_name = self.autopilot.mode_name(msg.type, msg.custom_mode)
         elif kind == "GLOBAL_POSITION_INT":
-            self.lat_deg, self.lon_deg = msg.lat / 1e7, msg.lon / 1e7
+            lat, lon = msg.lat / 1e7, msg.lon / 1e7
+            if self.airborne and self.has_position:
+                self.odometer_m += _ground_distance_m(self.lat_deg, self.lon_deg, lat, lon)
+            self.lat_deg, self.lon_deg = lat, lon
             self.rel_alt_m = msg.relative_alt / 1000.0
             self.time_boot_s = msg.time_boot_ms / 1000.0
             if msg.hdg != 65535:
@@ -299,6 +366,8 @@ class VehicleStatus:
         elif kind == "BATTERY_STATUS":
             if msg.battery_remaining >= 0:
                 self.battery_pct = float(msg.battery_remaining)
+            if msg.current_consumed >= 0:
+                self.consumed_mah = float(msg.current_consumed)
             if msg.time_remaining > 0:
                 self.time_remaining_s = float(msg.time_remaining)
             cells = [v for v in msg.voltages if v != 65535]
@@ -308,8 +377,20 @@ class VehicleStatus:
         elif kind == "SYS_STATUS":
             if msg.battery_remaining >= 0 and self.battery_pct is None:
                 self.battery_pct = float(msg.battery_remaining)
+            prearm = mavlink.MAV_SYS_STATUS_PREARM_CHECK
+            if msg.onboard_control_sensors_present & prearm:
+                self.prearm_ok = bool(msg.onboard_control_sensors_health & prearm)
             if msg.voltage_battery not in (0, 65535):
                 self.voltage_v = msg.voltage_battery / 1000.0
+        elif kind == "GPS_RAW_INT":
+            self.gps_fix_type = msg.fix_type
+            self.satellites = msg.satellites_visible if msg.satellites_visible != 255 else None
+        elif kind == "EKF_STATUS_REPORT":
+            self.ekf_flags = msg.flags
+        elif kind == "HOME_POSITION":
+            self.home = (msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0)
+        elif kind == "GPS_GLOBAL_ORIGIN":
+            self.origin_seen = True
         elif kind == "EXTENDED_SYS_STATE":
             self.landed_state = msg.landed_state
         elif kind == "MISSION_CURRENT":
@@ -327,7 +408,7 @@ class VehicleStatus:
             return
         if self.battery_samples and self.battery_samples[-1][0] >= self.time_boot_s:
             return
-        self.battery_samples.append((self.time_boot_s, self.battery_pct))
+        self.battery_samples.append((self.time_boot_s, self.battery_pct, self.odometer_m))
 
     def _detection(self, msg: MAVMessage) -> None:
         if msg.image_index in self.detection_indices:
@@ -346,40 +427,7 @@ class VehicleStatus:
         return [i for i in range(max(self.detection_indices)) if i not in self.detection_indices]
 
 
-# ---- flight modes ------------------------------------------------------------------------
-
-_COPTER = {"STABILIZE": 0, "AUTO": 3, "GUIDED": 4, "LOITER": 5, "RTL": 6, "LAND": 9}
-_PLANE = {"MANUAL": 0, "AUTO": 10, "RTL": 11, "LOITER": 12, "TAKEOFF": 13, "GUIDED": 15}
-# PX4: (main mode, sub mode), custom_mode = main << 16 | sub << 24 (px4_custom_mode.h)
-_PX4 = {"MANUAL": (1, 0), "OFFBOARD": (6, 0), "TAKEOFF": (4, 2), "HOLD": (4, 3), "MISSION": (4, 4), "RTL": (4, 5),
-        "LAND": (4, 6)}
-_PX4_ALIASES = {"AUTO": "MISSION", "LOITER": "HOLD", "GUIDED": "HOLD"}
-
-
-def _ardupilot_table(mav_type: int | None) -> dict[str, int]:
-    return _PLANE if mav_type == mavlink.MAV_TYPE_FIXED_WING else _COPTER
-
-
-def mode_name(autopilot: Autopilot | None, mav_type: int | None, custom_mode: int) -> str:
-    if autopilot is Autopilot.PX4:
-        main, sub = (custom_mode >> 16) & 0xFF, (custom_mode >> 24) & 0xFF
-        for name, (m, s) in _PX4.items():
-            if (m, s) == (main, sub) or (m == main and s == 0 and main != 4):
-                return name
-        return f"px4 {main}.{sub}"
-    for name, number in _ardupilot_table(mav_type).items():
-        if number == custom_mode:
-            return name
-    return f"mode {custom_mode}"
-
-
-def set_mode_params(autopilot: Autopilot | None, mav_type: int | None, name: str) -> tuple[float, float, float]:
-    """MAV_CMD_DO_SET_MODE params 1-3 for a mode by name (AUTO, GUIDED, LOITER, RTL, LAND)."""
-    flag = float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
-    if autopilot is Autopilot.PX4:
-        main, sub = _PX4[_PX4_ALIASES.get(name, name)]
-        return flag, float(main), float(sub)
-    table = _ardupilot_table(mav_type)
-    if name not in table:
-        raise ValueError(f"mode {name} is not available on this vehicle")
-    return flag, float(table[name]), 0.0
+def _ground_distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+    """Metres between two nearby points (equirectangular; exact enough between telemetry samples)."""
+    k = math.pi / 180.0 * 6_371_008.8
+    return math.hypot((lat2 - lat1) * k, (lon2 - lon1) * k * math.cos(math.radians((lat1 + lat2) / 2)))

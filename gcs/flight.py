@@ -23,22 +23,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gcs.errors import UserError
-from gcs.fleet import FINAL_STAGES, Detection, FleetPlan, Stage, VehicleStatus, set_mode_params
-from gcs.link import CommandError, LinkError, MavLink, mavlink
-from gcs.mission_transfer import Autopilot, MissionTransferError, MissionType, WireItem, upload_verified
-from gcs.return_trigger import (RangeModel, battery_drain_pct_s, check_return, drain_rate_pct_s, landing_steps,
-                                range_left_steps)
+from gcs.fleet import FINAL_STAGES, Detection, FleetPlan, Stage, VehicleStatus
+from gcs.links import CommandError, LinkError, LinkStatus, MavLink, SigningKey, mavlink, open_links
+from gcs.autopilots import Autopilot
+from gcs.mission_transfer import MissionTransferError, MissionType, upload_verified
+from gcs.return_trigger import RangeModel, check_return, estimate_range_steps, landing_steps
 from gcs.status_table import render_table
 from planner.return_exact import follow_table
-
-STREAMS_HZ = {  # message -> rate asked with MAV_CMD_SET_MESSAGE_INTERVAL (vehicle time)
-    mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: 1.0,
-    mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0,
-    mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: 1.0,
-    mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0,
-    mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 4.0,
-}
-
 
 class FlightAborted(UserError):
     """The controller failed mid-flight; every vehicle in the air was sent home first."""
@@ -78,7 +69,20 @@ class ReadingReceived:
     detection: Detection
 
 
-FlightEvent = StageChanged | TookOff | ModeChanged | ReadingReceived
+@dataclass(frozen=True, slots=True)
+class LinkChanged:
+    """A link was lost, came back, gained a peer or refused signatures; `uav_ids` are the
+    vehicles last heard on it (`uav_id` is the first, or None)."""
+
+    status: LinkStatus
+    uav_ids: tuple[int, ...]
+
+    @property
+    def uav_id(self) -> int | None:
+        return self.uav_ids[0] if self.uav_ids else None
+
+
+FlightEvent = StageChanged | TookOff | ModeChanged | ReadingReceived | LinkChanged
 FlightListener = Callable[[FlightEvent, float], None]
 
 REFUSED_FOR_NOW = (mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED, mavlink.MAV_RESULT_FAILED)
@@ -105,6 +109,8 @@ class FlyOptions:
     return_after_s: dict[int, float] = field(default_factory=dict)
     fly: bool = True
     lookahead_steps: int = 2
+    check_home: bool = True
+    ready_timeout_s: float = 180.0
 
 
 class FlightController:
@@ -118,6 +124,8 @@ class FlightController:
         self.out = out or (lambda line: print(line, flush=True))
         self.status = {uid: VehicleStatus(uid) for uid in plan.uavs}
         self.link_of: dict[int, MavLink] = {}
+        self.reading_component: dict[int, int] = {}  # a vehicle's readings come from this component
+        self.operator_range: dict[int, int] = {}  # ranges (steps from take-off) set by the operator
         self.model = RangeModel(step_m=plan.cell_size_m * math.sqrt(2.0), speed_m_s=options.speed_m_s,
                                 reserve_pct=options.reserve_pct, descent_m_s=options.descent_m_s)
         self._track_m = {uid: np.array([plan.local_m(p.lat_deg, p.lon_deg) for p in task.trajectory])
@@ -138,14 +146,22 @@ class FlightController:
         self._listeners: list[FlightListener] = []
         for link in links:
             link.subscribe(lambda msg, link=link: self._on_message(link, msg))
+            link.on_status(lambda status, link=link: self._on_link_status(link, status))
 
     # ---- messages ----------------------------------------------------------------------
 
     def _on_message(self, link: MavLink, msg) -> None:
+        """Telemetry from each vehicle's autopilot; readings (CAMERA_IMAGE_CAPTURED) from any of its
+        components, e.g. a detector on a companion computer (`gcs detector`)."""
         uid = msg.get_srcSystem()
         status = self.status.get(uid)
-        if status is None or msg.get_srcComponent() != mavlink.MAV_COMP_ID_AUTOPILOT1:
+        if status is None:
             return
+        component = msg.get_srcComponent()
+        if component != mavlink.MAV_COMP_ID_AUTOPILOT1:
+            if msg.get_type() != "CAMERA_IMAGE_CAPTURED":
+                return
+            self.reading_component[uid] = component
         self.link_of.setdefault(uid, link)
         readings, airborne, mode = len(status.detections), status.airborne_seen, status.mode_name
         status.update(msg, time.monotonic())
@@ -155,6 +171,11 @@ class FlightController:
             self._emit(ModeChanged(uid, mode, status.mode_name))
         for detection in status.detections[readings:]:
             self._emit(ReadingReceived(uid, detection))
+
+    def _on_link_status(self, link: MavLink, status: LinkStatus) -> None:
+        uids = tuple(sorted(uid for uid, heard_on in self.link_of.items() if heard_on is link))
+        self.say(None, f"{status}{' - UAV ' + ', '.join(map(str, uids)) if uids else ''}")
+        self._emit(LinkChanged(status, uids))
 
     # ---- listeners ---------------------------------------------------------------------
 
@@ -192,10 +213,11 @@ class FlightController:
             link = self.link_of.get(uid)
             if link is None or st.stage is Stage.LOST:
                 continue
+            component = self.reading_component.get(uid, mavlink.MAV_COMP_ID_AUTOPILOT1)
             for index in st.lost_detections[:5]:
                 link.send(mavlink.MAVLink_command_long_message(
-                    uid, 1, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED, index,
-                    0, 0, 0, 0, 0))
+                    uid, component, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED,
+                    index, 0, 0, 0, 0, 0))
 
     def _set_stage(self, uid: int, stage: Stage, note: str = "") -> None:
         st, before = self.status[uid], self.status[uid].stage
@@ -213,6 +235,17 @@ class FlightController:
         if uid not in self.status:
             raise ValueError(f"unknown UAV {uid} (the plan has {', '.join(map(str, sorted(self.status)))})")
         self._orders.append((uid, reason))
+
+    def set_range(self, uid: int, steps: int) -> None:
+        """The operator's new range T_i for a UAV, in steps counted from take-off: from now on
+        the vehicle searches only while the way home still fits in it (as in the planner, eq.
+        23), whatever its battery would allow. ValueError for an unknown UAV or a range < 1."""
+        if uid not in self.status:
+            raise ValueError(f"unknown UAV {uid} (the plan has {', '.join(map(str, sorted(self.status)))})")
+        if steps < 1:
+            raise ValueError(f"range must be at least 1 step, not {steps}")
+        self.operator_range[uid] = steps
+        self.say(uid, f"range set to {steps} steps ({self.status[uid].track_index} flown)")
 
     def interrupt(self) -> None:
         """Ctrl-C: bring everyone home, then stop."""
@@ -236,40 +269,65 @@ class FlightController:
 
     async def set_mode(self, uid: int, name: str) -> None:
         st = self.status[uid]
-        await self.command(uid, mavlink.MAV_CMD_DO_SET_MODE, *set_mode_params(st.autopilot, st.mav_type, name))
+        autopilot = st.autopilot or Autopilot.GENERIC
+        await self.command(uid, mavlink.MAV_CMD_DO_SET_MODE, *autopilot.set_mode_params(st.mav_type, name))
+
+    async def set_param(self, uid: int, name: str, value: float, timeout_s: float = 1.0, tries: int = 3) -> bool:
+        """PARAM_SET, confirmed by the PARAM_VALUE echo (ArduPilot answers with the new value)."""
+        link = self.link_of[uid]
+        raw = name.encode()
+        for _ in range(tries):
+            async with link.listen(uid, ("PARAM_VALUE",)) as queue:
+                link.send(mavlink.MAVLink_param_set_message(uid, mavlink.MAV_COMP_ID_AUTOPILOT1, raw, value,
+                                                            mavlink.MAV_PARAM_TYPE_REAL32))
+                end = time.monotonic() + timeout_s
+                while (left := end - time.monotonic()) > 0:
+                    try:
+                        msg = await asyncio.wait_for(queue.get(), left)
+                    except TimeoutError:
+                        break
+                    param_id = msg.param_id if isinstance(msg.param_id, str) else msg.param_id.decode(errors="replace")
+                    if param_id.rstrip("\x00") == name:
+                        return abs(msg.param_value - value) < 1e-6
+        return False
 
     async def prepare(self, uid: int, mission: bool = True) -> bool:
-        """Connect, ask for the streams, wait for a GPS origin, upload and verify (unless
-        `mission` is False). False (and stage FAILED with a clear note) when anything cannot be done."""
+        """Connect, ask for the telemetry, wait until the vehicle is ready to fly (GPS fix, the
+        estimator's position, a home), check its home is the plan's airport, upload and verify
+        (unless `mission` is False). False (and stage FAILED with a clear note) when anything
+        cannot be done."""
         opts, st, task = self.options, self.status[uid], self.plan.uavs[uid]
         self._set_stage(uid, Stage.CONNECTING)
         if not await self._wait(lambda: st.autopilot is not None, opts.connect_timeout_s):
-            self._set_stage(uid, Stage.FAILED, f"no HEARTBEAT from system id {uid} within {opts.connect_timeout_s:g} s")
+            links = ", ".join(link.name for link in self.links)
+            self._set_stage(uid, Stage.FAILED, f"no HEARTBEAT from system id {uid} within {opts.connect_timeout_s:g} s "
+                                               f"on {links}")
+            return False
+        link = self.link_of[uid]
+        if link.signing is None and uid in link.signing_systems:
+            self._set_stage(uid, Stage.FAILED, f"vehicle {uid} signs its MAVLink messages and will refuse ours: give "
+                                               "the station its key (--signing-key or --signing-passphrase)")
             return False
         self._set_stage(uid, Stage.PREPARING, f"{st.autopilot.value} autopilot")
-        for msg_id, hz in STREAMS_HZ.items():
-            try:
-                await self.command(uid, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz, retries=2)
-            except CommandError as exc:
-                name = mavlink.mavlink_map[msg_id].msgname if msg_id in mavlink.mavlink_map else msg_id
-                self.say(uid, f"stream {name} not set ({exc}); using what the vehicle sends")
-        if not st.has_position:
-            self.say(uid, "waiting for a GPS origin (position still 0,0)")
-            if not await self._wait(lambda: st.has_position, opts.gps_timeout_s):
-                self._set_stage(uid, Stage.FAILED, f"no GPS position within {opts.gps_timeout_s:g} s")
-                return False
-        away = _distance_m(self.plan, (st.lat_deg, st.lon_deg), task.airport_lat_lon)
-        if away > self.plan.cell_size_m:
-            self.say(uid, f"warning: vehicle is {away:.0f} m from its airport {task.name!r}; check that system id "
-                          f"{uid} is the UAV of the plan")
+        await self._request_streams(uid)
+        if not await self._wait_ready(uid):
+            return False
+        if not self._home_matches(uid):
+            return False
+        if st.fixed_wing and st.autopilot is Autopilot.ARDUPILOT and task.approach is not None:
+            # ArduPlane refuses to arm with a DO_LAND_START and RTL_AUTOLAND 0; with 2 its RTL
+            # (the fallback, and its battery failsafe) flies the mission's landing sequence
+            if await self.set_param(uid, "RTL_AUTOLAND", 2.0):
+                self.say(uid, "RTL_AUTOLAND set to 2: RTL lands on the runway through the mission's landing sequence")
+            else:
+                self.say(uid, "warning: RTL_AUTOLAND not confirmed; ArduPlane may refuse to arm")
         if not mission:
             return True
         self._set_stage(uid, Stage.UPLOADING)
-        link = self.link_of[uid]
         autopilot = st.autopilot
         try:
             report = await upload_verified(link, uid, task.mission_wire(autopilot), autopilot,
-                                           timeout_s=opts.transfer_timeout_s)
+                                           timeout_s=opts.transfer_timeout_s, fixed_wing=st.fixed_wing)
         except MissionTransferError as exc:
             self._set_stage(uid, Stage.FAILED, f"mission {exc}")
             return False
@@ -290,13 +348,75 @@ class FlightController:
                       f"({report.resends} re-sends{', legacy MISSION_REQUEST used' if report.legacy_requests else ''})")
         return True
 
+    async def _request_streams(self, uid: int) -> None:
+        st = self.status[uid]
+        for msg_id, hz in st.autopilot.streams_hz().items():
+            try:
+                await self.command(uid, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz, retries=2)
+            except CommandError as exc:
+                st.unsupported_streams.add(msg_id)
+                name = mavlink.mavlink_map[msg_id].msgname if msg_id in mavlink.mavlink_map else msg_id
+                self.say(uid, f"stream {name} not set ({exc}); using what the vehicle sends")
+
+    async def _wait_ready(self, uid: int) -> bool:
+        """Until `VehicleStatus.waiting_for` is empty, showing what is missing (and the
+        autopilot's own words) whenever that changes."""
+        st, end = self.status[uid], time.monotonic() + self.options.ready_timeout_s
+        shown: tuple = ()
+        while missing := st.waiting_for():
+            now = (tuple(missing), st.last_text)
+            if now != shown:
+                shown = now
+                said = f" - autopilot: {st.last_text}" if st.last_text else ""
+                self._set_stage(uid, Stage.PREPARING, f"waiting for {', '.join(missing)}{said}")
+                self.say(uid, f"waiting for {', '.join(missing)}{said}")
+            if time.monotonic() > end:
+                self._set_stage(uid, Stage.FAILED, f"not ready after {self.options.ready_timeout_s:g} s: no "
+                                                   f"{', '.join(missing)}{' (' + st.last_text + ')' if st.last_text else ''}")
+                return False
+            await asyncio.sleep(0.05)
+        self.say(uid, "ready: " + ", ".join(part for part in (
+            f"GPS fix {st.gps_fix_type}" + (f" ({st.satellites} satellites)" if st.satellites else "")
+            if st.gps_fix_type is not None else "", "EKF position" if st.ekf_position_ok else "",
+            "home set" if st.home else "") if part))
+        return True
+
+    def _home_matches(self, uid: int) -> bool:
+        """The vehicle's home (HOME_POSITION, else its position) must be the plan's airport, within
+        a cell; refused, naming both, unless the operator allowed the offset (`check_home`)."""
+        st, task = self.status[uid], self.plan.uavs[uid]
+        here = st.home[:2] if st.home else (st.lat_deg, st.lon_deg)
+        away = _distance_m(self.plan, here, task.airport_lat_lon)
+        if away <= self.plan.cell_size_m:
+            return True
+        what = (f"vehicle {uid}'s home {here[0]:.7f}, {here[1]:.7f} is {away:.0f} m from UAV {uid}'s airport "
+                f"{task.name!r} at {task.airport_lat_lon[0]:.7f}, {task.airport_lat_lon[1]:.7f} (more than a cell, "
+                f"{self.plan.cell_size_m:g} m)")
+        if not self.options.check_home:
+            self.say(uid, f"warning: {what}; flying anyway (--allow-home-offset)")
+            return True
+        self._set_stage(uid, Stage.FAILED, f"{what}: is system id {uid} the right vehicle? (--allow-home-offset "
+                                           "flies anyway)")
+        return False
+
     async def launch(self, uid: int) -> bool:
-        """Arm (retrying while the autopilot refuses, as real ones do for a while after boot)
-        and start the mission."""
+        """Arm and start the mission the way the autopilot wants it (`Autopilot.arm_mode`,
+        `start_after_arming`): ArduCopter GUIDED, arm, MISSION_START; ArduPlane AUTO, arm (it
+        takes off by itself). Arming is retried while the autopilot refuses, as real ones do
+        for a while after boot, and every new reason it gives is shown. A vehicle that armed
+        but could not be started is disarmed again: nothing is left armed on the ground."""
         opts, st = self.options, self.status[uid]
+        autopilot = st.autopilot or Autopilot.GENERIC
         self._set_stage(uid, Stage.ARMING)
+        mode = autopilot.arm_mode(st.fixed_wing)
+        if mode is not None:
+            try:
+                await self.set_mode(uid, mode)
+            except CommandError as exc:
+                self._set_stage(uid, Stage.FAILED, f"cannot switch to {mode} to arm: {exc}{_said(st)}")
+                return False
         end = time.monotonic() + opts.arm_timeout_s
-        told = False
+        reasons: list[str] = []
         while True:
             if self._interrupted or uid in self._stay_on_ground or any(o[0] == uid for o in self._orders):
                 self._set_stage(uid, Stage.LANDED, "not launched (return ordered before take-off)")
@@ -305,23 +425,32 @@ class FlightController:
                 await self.command(uid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
                 break
             except CommandError as exc:
+                reason = st.last_text or str(exc)
                 if exc.result not in REFUSED_FOR_NOW or time.monotonic() > end:
-                    self._set_stage(uid, Stage.FAILED, f"cannot arm: {exc}{' (' + st.last_text + ')' if st.last_text else ''}")
+                    self._set_stage(uid, Stage.FAILED, f"cannot arm: {exc}{_said(st)}; left on the ground")
                     return False
-                if not told:
-                    self.say(uid, f"arming refused ({st.last_text or exc}); retrying for up to {opts.arm_timeout_s:g} s")
-                    told = True
+                if reason not in reasons:
+                    reasons.append(reason)
+                    self.say(uid, f"arming refused: {reason} (retrying for up to {opts.arm_timeout_s:g} s)")
                 await asyncio.sleep(1.0)
-        first = st.autopilot.first_mission_seq() if st.autopilot else 0
-        try:
-            await self.command(uid, mavlink.MAV_CMD_MISSION_START, first, 0)
-        except CommandError:
+        if autopilot.start_after_arming(st.fixed_wing):
             try:
-                await self.set_mode(uid, "AUTO")
+                await self.command(uid, mavlink.MAV_CMD_MISSION_START, *autopilot.mission_start_params())
             except CommandError as exc:
-                self._set_stage(uid, Stage.FAILED, f"cannot start the mission: {exc}")
+                disarmed = await self.disarm(uid)
+                self._set_stage(uid, Stage.FAILED, f"cannot start the mission: {exc}{_said(st)}; "
+                                                   + ("disarmed again" if disarmed else "COULD NOT DISARM: check it"))
                 return False
         self._set_stage(uid, Stage.SEARCH, "mission started")
+        return True
+
+    async def disarm(self, uid: int) -> bool:
+        """Disarm a vehicle on the ground; False when it did not confirm."""
+        try:
+            await self.command(uid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, retries=5)
+        except LinkError as exc:
+            self.say(uid, f"disarm not acknowledged: {exc}")
+            return False
         return True
 
     async def _prepare_and_launch(self, uid: int) -> None:
@@ -363,9 +492,11 @@ class FlightController:
             [self.plan.cell_lat_lon(pose[0], pose[1])]
 
     async def send_home(self, uid: int, reason: str) -> None:
-        """Fly the planned return leg to the UAV's own airport: hold, upload the leg (the vehicle
-        must not fly AUTO while an ArduPilot mission is replaced), verify, start it; fall back to
-        the autopilot's RTL when any of that fails."""
+        """Fly the planned return leg to the UAV's own airport and land there: hold (the vehicle
+        must not fly AUTO while its mission is replaced: ArduPilot swaps items as they arrive),
+        upload the leg and the landing (a plane's runway sequence), verify, point the mission at
+        its first item (MISSION_START alone resumes where the old mission was) and start it. The
+        autopilot's RTL only when any of that fails, and the operator is told."""
         st, task = self.status[uid], self.plan.uavs[uid]
         if st.stage in FINAL_STAGES or st.stage in (Stage.RETURN, Stage.RTL):
             return
@@ -379,19 +510,16 @@ class FlightController:
         try:
             leg = self.return_leg(uid)
             autopilot = st.autopilot or Autopilot.GENERIC
-            rel = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT
-            items = [WireItem.at(0, rel, mavlink.MAV_CMD_NAV_WAYPOINT, lat, lon, task.altitude_m) for lat, lon in leg]
-            lat0, lon0 = task.airport_lat_lon
-            items.append(WireItem.at(0, rel, mavlink.MAV_CMD_NAV_LAND, lat0, lon0, 0.0))
-            if autopilot.home_item(MissionType.MISSION):
-                items.insert(0, WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, lat0, lon0, 0.0))
-            await self.set_mode(uid, "GUIDED" if task.vehicle.value == "copter" else "LOITER")
-            await upload_verified(self.link_of[uid], uid, items, autopilot, timeout_s=self.options.transfer_timeout_s)
-            await self.command(uid, mavlink.MAV_CMD_MISSION_START, autopilot.first_mission_seq(), 0)
+            await self.set_mode(uid, autopilot.hold_mode(st.fixed_wing))
+            await upload_verified(self.link_of[uid], uid, task.return_wire(autopilot, leg), autopilot,
+                                  timeout_s=self.options.transfer_timeout_s, fixed_wing=st.fixed_wing)
+            await self.command(uid, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, autopilot.first_mission_seq())
+            await self.command(uid, mavlink.MAV_CMD_MISSION_START, *autopilot.mission_start_params())
             self.return_latency_s[uid] = time.monotonic() - started
             self.say(uid, f"return leg of {len(leg)} waypoints uploaded and started")
         except (LinkError, MissionTransferError, ValueError, KeyError) as exc:
-            self.say(uid, f"return leg failed ({exc}); commanding RTL")
+            self.say(uid, f"the planned return could not be flown ({exc}); commanding the autopilot's RTL, which "
+                          "flies straight home and ignores the planned path")
             await self.rtl(uid)
         finally:
             self._busy.discard(uid)
@@ -426,8 +554,9 @@ class FlightController:
     def evaluate(self, uid: int) -> bool:
         """Update range and margin of one searching vehicle; True when it must turn home now."""
         st, task = self.status[uid], self.plan.uavs[uid]
-        drain = battery_drain_pct_s(st.battery_pct, st.time_remaining_s, drain_rate_pct_s(list(st.battery_samples)))
-        st.range_left = range_left_steps(st.battery_pct, drain, self.model)
+        st.range_left = estimate_range_steps(st.battery_pct, st.time_remaining_s, list(st.battery_samples), self.model)
+        if uid in self.operator_range:
+            st.range_left = min(st.range_left, max(0.0, self.operator_range[uid] - st.track_index))
         if st.stage is not Stage.SEARCH or not st.airborne_seen:
             return False
         # the loop sees a vehicle every tick, not every step: look a few steps further ahead
@@ -512,23 +641,43 @@ class FlightController:
             await asyncio.sleep(self.options.tick_s)
 
     async def bring_everyone_home(self) -> None:
-        self.say(None, "interrupted: commanding RTL to every vehicle in the air")
+        """Ctrl-C, or the controller failed: RTL for every vehicle in the air, disarm every one
+        armed on the ground; then say where each vehicle was left."""
+        self.say(None, "stopping: every vehicle in the air is sent home (RTL), every armed one on the ground disarmed")
         for task in list(self._tasks):
             task.cancel()
-        flying = [uid for uid, st in self.status.items()
-                  if st.stage not in FINAL_STAGES and (st.airborne or st.armed)]
-        for uid in flying:
-            self.status[uid].return_reason = "ctrl-c"
-        results = await asyncio.gather(*(self.rtl(uid) for uid in flying), return_exceptions=True)
-        for uid, ok in zip(flying, results):
-            if ok is not True:
-                self.say(uid, "did not confirm RTL: check it yourself")
+        for uid, st in self.status.items():
+            if st.stage not in FINAL_STAGES and (st.airborne or st.armed):
+                st.return_reason = st.return_reason or "stop"
+        await self.make_safe(rtl_airborne=True)
+
+    async def make_safe(self, *, rtl_airborne: bool = False) -> None:
+        """Leave no vehicle armed on the ground (disarm it), and, with `rtl_airborne`, send every
+        vehicle in the air that is not already going home to RTL. Reports each one it acted on."""
+        async def secure(uid: int) -> None:
+            st = self.status[uid]
+            if uid not in self.link_of or st.stage is Stage.LOST:
+                return
+            if st.armed and not st.airborne and st.stage is not Stage.SEARCH:
+                ok = await self.disarm(uid)
+                self.say(uid, "on the ground, disarmed" if ok else "ARMED ON THE GROUND: disarm did not confirm, check it")
+            elif rtl_airborne and st.airborne and st.stage not in (Stage.RETURN, Stage.RTL, Stage.LANDED):
+                if not await self.rtl(uid):
+                    self.say(uid, "in the air and did not confirm RTL: check it yourself")
+
+        await asyncio.gather(*(secure(uid) for uid in self.status), return_exceptions=True)
 
     async def run(self) -> None:
-        """Prepare and launch every vehicle concurrently, then monitor until the end."""
+        """Prepare and launch every vehicle concurrently, monitor until the end, and leave no
+        vehicle armed on the ground."""
         for uid in self.plan.uavs:
             self._spawn(self._prepare_and_launch(uid))
         await self.monitor()
+        await self.make_safe()
+
+
+def _said(st: VehicleStatus) -> str:
+    return f" (autopilot: {st.last_text})" if st.last_text else ""
 
 
 def _distance_m(plan: FleetPlan, a: tuple[float, float], b: tuple[float, float]) -> float:
@@ -537,21 +686,22 @@ def _distance_m(plan: FleetPlan, a: tuple[float, float], b: tuple[float, float])
     return math.hypot(ea - eb, na - nb)
 
 
-async def fly_async(plan: FleetPlan, connections: list[str], options: FlyOptions,
+async def fly_async(plan: FleetPlan, connections: Sequence[str], options: FlyOptions,
                     stdin_orders: bool = False, online=None, recorder=None, bus: dict | None = None,
-                    listeners: Sequence[FlightListener] = ()) -> FlightController:
+                    listeners: Sequence[FlightListener] = (), signing: SigningKey | None = None) -> FlightController:
     """Fly the plan (or, with `online` an observed search, search with the planner in the loop);
     `recorder` (a `gcs.flight_recording.FlightRecorder`) records it; `bus` (keywords of
-    `gcs.bus.flight.attach_bus`) shares it over MQTT; `listeners` get every `FlightEvent`."""
+    `gcs.bus.flight.attach_bus`) shares it over MQTT; `listeners` get every `FlightEvent`;
+    with `signing` every link signs what it sends and refuses unsigned traffic."""
     async with AsyncExitStack() as stack:
-        links = [await stack.enter_async_context(MavLink(c)) for c in connections]
+        links = await stack.enter_async_context(open_links(connections, signing=signing))
         controller = FlightController(plan, links, options)
         for listener in listeners:
             controller.subscribe(listener)
         if bus is not None:
             from gcs.bus.flight import attach_bus
 
-            await stack.enter_async_context(attach_bus(controller, online=online, **bus))
+            await stack.enter_async_context(attach_bus(controller, **bus))
         if recorder is not None:
             await stack.enter_async_context(recorder.attach(controller))
         loop = asyncio.get_running_loop()
@@ -581,20 +731,68 @@ async def fly_async(plan: FleetPlan, connections: list[str], options: FlyOptions
     return controller
 
 
+@dataclass(frozen=True, slots=True)
+class OperatorOrder:
+    """One typed order: `kind` "return" (uav None: every UAV) or "range" (`steps`)."""
+
+    kind: str
+    uav: int | None
+    steps: int | None = None
+
+
+ORDER_HELP = "type 'return ID', 'return all' or 'range ID STEPS' ('r ID' for short)"
+
+
+def parse_order(line: str) -> OperatorOrder:
+    """`return ID` / `r ID` / `rtl ID`, `return all`, `range ID STEPS`; ValueError saying what
+    was not understood."""
+    parts = line.split()
+    if not parts:
+        raise ValueError(f"empty order: {ORDER_HELP}")
+    verb = parts[0].lower()
+    if verb in ("r", "rtl", "return") and len(parts) == 2:
+        if parts[1].lower() == "all":
+            return OperatorOrder("return", None)
+        return OperatorOrder("return", _uav_id(parts[1]))
+    if verb == "range" and len(parts) == 3:
+        try:
+            steps = int(parts[2])
+        except ValueError:
+            raise ValueError(f"range {parts[2]!r} is not a whole number of steps") from None
+        if steps < 1:
+            raise ValueError(f"range must be at least 1 step, not {steps}")
+        return OperatorOrder("range", _uav_id(parts[1]), steps)
+    raise ValueError(f"unknown order {line.strip()!r}: {ORDER_HELP}")
+
+
+def _uav_id(text: str) -> int:
+    try:
+        uav = int(text)
+    except ValueError:
+        raise ValueError(f"{text!r} is not a UAV id") from None
+    if uav < 1:
+        raise ValueError(f"{text!r} is not a UAV id")
+    return uav
+
+
+def apply_order(controller: FlightController, order: OperatorOrder) -> None:
+    """Carry out one operator order; ValueError for an unknown UAV."""
+    if order.kind == "range":
+        assert order.uav is not None and order.steps is not None
+        controller.set_range(order.uav, order.steps)
+        return
+    for uav in sorted(controller.status) if order.uav is None else [order.uav]:
+        controller.order_return(uav)
+
+
 def _start_stdin_reader(loop: asyncio.AbstractEventLoop, controller: FlightController) -> None:
-    """`r ID` (or `rtl ID`) on stdin orders UAV ID home; `r all` orders every UAV home."""
+    """Operator orders typed on stdin (`parse_order`)."""
 
     def order(line: str) -> None:
-        parts = line.split()
-        if len(parts) != 2 or parts[0].lower() not in ("r", "rtl", "return"):
-            controller.say(None, f"unknown input {line.strip()!r}: type 'r ID' to send UAV ID home")
-            return
-        targets = list(controller.status) if parts[1] == "all" else [parts[1]]
-        for t in targets:
-            try:
-                controller.order_return(int(t))
-            except ValueError as exc:
-                controller.say(None, f"error: {exc}")
+        try:
+            apply_order(controller, parse_order(line))
+        except ValueError as exc:
+            controller.say(None, f"error: {exc}")
 
     def read() -> None:
         for line in sys.stdin:

@@ -33,7 +33,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from gcs.flight import FlightEvent, ModeChanged, ReadingReceived, StageChanged, TookOff
+from gcs.flight import FlightEvent, LinkChanged, ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.overview import uav_colour
 from gcs.recording import APPLICATION_ID, FLUSH_TIMEOUT_S, GEO_STRING, _lighter, _Rows, open_stream
 
@@ -235,6 +235,10 @@ class FlightRecorder:
     def on_event(self, event: FlightEvent, now: float) -> None:
         """Log one controller event as it happens."""
         if self.rec is None:
+            return
+        if isinstance(event, LinkChanged):
+            for uid in event.uav_ids or (None,):
+                self._event(now, uid, str(event.status), "WARN")
             return
         uid = event.uav_id
         st = self._controller.status[uid]

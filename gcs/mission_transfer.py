@@ -2,12 +2,13 @@
 
 `Upload` and `Download` are pure state machines: `start(now)`, `handle(msg, now)` and
 `poll(now)` return the messages to send; time is passed in; nothing here touches a socket.
-`transfer()` is the async driver over a `gcs.link.MavLink`, and `upload_verified()` uploads,
+`transfer()` is the async driver over a `gcs.links.MavLink`, and `upload_verified()` uploads,
 reads the list back and compares it item by item.
 
-Protocol behaviour handled (upload): MISSION_COUNT, then answer every MISSION_REQUEST_INT with
-MISSION_ITEM_INT and every legacy MISSION_REQUEST with MISSION_ITEM (ArduPilot still asks with
-it on some links and versions); a duplicate or out-of-order request is answered with the item
+Protocol behaviour handled (upload): MISSION_COUNT, then answer every request with
+MISSION_ITEM_INT, the legacy MISSION_REQUEST too (ArduPilot asks only with it; the
+specification allows the INT answer and QGroundControl gives it, so no position is rounded
+to float32); a duplicate or out-of-order request is answered with the item
 asked for; a timeout re-sends the last message (the COUNT, or the last item) up to
 `max_retries` times; MISSION_ACK INVALID_SEQUENCE is not final (a stale item crossed a
 re-request, the vehicle asks again); any other error ACK ends the transfer with that result.
@@ -25,14 +26,16 @@ from __future__ import annotations
 
 import asyncio
 import math
+import re
 import time
 from dataclasses import dataclass, replace
 from enum import Enum
 
-from gcs.link import AUTOPILOT_COMPONENT_ID, MavLink, mavlink
+from gcs.autopilots import Autopilot, compare_items
+from gcs.links import AUTOPILOT_COMPONENT_ID, MavLink, mavlink
 
-__all__ = ["Autopilot", "Download", "MissionTransferError", "MissionType", "Upload", "WireItem",
-           "compare_items", "download", "transfer", "upload_verified"]
+__all__ = ["Download", "MissionTransferError", "MissionType", "Upload", "WireItem", "download", "transfer",
+           "upload_verified"]
 
 MAVMessage = mavlink.MAVLink_message
 GLOBAL_FRAMES = frozenset({
@@ -50,36 +53,36 @@ class MissionType(int, Enum):
     RALLY = mavlink.MAV_MISSION_TYPE_RALLY
 
 
-class Autopilot(str, Enum):
-    ARDUPILOT = "ardupilot"
-    PX4 = "px4"
-    GENERIC = "generic"
-
-    @classmethod
-    def from_heartbeat(cls, autopilot: int) -> Autopilot:
-        """From HEARTBEAT.autopilot (MAV_AUTOPILOT)."""
-        if autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA:
-            return cls.ARDUPILOT
-        if autopilot == mavlink.MAV_AUTOPILOT_PX4:
-            return cls.PX4
-        return cls.GENERIC
-
-    def home_item(self, mission_type: MissionType) -> bool:
-        """Whether item 0 of this list is the home position."""
-        return self is Autopilot.ARDUPILOT and mission_type is MissionType.MISSION
-
-    def first_mission_seq(self) -> int:
-        return 1 if self is Autopilot.ARDUPILOT else 0
-
-
 class MissionTransferError(Exception):
-    """A failed transfer; `result` is the MAV_MISSION_RESULT, None for a timeout."""
+    """A failed transfer; `result` is the MAV_MISSION_RESULT, None for a timeout; `capacity` the
+    number of items the vehicle said it holds (ArduPilot says so with MAV_MISSION_NO_SPACE)."""
 
-    def __init__(self, operation: str, result: int | None, detail: str = "") -> None:
+    def __init__(self, operation: str, result: int | None, detail: str = "", capacity: int | None = None) -> None:
         self.operation = operation
         self.result = result
+        self.detail = detail
+        self.capacity = capacity
         name = mavlink.enums["MAV_MISSION_RESULT"][result].name if result is not None else "TIMEOUT"
         super().__init__(f"{operation} failed: {name}{': ' + detail if detail else ''}")
+
+
+_CAPACITY = re.compile(r"Only (\d+) items are supported")
+
+
+def _explained(error: MissionTransferError, machine: Upload | Download, texts: list[str]) -> MissionTransferError:
+    """The error with what the vehicle said about it (its STATUSTEXT during the transfer) and,
+    for NO_SPACE, its capacity."""
+    if error.result is None:
+        return error
+    capacity = next((int(m.group(1)) for t in texts if (m := _CAPACITY.search(t))), None)
+    detail = error.detail
+    if error.result == mavlink.MAV_MISSION_NO_SPACE and isinstance(machine, Upload):
+        room = (f"holds at most {capacity} items" if capacity else
+                "has no mission storage yet (still starting up?)" if capacity == 0 else "has no room for them")
+        detail = f"{len(machine.items)} items sent, the vehicle {room}"
+    if texts:
+        detail += f" (vehicle: {'; '.join(dict.fromkeys(texts))})"
+    return MissionTransferError(error.operation, error.result, detail, capacity)
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,13 +120,12 @@ class WireItem:
         return cls(msg.seq, msg.frame, msg.command, msg.param1, msg.param2, msg.param3, msg.param4, int(x), int(y),
                    msg.z, msg.current, msg.autocontinue, msg.mission_type)
 
-    def to_msg(self, target: tuple[int, int], *, legacy: bool = False) -> MAVMessage:
-        args = (target[0], target[1], self.seq, self.frame, self.command, self.current, self.autocontinue,
-                self.param1, self.param2, self.param3, self.param4)
-        if legacy:
-            scale = 1e7 if self.frame in GLOBAL_FRAMES else 1e4
-            return mavlink.MAVLink_mission_item_message(*args, self.x / scale, self.y / scale, self.z, self.mission_type)
-        return mavlink.MAVLink_mission_item_int_message(*args, self.x, self.y, self.z, self.mission_type)
+    def to_msg(self, target: tuple[int, int]) -> MAVMessage:
+        """As MISSION_ITEM_INT (also the answer to a legacy MISSION_REQUEST)."""
+        return mavlink.MAVLink_mission_item_int_message(target[0], target[1], self.seq, self.frame, self.command,
+                                                        self.current, self.autocontinue, self.param1, self.param2,
+                                                        self.param3, self.param4, self.x, self.y, self.z,
+                                                        self.mission_type)
 
 
 def renumber(items: list[WireItem], mission_type: int) -> list[WireItem]:
@@ -206,7 +208,7 @@ class Upload(_Machine):
             if msg.seq not in self.requested:
                 self.requested.add(msg.seq)
                 self._progress()
-            return self._send(self.items[msg.seq].to_msg(self.target, legacy=kind == "MISSION_REQUEST"), now)
+            return self._send(self.items[msg.seq].to_msg(self.target), now)
         if kind == "MISSION_ACK":
             if msg.type == mavlink.MAV_MISSION_ACCEPTED:
                 if not self.items or len(self.items) - 1 in self.requested:
@@ -264,50 +266,41 @@ class Download(_Machine):
         return []
 
 
-def compare_items(sent: list[WireItem], got: list[WireItem], *, skip_home: bool) -> list[str]:
-    """Differences between an uploaded list and its read-back, allowing the rounding real
-    autopilots do (ArduPilot: altitude in cm, params as float32); item 0 skipped for a home item."""
-    problems = []
-    if len(sent) != len(got):
-        return [f"{len(got)} items read back, {len(sent)} sent"]
-    for a, b in zip(sent, got):
-        if skip_home and a.seq == 0:
-            continue
-        if (a.command, a.frame) != (b.command, b.frame):
-            problems.append(f"item {a.seq}: command/frame {b.command}/{b.frame}, sent {a.command}/{a.frame}")
-            continue
-        if abs(a.x - b.x) > 1 or abs(a.y - b.y) > 1:
-            problems.append(f"item {a.seq}: position differs")
-        if not _close(a.z, b.z, 0.011):
-            problems.append(f"item {a.seq}: altitude {b.z:g}, sent {a.z:g}")
-        for f in ("param1", "param2", "param3", "param4"):
-            if not _close(getattr(a, f), getattr(b, f), 1e-3):
-                problems.append(f"item {a.seq}: {f} {getattr(b, f):g}, sent {getattr(a, f):g}")
-    return problems
-
-
-def _close(a: float, b: float, tol: float) -> bool:
-    if math.isnan(a) or math.isnan(b):
-        return math.isnan(a) and math.isnan(b)
-    return abs(a - b) <= max(tol, 1e-5 * abs(a))
-
-
 async def transfer(link: MavLink, machine: Upload | Download) -> None:
-    """Drive a state machine over `link` until it finishes; raise its error."""
-    async with link.listen(machine.target[0], MISSION_MESSAGES) as queue:
+    """Drive a state machine over `link` until it finishes; raise its error, with what the
+    vehicle said (STATUSTEXT) while it ran."""
+    texts: list[str] = []
+    async with link.listen(machine.target[0], (*MISSION_MESSAGES, "STATUSTEXT")) as queue:
         for msg in machine.start(time.monotonic()):
             link.send(msg)
         while not machine.finished:
             wait = max(0.0, machine.deadline - time.monotonic())
             try:
                 msg = await asyncio.wait_for(queue.get(), wait)
-                out = machine.handle(msg, time.monotonic())
             except TimeoutError:
                 out = machine.poll(time.monotonic())
+            else:
+                if msg.get_type() == "STATUSTEXT":
+                    if msg.severity <= mavlink.MAV_SEVERITY_WARNING or _CAPACITY.search(_text(msg)):
+                        texts.append(_text(msg))
+                    continue
+                out = machine.handle(msg, time.monotonic())
             for m in out:
                 link.send(m)
+        if machine.error is not None:
+            await asyncio.sleep(0.05)  # the vehicle's reason often follows its ACK
+            while not queue.empty():
+                msg = queue.get_nowait()
+                if msg.get_type() == "STATUSTEXT" and (msg.severity <= mavlink.MAV_SEVERITY_WARNING
+                                                       or _CAPACITY.search(_text(msg))):
+                    texts.append(_text(msg))
     if machine.error is not None:
-        raise machine.error
+        raise _explained(machine.error, machine, texts)
+
+
+def _text(msg: MAVMessage) -> str:
+    text = msg.text
+    return (text.decode(errors="replace") if isinstance(text, bytes) else text).rstrip("\x00")
 
 
 async def download(link: MavLink, sysid: int, mission_type: int = MissionType.MISSION, *,
@@ -315,6 +308,22 @@ async def download(link: MavLink, sysid: int, mission_type: int = MissionType.MI
     machine = Download((sysid, AUTOPILOT_COMPONENT_ID), mission_type, timeout_s=timeout_s)
     await transfer(link, machine)
     return machine.items
+
+
+async def clear(link: MavLink, sysid: int, mission_type: int = MissionType.MISSION, *, timeout_s: float = 0.5,
+                tries: int = 3) -> bool:
+    """MISSION_CLEAR_ALL for one list; True once the vehicle acknowledged it."""
+    for _ in range(tries):
+        async with link.listen(sysid, ("MISSION_ACK",)) as queue:
+            link.send(mavlink.MAVLink_mission_clear_all_message(sysid, AUTOPILOT_COMPONENT_ID, mission_type))
+            try:
+                while True:
+                    ack = await asyncio.wait_for(queue.get(), timeout_s)
+                    if getattr(ack, "mission_type", 0) == mission_type:
+                        return ack.type == mavlink.MAV_MISSION_ACCEPTED
+            except TimeoutError:
+                continue
+    return False
 
 
 @dataclass(frozen=True, slots=True)
@@ -328,9 +337,13 @@ class UploadReport:
 
 async def upload_verified(link: MavLink, sysid: int, items: list[WireItem], autopilot: Autopilot,
                           mission_type: int = MissionType.MISSION, *, timeout_s: float = 0.5,
-                          attempts: int = 3) -> UploadReport:
+                          attempts: int = 3, fixed_wing: bool = False) -> UploadReport:
     """Upload `items` (for ArduPilot's mission list, item 0 must be the home placeholder), read
-    them back and compare; retries the whole upload when the read-back differs."""
+    them back and compare with what the autopilot should hold (`gcs.autopilots.compare_items`);
+    retries the whole upload when the read-back differs. A refused upload raises at once and is
+    never reported as uploaded: ArduPilot replaces items as they arrive, so after a refusal it
+    holds the new items up to the refused one and the old ones after it; that mixed list is
+    cleared (MISSION_CLEAR_ALL) so it cannot be flown, and the error says so."""
     items = renumber(items, mission_type)
     start = time.monotonic()
     resends = legacy = 0
@@ -342,12 +355,17 @@ async def upload_verified(link: MavLink, sysid: int, items: list[WireItem], auto
             back = await download(link, sysid, mission_type, timeout_s=timeout_s)
         except MissionTransferError as exc:
             resends += up.resends
+            if exc.result is not None and up.requested and autopilot is Autopilot.ARDUPILOT:
+                cleared = await clear(link, sysid, mission_type, timeout_s=timeout_s)
+                raise MissionTransferError(exc.operation, exc.result, exc.detail + (
+                    "; the partly replaced list was cleared" if cleared else
+                    "; the vehicle may hold a partly replaced list: clear it before flying"), exc.capacity) from None
             if exc.result is not None or attempt == attempts:
                 raise
             continue
         resends += up.resends
         legacy += up.legacy_requests
-        problems = compare_items(items, back, skip_home=autopilot.home_item(MissionType(mission_type)))
+        problems = compare_items(items, back, autopilot, fixed_wing=fixed_wing)
         if not problems:
             return UploadReport(len(items), attempt, resends, legacy, time.monotonic() - start)
     raise MissionTransferError(f"verify ({MissionType(mission_type).name.lower()})", None,

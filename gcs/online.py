@@ -24,9 +24,9 @@ import time
 
 from gcs.flight import ReadingReceived
 from gcs.fleet import Stage
-from gcs.link import CommandError, LinkError, mavlink
-from gcs.mission_transfer import Autopilot
-from gcs.return_trigger import battery_drain_pct_s, drain_rate_pct_s, landing_steps, range_left_steps
+from gcs.links import CommandError, LinkError, mavlink
+from gcs.autopilots import Autopilot
+from gcs.return_trigger import estimate_range_steps, landing_steps
 from planner.dtscs import ClosedSearch
 from planner.plan import Stage as PlanStage
 
@@ -173,10 +173,11 @@ class OnlineFlight:
             if u.stage is not PlanStage.SEARCH:
                 continue
             if u.range_steps != self._range_set.get(uid, u.range_steps):
-                self._range_cap[uid] = u.range_steps  # changed by someone else (a bus command)
+                self._range_cap[uid] = u.range_steps  # changed by someone else
+            if uid in self.c.operator_range:
+                self._range_cap[uid] = self.c.operator_range[uid]
             cap = self._range_cap.setdefault(uid, u.range_steps)
-            drain = battery_drain_pct_s(st.battery_pct, st.time_remaining_s, drain_rate_pct_s(list(st.battery_samples)))
-            left = range_left_steps(st.battery_pct, drain, self.c.model)
+            left = estimate_range_steps(st.battery_pct, st.time_remaining_s, list(st.battery_samples), self.c.model)
             st.range_left = left
             want = cap
             if math.isfinite(left):

@@ -1,6 +1,7 @@
 """A PNG picture of a plan: the prior map, no-fly zones, known and key regions, every UAV's
 closed path in its own colour (search solid, return dashed), airports, and targets found or
-missed. Matplotlib with the Agg backend; the file is written atomically."""
+missed; the probability of success in the title (total) and the legend (per UAV). Matplotlib
+with the Agg backend; the file is written atomically."""
 
 from __future__ import annotations
 
@@ -69,6 +70,39 @@ def _legs(trajectory) -> tuple[np.ndarray, np.ndarray]:
     return points[:first_return], points[max(first_return - 1, 0):] if first_return < len(points) else points[:0]
 
 
+def title_outcome(plan: Plan) -> str:
+    """The outcome in one line, probability of success first: "PoS 24.8% (E 299.8 of 1207.9
+    targets), 6/10 targets found, 60 false alarms, mean eta 99.6%"."""
+    parts = []
+    if plan.success is not None:
+        pos = plan.success
+        parts.append(f"PoS {pos.share:.1%} (E {pos.expected:.1f} of {pos.available:.1f} targets)")
+    if plan.targets:
+        parts.append(f"{plan.targets_found}/{len(plan.targets)} targets found")
+    parts.append(f"{plan.false_alarms} false alarms, mean eta {plan.mean_eta:.1%}")
+    return ", ".join(parts)
+
+
+def uav_label(plan: Plan, u) -> str:
+    """A UAV's legend entry: its legs and range use; its PoS and why it turned home."""
+    label = f"UAV {u.uav_id}: {u.search_steps} + {u.return_steps} of {u.range_steps} steps, eta {u.eta:.0%}"
+    more = [f"PoS {plan.success.share_of(u.uav_id):.1%}"] if plan.success else []
+    if u.return_reason:
+        more.append(f"returned at step {u.return_step}: {u.return_reason.value}")
+    return label + ("\n    " + ", ".join(more) if more else "")
+
+
+def settings_text(settings: dict) -> str:
+    """The plan's settings in one line; the horizon value's as "horizon value w 1, L 0.5"."""
+    out = []
+    for key, value in settings.items():
+        if key == "horizon_value" and isinstance(value, dict):
+            out.append(f"horizon value w {value['weight']:g}, L {value['length']:g}")
+        else:
+            out.append(f"{key} {value}")
+    return ", ".join(out)
+
+
 def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
     """Write the overview PNG of `plan` (flown over `scenario`) to `path` (WIDTH_PX x HEIGHT_PX)."""
     import matplotlib
@@ -120,18 +154,12 @@ def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
     ax.set_aspect("equal")
     ax.set_xlabel("x (cell, east)")
     ax.set_ylabel("y (cell, north)")
-    settings = ", ".join(f"{k} {v}" for k, v in plan.settings.items())
-    ax.set_title(f"{plan.scenario}: {plan.targets_found}/{len(plan.targets)} targets found, "
-                 f"{plan.false_alarms} false alarms, mean eta {plan.mean_eta:.1%}\n{settings}", fontsize=12)
+    ax.set_title(f"{plan.scenario}: {title_outcome(plan)}\n{settings_text(plan.settings)}", fontsize=12)
     cbar = fig.colorbar(prior, cax=fig.add_axes((0.67, 0.3, 0.012, 0.4)))
     cbar.set_label("prior TEP")
     cbar.ax.set_ylim(0, 1)
 
-    handles = [Line2D([], [], color=_rgb(uav_colour(i)), lw=2.5,
-                      label=f"UAV {u.uav_id}: {u.search_steps} + {u.return_steps} of {u.range_steps} steps, "
-                            f"eta {u.eta:.0%}" + (f"\n    returned at step {u.return_step}: {u.return_reason.value}"
-                                                  if u.return_reason else ""))
-               for i, u in enumerate(plan.uavs)]
+    handles = [Line2D([], [], color=_rgb(uav_colour(i)), lw=2.5, label=uav_label(plan, u)) for i, u in enumerate(plan.uavs)]
     handles += [
         Line2D([], [], color="black", lw=1.8, label="search leg"),
         Line2D([], [], color="black", lw=2.2, ls="--", dashes=(3, 1.5), label="return leg"),

@@ -1,7 +1,8 @@
 """The plan JSON file: the planner's `Plan` with the paper's 1-based cell numbers.
 
-The schema is `gcs/schemas/plan.schema.json`; `plan_to_dict` output always validates. Plans made
-from an area file (`gcs plan --area`) also carry the grid's geo-reference (`grid.georef`), the
+The schema is `gcs/schemas/plan.schema.json`; `plan_to_dict` output always validates. The
+probability of success (`planner.success`) is in `summary` and per UAV when the plan has it. Plans
+made from an area file (`gcs plan --area`) also carry the grid's geo-reference (`grid.georef`), the
 latitude/longitude of every trajectory step's cell centre, and each UAV's mission waypoints."""
 
 from __future__ import annotations
@@ -58,7 +59,7 @@ def plan_to_dict(plan: Plan, seed: int | None = None, area: AreaGrid | None = No
 
 
 def _core_dict(plan: Plan, seed: int | None, no_fly: list[list[int]]) -> dict:
-    return {
+    data = {
         "schema_version": SCHEMA_VERSION,
         "scenario": plan.scenario,
         "seed": seed,
@@ -94,6 +95,15 @@ def _core_dict(plan: Plan, seed: int | None, no_fly: list[list[int]]) -> dict:
             "steps": plan.steps,
         },
     }
+    pos = plan.success
+    if pos is not None:
+        data["summary"].update({"expected_targets_found": round(pos.expected, 6),
+                                "expected_targets_in_area": round(pos.available, 6),
+                                "probability_of_success": round(pos.share, 6)})
+        for uav in data["uavs"]:
+            uav["expected_targets_found"] = round(pos.by_uav.get(uav["id"], 0.0), 6)
+            uav["probability_of_success"] = round(pos.share_of(uav["id"]), 6)
+    return data
 
 
 def validate_plan_dict(data: dict) -> None:

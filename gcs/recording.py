@@ -13,6 +13,9 @@ planner. Everything is logged on the `step` sequence timeline:
   step flown (the plan's trajectory, step 0 included);
 - `uav/<id>/range`: the return trigger's inputs (range left, return cost, margin) and
   `uav/<id>/j1` the chosen and runner-up J1, as plots;
+- `uav/<id>/success`: the UAV's expected targets found so far, `success/expected` the team's and
+  `success/share` the probability of success in percent (expected over what the prior puts in
+  the area; `planner.success`), as plots from step 1;
 - `events`: return events with their reason, targets found, landings, the end or interruption;
 - `geo/...` (when a cells -> (lat, lon) function is given): the same trajectories on a map.
 
@@ -40,7 +43,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from gcs.errors import UserError
-from gcs.overview import mask_outline, region_masks, uav_colour
+from gcs.overview import mask_outline, region_masks, title_outcome, uav_colour
 from planner.dtscs import StepRecord
 from planner.motion import HEADING_DX, HEADING_DY
 from planner.plan import Plan, ReturnReason, Stage
@@ -236,6 +239,7 @@ class PlanRecorder:
         self.map_every = map_every
         self.flush_interval_s = flush_interval_s
         self.nx, self.ny = scenario.search_map.shape
+        self._available = float(scenario.search_map.tep[~scenario.search_map.no_fly].sum())
         self.rec: rr.RecordingStream | None = None
         self._rows: dict[str, _Rows | _MapRows] = {}
         self._tracks: dict[int, _Track] = {}
@@ -352,6 +356,7 @@ class PlanRecorder:
                                                                  colors=[colour, (128, 128, 128), (220, 50, 50)]))
             self._static(f"uav/{u.uav_id}/j1", rr.SeriesLines(names=["J1 chosen", "J1 runner-up"],
                                                               colors=[colour, (128, 128, 128)]))
+            self._static(f"uav/{u.uav_id}/success", rr.SeriesLines(names=["expected targets found"], colors=[colour]))
             track = self._tracks[u.uav_id] = _Track(u.uav_id, colour)
             track.rows = self._track_rows(track)
         if self.cells_to_lat_lon is not None:
@@ -404,6 +409,7 @@ class PlanRecorder:
             "state": self._row(f"uav/{uid}/state", rr.AnyValues.columns),
             "j1": self._row(f"uav/{uid}/j1", rr.Scalars.columns),
             "range": self._row(f"uav/{uid}/range", rr.Scalars.columns),
+            "success": self._row(f"uav/{uid}/success", rr.Scalars.columns),
         }
         if self.cells_to_lat_lon is not None:
             rows["geo"] = self._row(f"geo/uav/{uid}", rr.GeoPoints.columns)
@@ -474,6 +480,7 @@ class PlanRecorder:
             r = record.ranges[uid]
             track.rows["range"].add(k, 3, scalars=[r.range_left, r.return_cost, r.margin])
         self._add_sensing(k, record)
+        self._add_success(k, record.expected_found)
         if k % self.map_every == 0:
             self._add_maps(k, record.tep, record.eu)
         self._last_record = record
@@ -504,18 +511,30 @@ class PlanRecorder:
                 self._row(path, rr.Points2D.columns).add(k, len(cells),
                                                          positions=cell_to_view(cells[:, 0], cells[:, 1], self.ny))
 
+    def _add_success(self, k: int, expected: dict[int, float]) -> None:
+        """Expected targets found so far, per UAV and for the team, and the team's PoS in %."""
+        if not expected:
+            return
+        for uid, value in expected.items():
+            if uid in self._tracks:
+                self._tracks[uid].rows["success"].add(k, 1, scalars=[value])
+        total = sum(expected.values())
+        self._row("success/expected", rr.Scalars.columns).add(k, 1, scalars=[total])
+        share = 100.0 * total / self._available if self._available > 0 else 0.0
+        self._row("success/share", rr.Scalars.columns).add(k, 1, scalars=[share])
+
     def log_plan(self, plan: Plan) -> None:
         """The outcome: a summary event and the closed trajectories (static, under `plan/`)."""
         if self.rec is None:
             return
         step = self._last_record.step if self._last_record else 0
-        self._event(step, f"search complete after {plan.steps} steps: targets found {plan.targets_found}/"
-                          f"{len(plan.targets)}, false alarms {plan.false_alarms}, mean eta {plan.mean_eta:.1%}")
+        self._event(step, f"search complete after {plan.steps} steps: {title_outcome(plan)}")
         for i, u in enumerate(plan.uavs):
             cells = np.array([(p.x, p.y) for p in u.trajectory], dtype=np.float64)
+            pos = f", PoS {plan.success.share_of(u.uav_id):.1%}" if plan.success else ""
             self._static(f"plan/uav/{u.uav_id}", rr.LineStrips2D([cell_to_view(cells[:, 0], cells[:, 1], self.ny)],
                                                                  colors=uav_colour(i), radii=0.15,
-                                                                 labels=f"UAV {u.uav_id}: eta {u.eta:.0%}"))
+                                                                 labels=f"UAV {u.uav_id}: eta {u.eta:.0%}{pos}"))
         self._flush()
 
     def _flush(self) -> None:
@@ -580,9 +599,12 @@ def default_blueprint(scenario: Scenario, geo: bool) -> rrb.Blueprint:
         plots.append(rrb.Vertical(
             rrb.TimeSeriesView(name=f"UAV {u.uav_id}: return trigger", origin=f"/uav/{u.uav_id}/range"),
             rrb.TimeSeriesView(name=f"UAV {u.uav_id}: J1", origin=f"/uav/{u.uav_id}/j1"),
-            row_shares=[2, 1], name=f"UAV {u.uav_id}"))
-    right = rrb.Vertical(rrb.Tabs(*plots, name="UAVs") if plots else rrb.Vertical(),
-                         rrb.TextLogView(name="events", origin="/events"), row_shares=[2, 1])
+            rrb.TimeSeriesView(name=f"UAV {u.uav_id}: expected targets found", origin=f"/uav/{u.uav_id}/success"),
+            row_shares=[2, 1, 1], name=f"UAV {u.uav_id}"))
+    success = rrb.Tabs(rrb.TimeSeriesView(name="probability of success (%)", origin="/success/share"),
+                       rrb.TimeSeriesView(name="expected targets found", origin="/success/expected"))
+    right = rrb.Vertical(rrb.Tabs(*plots, name="UAVs") if plots else rrb.Vertical(), success,
+                         rrb.TextLogView(name="events", origin="/events"), row_shares=[3, 1, 1])
     return rrb.Blueprint(rrb.Horizontal(rrb.Vertical(*left), right, column_shares=[3, 2]),
                          rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed"),
                          rrb.TimePanel(state="collapsed"))

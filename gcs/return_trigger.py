@@ -4,11 +4,15 @@ Pure functions, no I/O. Ranges are counted in planner steps (cells). One step is
 `step_m` metres of flight: the planner charges cell * sqrt(2) (every step as if diagonal, see
 docs/areas.md), so the same charge here keeps the estimate on the safe side.
 
-The remaining range comes from the battery: the usable charge (remaining % above the reserve)
-divided by the drain rate gives seconds of flight, times the cruise speed gives metres, over
-`step_m` gives steps. The drain rate is the larger of the autopilot's own estimate
-(BATTERY_STATUS.time_remaining, when it sends one) and the rate observed over recent samples,
-so a battery draining faster than planned shortens the range as soon as it shows.
+The remaining range comes from the battery and a consumption figure learned in flight: the
+usable charge (remaining % above the reserve) divided by the charge one metre of flight costs
+gives metres, over `step_m` steps. The cost per metre is the least-squares slope of remaining %
+against the ground distance flown (the vehicle's own odometer from its positions), over the
+samples taken since the search began; it includes the vehicle's real speed, wind and turns. Until
+the vehicle has flown far enough for that slope (`MIN_SPAN_M` and `MIN_DROP_PCT`), the figure is
+time-based: the drain per second (the larger of the autopilot's own estimate, when it sends one,
+and the observed rate) divided by the cruise speed. A battery that drains faster than planned
+shortens the range as soon as it shows.
 
 The decision (eq. 23 at step k+1, Algorithm 3): keep searching while, after one more step, the
 lowest-cost return from the next pose (the exact table under the OC), plus the descent, plus a
@@ -20,8 +24,11 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-__all__ = ["RangeModel", "ReturnCheck", "check_return", "drain_rate_pct_s", "landing_steps", "range_left_steps",
-           "battery_drain_pct_s"]
+__all__ = ["RangeModel", "ReturnCheck", "battery_drain_pct_s", "check_return", "consumption_pct_per_m",
+           "drain_rate_pct_s", "estimate_range_steps", "landing_steps", "range_left_steps"]
+
+MIN_SPAN_M = 200.0
+MIN_DROP_PCT = 2.0
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -41,19 +48,34 @@ class RangeModel:
             raise ValueError(f"reserve must be in [0, 100) %, got {self.reserve_pct}")
 
 
-def drain_rate_pct_s(samples: Sequence[tuple[float, float]], min_span_s: float = 5.0) -> float | None:
-    """Least-squares drain (% per second, positive when draining) over (time_s, remaining_pct)
-    samples; None while they span less than `min_span_s`."""
-    if len(samples) < 2 or samples[-1][0] - samples[0][0] < min_span_s:
-        return None
-    n = len(samples)
-    mt = sum(t for t, _ in samples) / n
-    mp = sum(p for _, p in samples) / n
-    var = sum((t - mt) ** 2 for t, _ in samples)
+def _falling_slope(xs: Sequence[float], ys: Sequence[float]) -> float | None:
+    """Least-squares -dy/dx (positive when y falls as x grows); None when x does not vary."""
+    n = len(xs)
+    mx, my = sum(xs) / n, sum(ys) / n
+    var = sum((x - mx) ** 2 for x in xs)
     if var <= 0:
         return None
-    slope = sum((t - mt) * (p - mp) for t, p in samples) / var
-    return max(0.0, -slope)
+    return max(0.0, -sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / var)
+
+
+def drain_rate_pct_s(samples: Sequence[tuple[float, ...]], min_span_s: float = 5.0) -> float | None:
+    """Least-squares drain (% per second, positive when draining) over (time_s, remaining_pct,
+    ...) samples; None while they span less than `min_span_s`."""
+    if len(samples) < 2 or samples[-1][0] - samples[0][0] < min_span_s:
+        return None
+    return _falling_slope([s[0] for s in samples], [s[1] for s in samples])
+
+
+def consumption_pct_per_m(samples: Sequence[tuple[float, float, float]], min_span_m: float = MIN_SPAN_M,
+                          min_drop_pct: float = MIN_DROP_PCT) -> float | None:
+    """Charge one metre of flight costs (% per metre) over (time_s, remaining_pct, odometer_m)
+    samples; None until they span `min_span_m` of flight and `min_drop_pct` of charge (the
+    autopilot reports whole percent)."""
+    if len(samples) < 2:
+        return None
+    if samples[-1][2] - samples[0][2] < min_span_m or samples[0][1] - samples[-1][1] < min_drop_pct:
+        return None
+    return _falling_slope([s[2] for s in samples], [s[1] for s in samples])
 
 
 def battery_drain_pct_s(remaining_pct: float | None, time_remaining_s: float | None,
@@ -79,6 +101,18 @@ def range_left_steps(remaining_pct: float | None, drain_pct_s: float | None, mod
     if usable <= 0:
         return 0.0
     return usable / drain_pct_s * model.speed_m_s / model.step_m
+
+
+def estimate_range_steps(remaining_pct: float | None, time_remaining_s: float | None,
+                         samples: Sequence[tuple[float, float, float]], model: RangeModel) -> float:
+    """Steps the charge above the reserve still buys (see the module doc): by the learned cost
+    per metre once known, else by the drain per second and the cruise speed; infinite while
+    neither is known."""
+    per_m = consumption_pct_per_m(samples)
+    if per_m is not None and per_m > 0 and remaining_pct is not None:
+        return max(0.0, remaining_pct - model.reserve_pct) / per_m / model.step_m
+    drain = battery_drain_pct_s(remaining_pct, time_remaining_s, drain_rate_pct_s(samples))
+    return range_left_steps(remaining_pct, drain, model)
 
 
 def landing_steps(altitude_m: float, model: RangeModel) -> float:

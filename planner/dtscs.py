@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planner.environment import eu_after_visit, footprint_cells, sense, tep_after_no_report, tep_after_report
+from planner.horizon import Flyer, HorizonValue, block_size, horizon_window, team_fields, visit_reward
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
 from planner.plan import Plan, ReturnReason, Stage, TargetOutcome, TrajectoryPoint, UavPlan
 from planner.return_exact import follow_table, return_table, space_time_return
@@ -24,6 +25,7 @@ from planner.scenario import Scenario, UavSpec
 from planner.search import SearchStrategy, make_strategy
 from planner.search.problem import Decision, Searcher, StepProblem
 from planner.sensor_noise import reading_draw
+from planner.success import Success, SuccessTally, plan_looks, success_of_looks
 
 RETURN_PLANNERS = ("exact", "st")
 
@@ -36,7 +38,11 @@ class MissionConfig:
     step would leave the UAV unable to get home (eq. 24) the UAV returns now. With
     `range_aware_search` the range check instead prunes candidates (eq. 8), so the UAV keeps
     searching among the moves that still get it home and its return stage shrinks to the last
-    forced steps: more cells searched, but no distinct return leg."""
+    forced steps: more cells searched, but no distinct return leg.
+
+    `horizon` adds to J1 a value for where each Np-step path ends (`planner.horizon`): the belief
+    mass the UAV can still reach and come back from, discounted by distance. None (the default)
+    keeps J1 as the paper defines it."""
 
     np_steps: int = 5
     oc: OrientationConstraint = OC3
@@ -46,6 +52,7 @@ class MissionConfig:
     reserve_steps: int = 0
     range_aware_search: bool = False
     st_tracker: str = "pio"
+    horizon: HorizonValue | None = None
 
     def __post_init__(self) -> None:
         if self.np_steps < 1:
@@ -77,7 +84,8 @@ class ReturnEvent:
 
 @dataclass
 class StepRecord:
-    """What happened in one step. `tep` and `eu` are the live maps: copy them to keep them."""
+    """What happened in one step. `tep` and `eu` are the live maps: copy them to keep them.
+    `expected_found[uav_id]`: that UAV's expected targets found so far (`planner.success`)."""
 
     step: int
     poses: dict[int, tuple[int, int, int, Stage]]
@@ -88,6 +96,7 @@ class StepRecord:
     ranges: dict[int, RangeStatus]
     tep: np.ndarray
     eu: np.ndarray
+    expected_found: dict[int, float] = field(default_factory=dict)
 
 
 @dataclass
@@ -163,6 +172,10 @@ class ClosedSearch:
         self.found_step: list[int | None] = [None] * len(scenario.targets)
         self.found_by: list[int | None] = [None] * len(scenario.targets)
         self._orders: set[int] = set()
+        self._horizon_fields: dict[int, np.ndarray] = {}
+        self._horizon_ids: list[int] = []
+        self._horizon_step = -1
+        self._home_steps: dict[int, np.ndarray] = {}
         self.uavs: dict[int, _Uav] = {}
         for spec in scenario.uavs:
             table = return_table(self.map.no_fly, spec.airport, self.config.oc)
@@ -175,6 +188,9 @@ class ClosedSearch:
             uav = _Uav(spec, table, spec.airport[0], spec.airport[1], spec.heading, spec.range_steps)
             uav.trajectory.append(TrajectoryPoint(0, uav.x, uav.y, uav.heading, Stage.SEARCH))
             self.uavs[spec.uav_id] = uav
+        prior = scenario.search_map
+        self.tally = SuccessTally(prior.tep, ~prior.no_fly, scenario.sensor.pc, self.uavs)
+        self._count_looks([(uid, u.x, u.y) for uid, u in self.uavs.items()])
         self._simulate_sensing([(uid, u.x, u.y) for uid, u in self.uavs.items()], 0)
 
     @property
@@ -322,10 +338,37 @@ class ClosedSearch:
             if u.predicted is not None:
                 predicted[u.spec.uav_id] = u.predicted
         prune = self.config.range_aware_search
+        windows = self._horizon_windows(searchers)
         states = [Searcher(u.spec.uav_id, u.x, u.y, u.heading, u.steps_flown,
-                           u.range_steps - self.config.reserve_steps if prune else -1, u.table) for u in searchers]
+                           u.range_steps - self.config.reserve_steps if prune else -1, u.table,
+                           windows.get(u.spec.uav_id)) for u in searchers]
         return StepProblem(self.map.tep, self.map.eu, self.map.no_fly, self.fa_map, self.weights, self.successors,
                            self.config.np_steps, states, committed, predicted)
+
+    def _horizon_windows(self, searchers: list[_Uav]) -> dict[int, np.ndarray]:
+        """Each searcher's horizon-value window (none when the option is off). The fields are
+        recomputed together every `HorizonValue.period` steps from the shared map
+        (`planner.horizon.team_fields`)."""
+        settings = self.config.horizon
+        if settings is None or not searchers:
+            return {}
+        k = self.step_index
+        ids = [u.spec.uav_id for u in searchers]
+        if self._horizon_ids != ids or k - self._horizon_step >= settings.period(self.map.shape):
+            flyers = []
+            for u in searchers:
+                if u.spec.uav_id not in self._home_steps:
+                    self._home_steps[u.spec.uav_id] = u.table.min(axis=0).astype(np.int64)
+                flyers.append(Flyer((u.x, u.y), u.range_steps - self.config.reserve_steps - u.steps_flown,
+                                    self._home_steps[u.spec.uav_id]))
+            reward = visit_reward(self.map.tep, self.map.eu, self.weights, self.map.no_fly)
+            radius = self.config.np_steps if settings.radius is None else settings.radius
+            fields = team_fields(reward, self.map.no_fly, flyers, radius, settings.length, block_size(self.map.shape))
+            self._horizon_fields = dict(zip(ids, fields))
+            self._horizon_ids, self._horizon_step = ids, k
+        scale = settings.weight * self.config.np_steps
+        return {u.spec.uav_id: horizon_window(self._horizon_fields[u.spec.uav_id], (u.x, u.y), self.config.np_steps,
+                                              scale) for u in searchers}
 
     def step(self) -> StepRecord:
         """Fly every UAV one step (Algorithm 3, one iteration of k)."""
@@ -367,12 +410,21 @@ class ClosedSearch:
             if u.stage is Stage.RETURN and not u.return_plan:
                 u.stage = Stage.LANDED
 
+        self._count_looks(moved)
         reports, found = self._simulate_sensing(moved, k)
         ranges = {uid: RangeStatus(u.range_steps - u.steps_flown, u.home_cost,
                                    u.range_steps - u.steps_flown - u.home_cost)
                   for uid, u in self.uavs.items()}
         poses = {uid: (u.x, u.y, u.heading, u.stage) for uid, u in self.uavs.items()}
-        return StepRecord(k, poses, decisions, returns, reports, found, ranges, self.map.tep, self.map.eu)
+        return StepRecord(k, poses, decisions, returns, reports, found, ranges, self.map.tep, self.map.eu,
+                          dict(self.tally.by_uav))
+
+    def _count_looks(self, looks: list[tuple[int, int, int]]) -> None:
+        """Credit each UAV of `looks` (uav, x, y) with what its reading adds to the expected finds."""
+        radius = self.scenario.sensor.footprint_radius
+        for uid, x, y in looks:
+            for cell in footprint_cells(x, y, radius, self.map.shape):
+                self.tally.look(uid, *cell)
 
     def _simulate_sensing(self, looks: list[tuple[int, int, int]], k: int
                           ) -> tuple[np.ndarray, list[tuple[int, int]]]:
@@ -431,8 +483,18 @@ class ClosedSearch:
                    for i, (x, y) in enumerate(self.scenario.targets)]
         settings = {"np": self.config.np_steps, "oc": self.config.oc.name, "strategy": self.strategy.name,
                     "return_planner": self.config.return_planner, "reserve_steps": self.config.reserve_steps}
+        if self.config.horizon is not None:
+            settings["horizon_value"] = self.config.horizon.as_dict(self.config.np_steps, self.map.shape)
         return Plan(self.scenario.name, *self.map.shape, self.map.no_fly.copy(), uavs, targets, self.false_alarms,
-                    settings)
+                    settings, self.success())
+
+    def success(self) -> Success:
+        """Expected targets found by the trajectories so far, under the scenario's prior and
+        sensor (`planner.success`): every cell flown and each airport at step 0 is one reading."""
+        prior = self.scenario.search_map
+        trajectories = {uid: [(p.step, p.x, p.y) for p in u.trajectory] for uid, u in self.uavs.items()}
+        looks = plan_looks(trajectories, self.scenario.sensor.footprint_radius, prior.shape)
+        return success_of_looks(prior.tep, ~prior.no_fly, self.scenario.sensor.pc, looks, self.uavs)
 
 
 def fly(scenario: Scenario, config: MissionConfig | None = None, seed: int = 0) -> Plan:

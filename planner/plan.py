@@ -7,6 +7,8 @@ from enum import Enum
 
 import numpy as np
 
+from planner.success import Success
+
 
 class Stage(str, Enum):
     SEARCH = "search"
@@ -75,6 +77,7 @@ class Plan:
     targets: list[TargetOutcome]
     false_alarms: int
     settings: dict = field(default_factory=dict)
+    success: Success | None = None
 
     @property
     def targets_found(self) -> int:

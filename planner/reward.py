@@ -3,7 +3,9 @@ constraints of eq. (8) pruning them.
 
 A candidate path is encoded as Np turn choices: choice c at step q takes heading
 `successors[h, c]` from the current heading h. Every optimiser (exhaustive, PIO, CPIO, PSO, GA,
-ST tracking) scores its paths with `score_paths`, so they share one fitness."""
+ST tracking) scores its paths with `score_paths`, so they share one fitness; with the horizon
+value on (`planner.horizon`), `add_terminal_value` then adds the value of each path's last cell,
+for every optimiser alike."""
 
 from __future__ import annotations
 
@@ -140,6 +142,21 @@ def score_paths(choices, x0, y0, h0, successors, tep, eu, blocked, fa_map, other
             depth += 1
         scores[i] = total
         depths[i] = depth
+    return 0
+
+
+@njit
+def add_terminal_value(scores, depths, cells, x0, y0, horizon):
+    """Add to `scores[i]` the value of path i's last valid cell: `horizon` is a (2c+1) x (2c+1)
+    window of values centred on the start cell (x0, y0), c >= Np, so every cell a path can end
+    on is inside it. An empty window (0 x 0) adds nothing: J1 stays the paper's."""
+    if horizon.shape[0] == 0:
+        return 0
+    c = (horizon.shape[0] - 1) // 2
+    for i in range(scores.shape[0]):
+        d = depths[i]
+        if d > 0:
+            scores[i] += horizon[cells[i, d - 1, 0] - x0 + c, cells[i, d - 1, 1] - y0 + c]
     return 0
 
 

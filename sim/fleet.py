@@ -17,6 +17,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
+from gcs.links.connection import Connection, LinkKind, parse_connection
+from gcs.links.transport import LinkStatus, open_transport
 from sim.geo import HomePose, LocalFrame
 from sim.link import Address, LinkFaults, VehicleLink
 from sim.vehicle import SimVehicle, VehicleConfig
@@ -29,7 +31,9 @@ log = logging.getLogger(__name__)
 class FleetOptions:
     """Network, clock and world settings. base_port 0 lets the OS pick a free port per vehicle.
     `grid_origin` is the (lat, lon) of the sensor grid's south-west corner; by default vehicle
-    1's home is a cell centre."""
+    1's home is a cell centre. With `tcp` every vehicle also listens on a TCP port
+    (`tcp_base_port` + i, or one the OS picks), like SITL's SERIAL0; `serial_devices` serves
+    vehicle i on the i-th serial device ("/dev/pts/3" or "/dev/ttyUSB0,57600")."""
 
     base_port: int = 14540
     bind: str = "127.0.0.1"
@@ -41,6 +45,9 @@ class FleetOptions:
     targets: tuple[tuple[float, float], ...] = ()
     seed: int = 0
     grid_origin: tuple[float, float] | None = None
+    tcp: bool = False
+    tcp_base_port: int = 0
+    serial_devices: tuple[str, ...] = ()
 
 
 def homes_for(count: int, poses: Sequence[HomePose], spacing_m: float = 5.0) -> list[HomePose]:
@@ -95,10 +102,17 @@ class SimFleet:
     async def __aenter__(self) -> SimFleet:
         self._loop = asyncio.get_running_loop()
         opts = self.options
+        if len(opts.serial_devices) > len(self.links):
+            raise ValueError(f"{len(opts.serial_devices)} serial devices for {len(self.links)} vehicles")
         try:
             for i, link in enumerate(self.links):
                 port = opts.base_port + i if opts.base_port else 0
                 await self._loop.create_datagram_endpoint(lambda link=link: link, local_addr=(opts.bind, port))
+                if opts.tcp:
+                    tcp_port = opts.tcp_base_port + i if opts.tcp_base_port else 0
+                    await self._serve_stream(link, Connection(LinkKind.TCP_SERVER, host=opts.bind, port=tcp_port))
+                if i < len(opts.serial_devices):
+                    await self._serve_stream(link, parse_connection(opts.serial_devices[i]))
         except BaseException:
             self._close()
             raise
@@ -114,10 +128,19 @@ class SimFleet:
                 pass
         self._close()
 
+    async def _serve_stream(self, link: VehicleLink, connection: Connection) -> None:
+        def status(change: LinkStatus) -> None:
+            log.info("vehicle %d: %s", link.vehicle.sysid, change)
+
+        link.streams.append(await open_transport(connection, link.stream_received, status))
+
     def _close(self) -> None:
         for link in self.links:
             if link.transport is not None:
                 link.transport.close()
+            for stream in link.streams:
+                stream.close()
+            link.streams.clear()
 
     async def serve(self, stop: asyncio.Event, duration_s: float | None = None) -> None:
         """Run until `stop` is set or `duration_s` (real seconds) has passed."""
@@ -190,8 +213,28 @@ class SimFleet:
         return [link.local_address for link in self.links]
 
     def connection_strings(self) -> list[str]:
-        """pymavlink / MAVProxy connection strings, one per vehicle."""
+        """pymavlink / MAVProxy connection strings, one per vehicle (UDP)."""
         return [f"udpout:{host}:{port}" for host, port in self.addresses]
+
+    def tcp_connection_strings(self) -> list[str]:
+        """`tcp:HOST:PORT` of every vehicle's TCP port (with `FleetOptions.tcp`)."""
+        out = []
+        for link in self.links:
+            server = next(t for t in link.streams if t.connection.kind is LinkKind.TCP_SERVER)
+            host, port = server.local_address[:2]  # type: ignore[attr-defined]
+            out.append(f"tcp:{host}:{port}")
+        return out
+
+    def drop_stream_clients(self, sysid: int) -> int:
+        """Close every TCP client of vehicle `sysid` (the far end closing); the number closed."""
+        def drop() -> int:
+            closed = 0
+            for stream in self.link(sysid).streams:
+                if stream.connection.kind is LinkKind.TCP_SERVER:
+                    closed += stream.drop_clients()  # type: ignore[attr-defined]
+            return closed
+
+        return self.call(drop)
 
     def stop_answering(self, sysid: int, after_s: float = 0.0) -> None:
         """Vehicle `sysid` goes silent (sends and receives nothing) after `after_s` sim seconds."""

@@ -1,23 +1,29 @@
-"""UDP transport for one vehicle: MAVLink 2 framing, optional signing, injected faults.
+"""The transport of one vehicle: MAVLink 2 framing, optional signing, injected faults.
 
-The vehicle answers whoever spoke to it last (like a PX4 SITL port) and also pushes to any
-fixed ground-station addresses (like ArduPilot SITL's `--out`). Faults are drawn from a seeded
-generator per link, so a test run repeats exactly.
+Over UDP the vehicle answers whoever spoke to it last (like a PX4 SITL port) and also pushes to
+any fixed ground-station addresses (like ArduPilot SITL's `--out`). It can also serve byte
+streams, as a SITL serial port does: a TCP port that ground stations connect to, or a serial
+device (`gcs.links.transport`'s TCP server and serial port, reopened when they drop); every
+connected stream gets the vehicle's traffic. Faults are drawn from a seeded generator per
+link, so a test run repeats exactly.
 """
 
 from __future__ import annotations
 
 import asyncio
-import hashlib
 import logging
 import random
 import time
 from dataclasses import dataclass
+from collections.abc import Hashable
 from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from gcs.links.signing import SigningKey
+
 if TYPE_CHECKING:
+    from gcs.links.transport import Transport
     from sim.vehicle import SimVehicle
 
 log = logging.getLogger(__name__)
@@ -46,15 +52,7 @@ class LinkFaults:
 def signing_key_from(text: str) -> bytes:
     """64 hex digits are the key itself; anything else is a passphrase hashed with SHA-256
     (MAVProxy's `signing setup` convention)."""
-    text = text.strip()
-    if len(text) == 64:
-        try:
-            return bytes.fromhex(text)
-        except ValueError:
-            pass
-    if not text:
-        raise ValueError("empty signing key")
-    return hashlib.sha256(text.encode()).digest()
+    return SigningKey.from_text(text).secret
 
 
 class VehicleLink(asyncio.DatagramProtocol):
@@ -79,15 +77,32 @@ class VehicleLink(asyncio.DatagramProtocol):
         self.received = 0
         self.errors = 0
         self._rng = random.Random(faults.seed * 7919 + vehicle.sysid)
-        self.mav = mavlink.MAVLink(None, srcSystem=vehicle.sysid, srcComponent=mavlink.MAV_COMP_ID_AUTOPILOT1)
-        self.mav.robust_parsing = True
-        if signing_key is not None:
-            s = self.mav.signing
-            s.secret_key = signing_key
+        self.signing_key = signing_key
+        self.mav = self._codec()
+        self.streams: list[Transport] = []
+        self._parsers: dict[Hashable, mavlink.MAVLink] = {}
+
+    def _codec(self) -> mavlink.MAVLink:
+        mav = mavlink.MAVLink(None, srcSystem=self.vehicle.sysid, srcComponent=mavlink.MAV_COMP_ID_AUTOPILOT1)
+        mav.robust_parsing = True
+        if self.signing_key is not None:
+            s = mav.signing
+            s.secret_key = self.signing_key
             s.sign_outgoing = True
             s.link_id = 0
             s.timestamp = int((time.time() - _SIGNING_EPOCH_S) * 100_000)
             s.allow_unsigned_callback = lambda _mav, msg_id: msg_id in _UNSIGNED_OK
+        return mav
+
+    def set_signing_key(self, key: bytes | None) -> None:
+        """SETUP_SIGNING: sign with `key` from now on (None or all zeros: stop signing)."""
+        self.signing_key = key if key and any(key) else None
+        self.mav = self._codec()
+        self._parsers.clear()
+
+    def stream_received(self, data: bytes, peer: Hashable) -> None:
+        """Bytes from a TCP client or the serial port (the receiver of `gcs.links.transport`)."""
+        self.datagram_received(data, ("stream", peer))
 
     @property
     def local_address(self) -> Address:
@@ -109,8 +124,11 @@ class VehicleLink(asyncio.DatagramProtocol):
                 self._receive(data, addr)
 
     def _receive(self, data: bytes, addr: Address) -> None:
+        parser = self._parsers.get(addr)
+        if parser is None:
+            parser = self._parsers[addr] = self._codec()
         try:
-            msgs = self.mav.parse_buffer(data) or []
+            msgs = parser.parse_buffer(data) or []
         except mavlink.MAVError:
             self.rejected += 1
             return
@@ -120,7 +138,11 @@ class VehicleLink(asyncio.DatagramProtocol):
                 self.rejected += 1
                 continue
             self.received += 1
-            self.peer = addr  # only a valid (and, with signing, authenticated) sender is answered
+            if msg.get_type() == "SETUP_SIGNING" and msg.target_system in (0, self.vehicle.sysid):
+                self.set_signing_key(bytes(msg.secret_key))
+                continue
+            if addr[0] != "stream":
+                self.peer = addr  # only a valid (and, with signing, authenticated) sender is answered
             try:
                 replies = self.vehicle.handle(msg, now)
             except Exception:  # a malformed request must not kill the socket
@@ -132,9 +154,10 @@ class VehicleLink(asyncio.DatagramProtocol):
     def send(self, msgs: list[mavlink.MAVLink_message]) -> None:
         if self.silent or self.transport is None or not msgs:
             return
-        dests = list(self.out)
+        dests: list = list(self.out)
         if self.peer is not None and self.peer not in dests:
             dests.append(self.peer)
+        dests += self.streams
         if not dests:
             return
         for msg in msgs:
@@ -142,7 +165,7 @@ class VehicleLink(asyncio.DatagramProtocol):
             for dest in dests:
                 self._transmit(buf, dest)
 
-    def _transmit(self, buf: bytes, dest: Address) -> None:
+    def _transmit(self, buf: bytes, dest: Address | Transport) -> None:
         if self._lost():
             return
         copies = 2 if self._duplicated() else 1
@@ -154,8 +177,10 @@ class VehicleLink(asyncio.DatagramProtocol):
             else:
                 self._sendto(buf, dest)
 
-    def _sendto(self, buf: bytes, dest: Address) -> None:
-        if self.transport is not None and not self.transport.is_closing():
+    def _sendto(self, buf: bytes, dest: Address | Transport) -> None:
+        if not isinstance(dest, tuple):
+            dest.send(buf)
+        elif self.transport is not None and not self.transport.is_closing():
             self.transport.sendto(buf, dest)
 
     def _lost(self) -> bool:

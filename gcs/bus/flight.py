@@ -2,7 +2,7 @@
 changes, take-offs, readings) and publishes each as it happens, samples the vehicles' telemetry
 (it never writes their state), and carries commands from the bus to the controller. `attach_bus` is the few lines `gcs fly --mqtt` needs:
 
-    async with attach_bus(controller, args.mqtt, fleet=args.fleet, online=online):
+    async with attach_bus(controller, args.mqtt, fleet=args.fleet):
         await controller.run()
 """
 
@@ -19,7 +19,7 @@ from gcs.bus.connection import TlsOptions, parse_broker_url
 from gcs.bus.fleet_bus import FleetBus
 from gcs.bus.messages import Command, CommandKind, Telemetry
 
-from gcs.flight import FlightEvent, ReadingReceived, StageChanged, TookOff
+from gcs.flight import FlightEvent, LinkChanged, ReadingReceived, StageChanged, TookOff
 
 if TYPE_CHECKING:
     from gcs.flight import FlightController
@@ -38,11 +38,10 @@ class FlightFeed:
     """Feeds a FleetBus from a FlightController: events as the controller raises them,
     telemetry sampled every `sample_every_s` (the bus limits it further to its own rate)."""
 
-    def __init__(self, bus: FleetBus, controller: FlightController, online=None, sample_every_s: float = 0.05) -> None:
+    def __init__(self, bus: FleetBus, controller: FlightController, sample_every_s: float = 0.05) -> None:
         self.bus = bus
         self.sample_every_s = sample_every_s
         self.c = controller
-        self.online = online  # gcs.online.ObservedSearch, for range changes
         self._ordered: set[int] = set()
         self.close = controller.subscribe(self.on_event)
 
@@ -55,6 +54,11 @@ class FlightFeed:
                 battery_pct=st.battery_pct, range_left_steps=_or_none(st.range_left), margin_steps=_or_none(st.margin)))
 
     def on_event(self, event: FlightEvent, now: float) -> None:
+        if isinstance(event, LinkChanged):
+            for uid in event.uav_ids:
+                self.bus.event(uid, "note", text=str(event.status), stage=self.c.status[uid].stage.value,
+                               data={"link": event.status.link, "link_state": event.status.state.value})
+            return
         uid = event.uav_id
         st = self.c.status[uid]
         stage = st.stage.value
@@ -88,10 +92,7 @@ class FlightFeed:
             return f"unknown UAV {command.uav} (the fleet has {', '.join(map(str, sorted(status)))})"
         targets = sorted(status) if command.uav is None else [command.uav]
         if command.kind is CommandKind.RANGE:
-            if self.online is None:
-                return "range changes need the planner in the loop (gcs fly --online)"
-            self.online.set_range(command.uav, command.range_steps)
-            self.c.say(command.uav, f"range set to {command.range_steps} steps over the bus")
+            self.c.set_range(command.uav, command.range_steps)
             return None
         active = [u for u in targets if status[u].stage.value not in _FINAL]
         if command.uav is not None and not active:
@@ -140,7 +141,7 @@ def bus_options(args: argparse.Namespace) -> dict:
 
 @contextlib.asynccontextmanager
 async def attach_bus(controller: FlightController, broker, *, fleet: str, station: str = "gcs",
-                     telemetry_hz: float = 2.0, online=None, **bus_kwargs) -> AsyncIterator[FlightFeed]:
+                     telemetry_hz: float = 2.0, **bus_kwargs) -> AsyncIterator[FlightFeed]:
     """A FleetBus fed by `controller` for as long as the block runs; `broker` is a URL or a
     `Broker`. The last states and events are flushed (up to 2 s) on the way out."""
     if isinstance(broker, str):
@@ -154,7 +155,7 @@ async def attach_bus(controller: FlightController, broker, *, fleet: str, statio
 
     async with FleetBus(broker, fleet=fleet, station=station, handler=handler, telemetry_hz=telemetry_hz,
                         **bus_kwargs) as bus:
-        feed = holder["feed"] = FlightFeed(bus, controller, online)
+        feed = holder["feed"] = FlightFeed(bus, controller)
         task = asyncio.create_task(feed.run(), name="fleet-bus-feed")
         try:
             yield feed

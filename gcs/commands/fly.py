@@ -16,7 +16,8 @@ from pathlib import Path
 from gcs.errors import UserError
 from gcs.flight import FlyOptions, fly_async
 from gcs.fleet import FleetPlan, Stage, load_plan_dir
-from gcs.link import parse_connection
+from gcs.commands._links import add_link_arguments, connections_from, signing_from
+from gcs.links import SigningKey
 from gcs.status_table import render_summary
 
 # ---- the simulated fleet ------------------------------------------------------------------
@@ -24,7 +25,7 @@ from gcs.status_table import render_summary
 
 def start_sim(plan: FleetPlan, *, speedup: float, profile: str = "ardupilot", seed: int = 0, pc: float = 0.9,
               pf: float = 0.1, drain: dict[int, float] | None = None, loss: float = 0.0,
-              endurance_s: float = 1200.0):
+              endurance_s: float = 1200.0, signing: SigningKey | None = None):
     """The built-in simulated fleet on free loopback ports: vehicle i (system id i) at UAV i's
     airport with its start heading, the plan's targets, a sensor on the plan's grid."""
     from sim import BatteryConfig, FleetOptions, HomePose, LinkFaults, SimFleet, VehicleConfig
@@ -42,6 +43,7 @@ def start_sim(plan: FleetPlan, *, speedup: float, profile: str = "ardupilot", se
     corner = plan.frame.local2geodetic(plan.grid.east0_m, plan.grid.north0_m)
     fleet = SimFleet(homes, config, FleetOptions(base_port=0, speedup=speedup, targets=targets, seed=seed,
                                                  faults=LinkFaults(loss=loss, seed=seed),
+                                                 signing_key=signing.secret if signing else None,
                                                  grid_origin=(float(corner[0]), float(corner[1]))))
     for uid, k in (drain or {}).items():
         fleet.vehicle(uid).set_drain_multiplier(k)
@@ -53,9 +55,7 @@ def start_sim(plan: FleetPlan, *, speedup: float, profile: str = "ardupilot", se
 
 def add_connection_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plan", metavar="DIR", help="a gcs plan --area output folder")
-    p.add_argument("--connect", metavar="CONN", action="append", default=[],
-                   help="udpout:HOST:PORT or udpin:HOST:PORT, repeatable (one for all vehicles, or one per UAV); "
-                        "UAV N is the vehicle with MAVLink system id N")
+    add_link_arguments(p)
     p.add_argument("--sim", action="store_true", help="start the built-in simulated fleet at the plan's airports")
     p.add_argument("--speedup", type=float, default=10.0, help="simulated time / real time with --sim")
     p.add_argument("--sim-profile", choices=("ardupilot", "px4"), default="ardupilot", help="autopilot the sim imitates")
@@ -79,6 +79,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="order UAV home after SECONDS (real time), as the operator's 'r UAV' would")
     p.add_argument("--stdin-orders", action="store_true",
                    help="read return orders ('r ID') from stdin even when it is not a terminal")
+    p.add_argument("--allow-home-offset", action="store_true",
+                   help="fly even when a vehicle's home is more than a cell from its UAV's airport")
+    p.add_argument("--ready-timeout", type=float, default=180.0,
+                   help="seconds to wait for each vehicle's GPS fix, position estimate and home")
     p.add_argument("--link-timeout", type=float, default=3.0, help="seconds without telemetry before a vehicle is lost")
     p.add_argument("--lost-giveup", type=float, default=20.0, help="seconds a lost vehicle is waited for at the end")
     p.add_argument("--sim-endurance", type=float, default=1200.0, help="with --sim: flight endurance of a full battery, s")
@@ -151,24 +155,13 @@ def resolve_plan(args: argparse.Namespace) -> FleetPlan:
     return load_plan_dir(args.plan)
 
 
-def check_connections(args: argparse.Namespace) -> None:
+def check_connections(args: argparse.Namespace) -> list[str]:
     """`--sim` or well-formed `--connect` strings, checked before any planning or upload."""
     if args.sim and args.connect:
         raise UserError("--sim starts its own vehicles: leave out --connect")
     if not args.sim and not args.connect:
-        raise UserError("give --connect udpout:HOST:PORT (one, or one per UAV) or --sim")
-    for c in args.connect:
-        try:
-            parse_connection(c)
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
-
-
-def connection_strings(args: argparse.Namespace, plan: FleetPlan) -> list[str]:
-    check_connections(args)
-    if len(args.connect) > 1 and len(args.connect) != len(plan.uavs):
-        raise UserError(f"{len(args.connect)} connections for {len(plan.uavs)} UAVs: give one, or one per UAV")
-    return list(args.connect)
+        raise UserError("give --connect (e.g. udpin:127.0.0.1:14550, tcp:127.0.0.1:5760, /dev/ttyUSB0,57600) or --sim")
+    return connections_from(args)
 
 
 def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
@@ -180,7 +173,8 @@ def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
         raise UserError("--reserve-pct must be in [0, 100)")
     return FlyOptions(speed_m_s=args.cruise_speed, reserve_pct=args.reserve_pct, descent_m_s=args.descent_speed,
                       link_timeout_s=args.link_timeout, lost_giveup_s=args.lost_giveup, return_after_s=returns,
-                      fence=not args.no_fence, live_table=sys.stdout.isatty())
+                      fence=not args.no_fence, live_table=sys.stdout.isatty(), check_home=not args.allow_home_offset,
+                      ready_timeout_s=args.ready_timeout)
 
 
 def flight_recorder(args: argparse.Namespace, plan: FleetPlan):
@@ -207,7 +201,8 @@ def run(args: argparse.Namespace) -> int:
     drains = _pairs(args.sim_drain, "--sim-drain")
     if args.plan and not Path(args.plan).is_dir() and not getattr(args, "area", None):
         raise UserError(f"plan folder {args.plan} does not exist (make one with: gcs plan --area AREA.geojson --out {args.plan})")
-    check_connections(args)
+    connections = check_connections(args)
+    signing = signing_from(args)
     bus = None
     if args.mqtt:
         from gcs.bus.flight import bus_options
@@ -217,7 +212,6 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise UserError(str(exc)) from None
     plan = resolve_plan(args)
-    connections = connection_strings(args, plan)
     options = options_from(args, plan)
     recorder = flight_recorder(args, plan)
     if any(u not in plan.uavs for u in drains):
@@ -233,12 +227,12 @@ def run(args: argparse.Namespace) -> int:
     if args.sim:
         fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile, seed=args.seed, pc=args.pc,
                           pf=args.pf, drain=drains, loss=args.sim_loss,
-                          endurance_s=args.sim_endurance).start()
+                          endurance_s=args.sim_endurance, signing=signing).start()
         connections = fleet.connection_strings()
         print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}", flush=True)
     try:
         controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online,
-                                           recorder=recorder, bus=bus))
+                                           recorder=recorder, bus=bus, signing=signing))
     finally:
         if fleet is not None:
             fleet.stop()

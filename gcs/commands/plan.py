@@ -19,6 +19,7 @@ from gcs.overview import draw_overview
 from gcs.plan_file import plan_to_dict
 from planner.dtscs import RETURN_PLANNERS, ClosedSearch, MissionConfig, StepRecord
 from planner.environment import Sensor
+from planner.horizon import HorizonValue
 from planner.motion import constraint_by_name
 from planner.plan import Plan
 from planner.scenario import SCENARIOS, Scenario
@@ -38,6 +39,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--reserve", type=int, default=0, help="steps of range kept in reserve by every range check")
     p.add_argument("--range-aware-search", action="store_true",
                    help="prune search moves by range (eq. 8) instead of the paper's switch (Algorithm 3)")
+    p.add_argument("--horizon-value", action=argparse.BooleanOptionalAction, default=None,
+                   help="add to J1 the value of where each Np-step path ends: the likely ground the UAV can "
+                        "still reach and come back from, discounted by distance (docs/success.md); default: "
+                        "on for --area plans, off for built-in scenarios (the paper's J1)")
     p.add_argument("--pc", type=float, default=0.9, help="sensor detection probability")
     p.add_argument("--pf", type=float, default=0.1, help="sensor false-alarm rate")
     p.add_argument("--footprint", type=int, default=0, help="sensor footprint radius in cells (0: the cell below)")
@@ -66,7 +71,8 @@ def build_search(args: argparse.Namespace) -> ClosedSearch:
         sensor = Sensor(args.pc, args.pf, args.footprint)
         config = MissionConfig(np_steps=args.np_steps, oc=constraint_by_name(args.oc), strategy=args.strategy,
                                return_planner=args.return_planner, reserve_steps=args.reserve,
-                               range_aware_search=args.range_aware_search)
+                               range_aware_search=args.range_aware_search,
+                               horizon=HorizonValue() if args.horizon_value else None)
         if args.range_steps < 1:
             raise ValueError(f"range must be at least 1 step, got {args.range_steps}")
         scenario: Scenario = SCENARIOS[args.scenario](seed=args.seed, range_steps=args.range_steps, sensor=sensor)
@@ -111,18 +117,28 @@ def fly_and_record(search: ClosedSearch, args: argparse.Namespace, rrd: Path | N
 
 
 def summary_table(plan: Plan) -> str:
+    """Per UAV its legs, range use and probability of success (expected targets found, and that
+    as a share of what the prior puts in the area); then the totals, and the simulated finds."""
     found_by: dict[int, int] = {}
     for t in plan.targets:
         if t.found_by is not None:
             found_by[t.found_by] = found_by.get(t.found_by, 0) + 1
-    rows = [f"{'UAV':>3}  {'airport':>9}  {'search':>6}  {'return':>6}  {'range':>5}  {'eta':>6}  {'found':>5}  return reason"]
+    pos = plan.success
+    rows = [f"{'UAV':>3}  {'airport':>9}  {'search':>6}  {'return':>6}  {'range':>5}  {'eta':>6}  {'E[found]':>8}  "
+            f"{'PoS':>6}  {'found':>5}  return reason"]
     for u in plan.uavs:
         airport = f"({u.airport[0] + 1},{u.airport[1] + 1})"
         reason = u.return_reason.value if u.return_reason else "-"
+        expected = f"{pos.by_uav.get(u.uav_id, 0.0):>8.2f}  {pos.share_of(u.uav_id):>6.1%}" if pos else f"{'-':>8}  {'-':>6}"
+        found = found_by.get(u.uav_id, 0) if len(plan.targets) else "-"
         rows.append(f"{u.uav_id:>3}  {airport:>9}  {u.search_steps:>6}  {u.return_steps:>6}  {u.range_steps:>5}  "
-                    f"{u.eta:>6.1%}  {found_by.get(u.uav_id, 0):>5}  {reason}")
-    rows.append(f"targets found {plan.targets_found}/{len(plan.targets)}, false alarms {plan.false_alarms}, "
-                f"mean eta {plan.mean_eta:.1%}")
+                    f"{u.eta:>6.1%}  {expected}  {found:>5}  {reason}")
+    if pos is not None:
+        rows.append(f"probability of success {pos.share:.1%}: expected targets found {pos.expected:.2f} of the "
+                    f"{pos.available:.2f} the prior puts in the area")
+    simulated = (f"targets found {plan.targets_found}/{len(plan.targets)}" if len(plan.targets)
+                 else "no targets placed (none to find)")
+    rows.append(f"simulated: {simulated}, false alarms {plan.false_alarms}, mean eta {plan.mean_eta:.1%}")
     return "\n".join(rows)
 
 

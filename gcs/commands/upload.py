@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-from contextlib import AsyncExitStack
+from collections.abc import Sequence
 
-from gcs.commands.fly import add_connection_arguments, check_connections, connection_strings, start_sim
+from gcs.commands.fly import add_connection_arguments, check_connections, start_sim
 from gcs.errors import UserError
 from gcs.flight import FlightController, FlyOptions
 from gcs.fleet import FleetPlan, load_plan_dir
-from gcs.link import MavLink
+from gcs.commands._links import signing_from
+from gcs.links import SigningKey, open_links
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -23,12 +24,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_connection_arguments(p)
     p.add_argument("--timeout", type=float, default=0.5, help="seconds before a mission message is re-sent")
     p.add_argument("--connect-timeout", type=float, default=15.0, help="seconds to wait for each vehicle's HEARTBEAT")
+    p.add_argument("--ready-timeout", type=float, default=180.0,
+                   help="seconds to wait for each vehicle's GPS fix, position estimate and home")
+    p.add_argument("--allow-home-offset", action="store_true",
+                   help="upload even when a vehicle's home is more than a cell from its UAV's airport")
     p.set_defaults(func=run)
 
 
-async def upload_fleet(plan: FleetPlan, connections: list[str], options: FlyOptions, out=None) -> FlightController:
-    async with AsyncExitStack() as stack:
-        links = [await stack.enter_async_context(MavLink(c)) for c in connections]
+async def upload_fleet(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, out=None,
+                       signing: SigningKey | None = None) -> FlightController:
+    async with open_links(connections, signing=signing) as links:
         controller = FlightController(plan, links, options, out)
         await controller.upload_all()
     return controller
@@ -37,17 +42,19 @@ async def upload_fleet(plan: FleetPlan, connections: list[str], options: FlyOpti
 def run(args: argparse.Namespace) -> int:
     if not args.plan:
         raise UserError("give --plan DIR (a gcs plan --area folder)")
-    check_connections(args)
+    connections = check_connections(args)
+    signing = signing_from(args)
     plan = load_plan_dir(args.plan)
-    connections = connection_strings(args, plan)
     options = FlyOptions(transfer_timeout_s=args.timeout, connect_timeout_s=args.connect_timeout,
-                         fence=not args.no_fence, fly=False)
+                         fence=not args.no_fence, fly=False, ready_timeout_s=args.ready_timeout,
+                         check_home=not args.allow_home_offset)
     fleet = None
     if args.sim:
-        fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile, loss=args.sim_loss).start()
+        fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile, loss=args.sim_loss,
+                          signing=signing).start()
         connections = fleet.connection_strings()
     try:
-        controller = asyncio.run(upload_fleet(plan, connections, options))
+        controller = asyncio.run(upload_fleet(plan, connections, options, signing=signing))
     finally:
         if fleet is not None:
             fleet.stop()

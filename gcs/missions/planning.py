@@ -12,13 +12,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
 from shapely.geometry import MultiPolygon, Point
 
 from gcs.area_file import AreaFile, read_area_file
 from gcs.atomic import staged_outputs
 from gcs.errors import UserError
-from gcs.missions.from_plan import FlownPath, uav_mission
-from gcs.missions.items import UavMission, Vehicle
+from gcs.missions.from_plan import ApproachOptions, FlownPath, landing_approach, uav_mission
+from gcs.missions.items import AltitudeReference, UavMission, Vehicle
 from gcs.missions.paths import paths_geojson
 from gcs.missions.qgc_plan import qgc_plan
 from gcs.missions.wpl import wpl_text
@@ -35,6 +36,7 @@ from planner.area_grid import (
 )
 from planner.dtscs import ClosedSearch, MissionConfig
 from planner.environment import Sensor
+from planner.horizon import HorizonValue
 from planner.motion import constraint_by_name
 from planner.plan import Plan
 from planner.scenario import UavSpec
@@ -53,12 +55,24 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="range of airports that give neither range_m nor endurance_s (overrides --endurance)")
     g.add_argument("--endurance", dest="endurance_s", metavar="SECONDS", type=float, default=900.0,
                    help="endurance of airports that give neither range_m nor endurance_s")
-    g.add_argument("--altitude", dest="altitude_m", metavar="METRES", type=float, default=60.0,
-                   help="mission altitude above home of the first UAV")
+    g.add_argument("--altitude", dest="altitude_m", metavar="METRES", type=float, default=50.0,
+                   help="the lowest altitude layer, above the airport (or the ground with --terrain-follow)")
     g.add_argument("--altitude-step", dest="altitude_step_m", metavar="METRES", type=float, default=10.0,
-                   help="altitude added per UAV, so UAVs fly at distinct altitudes (airport altitude_m overrides)")
+                   help="vertical spacing of the altitude layers: UAVs fly one layer each, between --altitude and "
+                        "--ceiling (an airport's altitude_m overrides)")
+    g.add_argument("--ceiling", dest="ceiling_m", metavar="METRES", type=float, default=120.0,
+                   help="highest flight altitude allowed (120 m is the legal ceiling in the EU and the US)")
+    g.add_argument("--terrain-follow", action="store_true",
+                   help="fly the search at its altitude above the ground below (MAV_FRAME_GLOBAL_TERRAIN_ALT_INT; "
+                        "the autopilot needs terrain data or a rangefinder)")
     g.add_argument("--vehicle", choices=[v.value for v in Vehicle], default=Vehicle.COPTER.value,
-                   help="copter: take-off and NAV_LAND at the airport; plane: take-off and RETURN_TO_LAUNCH")
+                   help="copter: take-off and NAV_LAND at the airport; plane: take-off along the runway (the "
+                        "airport's heading) and a landing approach lined up with it")
+    g.add_argument("--approach-m", dest="approach_m", metavar="METRES", type=float, default=500.0,
+                   help="plane: length of the final approach on the runway axis (shortened to 250 m where the "
+                        "area leaves no room); twice this is kept out of the search range")
+    g.add_argument("--approach-alt", dest="approach_alt_m", metavar="METRES", type=float, default=30.0,
+                   help="plane: altitude above the airport at the start of the final approach")
     g.add_argument("--margin", dest="margin_m", metavar="METRES", type=float, default=0.0,
                    help="safety buffer: shrink the area and grow the no-fly zones by this much")
     g.add_argument("--default-tep", type=float, default=0.5, help="target probability outside prior regions")
@@ -74,8 +88,10 @@ class AreaSetup:
     area: AreaGrid
     search: ClosedSearch
     ranges_m: dict[int, float]
-    altitudes_m: dict[int, float]
+    layers: AltitudeLayers
     vehicle: Vehicle
+    altitude_reference: AltitudeReference = AltitudeReference.HOME
+    approach: ApproachOptions = ApproachOptions()
 
 
 def _positive(value: float, what: str) -> float:
@@ -84,22 +100,56 @@ def _positive(value: float, what: str) -> float:
     return value
 
 
-def mission_altitudes(explicit: list[float | None], base_m: float, step_m: float) -> dict[int, float]:
-    """Altitude per UAV id (1-based): the airport's own `altitude_m`, else the next of base,
-    base + step, base + 2 step, ... not within step/2 of an altitude an airport asked for."""
+@dataclass(frozen=True)
+class AltitudeLayers:
+    """The altitudes UAVs fly at: `altitudes_m[uav]`, and `layer[uav]` (1-based, lowest first;
+    None for an airport that asked for its own altitude). Layers run from the floor up in
+    steps, never above the ceiling; with more UAVs than layers, layers are shared in turn
+    (`shared` lists them) and the plan's cell separation keeps those UAVs apart."""
+
+    altitudes_m: dict[int, float]
+    layer: dict[int, int | None]
+    levels_m: tuple[float, ...]
+
+    @property
+    def shared(self) -> dict[int, list[int]]:
+        groups: dict[int, list[int]] = {}
+        for uav, level in self.layer.items():
+            if level is not None:
+                groups.setdefault(level, []).append(uav)
+        return {level: uavs for level, uavs in groups.items() if len(uavs) > 1}
+
+
+def altitude_layers(explicit: list[float | None], floor_m: float, step_m: float, ceiling_m: float) -> AltitudeLayers:
+    """Layers floor, floor + step, ... up to the ceiling, minus those within step/2 of an
+    altitude an airport asked for; UAV i (1-based) without its own altitude takes the next layer."""
+    if not (math.isfinite(floor_m) and floor_m > 0):
+        raise ValueError(f"--altitude must be positive, got {floor_m:g}")
+    if not (math.isfinite(ceiling_m) and ceiling_m >= floor_m):
+        raise ValueError(f"--ceiling {ceiling_m:g} m is below the lowest layer (--altitude {floor_m:g} m)")
+    if not (math.isfinite(step_m) and step_m > 0):
+        raise ValueError(f"--altitude-step must be positive, got {step_m:g}")
     taken = [a for a in explicit if a is not None]
-    out: dict[int, float] = {}
-    level = 0
+    for i, alt in enumerate(explicit):
+        if alt is not None and alt > ceiling_m:
+            raise ValueError(f"UAV {i + 1}: altitude_m {alt:g} m is above the ceiling of {ceiling_m:g} m")
+    count = int(math.floor((ceiling_m - floor_m) / step_m + 1e-9)) + 1
+    levels = tuple(floor_m + k * step_m for k in range(count)
+                   if all(abs(floor_m + k * step_m - t) >= step_m / 2 for t in taken))
+    altitudes: dict[int, float] = {}
+    layer: dict[int, int | None] = {}
+    nth = 0
     for i, alt in enumerate(explicit):
         if alt is None:
-            while step_m and any(abs(base_m + level * step_m - t) < abs(step_m) / 2 for t in taken):
-                level += 1
-            alt = base_m + level * step_m
-            level += 1
-        if alt <= 0:
-            raise ValueError(f"UAV {i + 1}: altitude {alt:g} m is not above home")
-        out[i + 1] = alt
-    return out
+            if not levels:
+                raise ValueError(f"UAV {i + 1}: no altitude layer left between {floor_m:g} and {ceiling_m:g} m")
+            layer[i + 1] = nth % len(levels) + 1
+            alt = levels[nth % len(levels)]
+            nth += 1
+        else:
+            layer[i + 1] = None
+        altitudes[i + 1] = alt
+    return AltitudeLayers(altitudes, layer, levels)
 
 
 def build_area_search(args: argparse.Namespace) -> AreaSetup:
@@ -109,8 +159,9 @@ def build_area_search(args: argparse.Namespace) -> AreaSetup:
     _positive(args.endurance_s, "--endurance")
     if args.range_m is not None:
         _positive(args.range_m, "--range-m")
-    if not (math.isfinite(args.altitude_m) and args.altitude_m > 0 and math.isfinite(args.altitude_step_m)):
-        raise UserError("--altitude must be positive and --altitude-step finite")
+    approach = ApproachOptions(_positive(args.approach_m, "--approach-m"), _positive(args.approach_alt_m, "--approach-alt"),
+                               min(250.0, args.approach_m))
+    landing_m = 2 * approach.distance_m if args.vehicle == Vehicle.PLANE.value else 0.0
     try:
         area = build_area_grid(source.area, list(source.no_fly), cell, args.margin_m, args.max_cells)
         uavs, ranges_m = [], {}
@@ -123,14 +174,16 @@ def build_area_search(args: argparse.Namespace) -> AreaSetup:
                        or args.range_m or args.endurance_s * speed)
             ce, cn = area.grid.centre_m(x, y)
             to_cell_m = float(math.hypot(ce - east, cn - north))
-            steps = steps_for_range(range_m - 2 * to_cell_m, cell)
+            steps = steps_for_range(range_m - 2 * to_cell_m - landing_m, cell)
             if steps < 2:
                 raise ValueError(f"{label}: range {range_m:.0f} m is {max(steps, 0)} steps of {cell * DIAGONAL:.1f} m; "
                                  f"it cannot leave its airport and come back")
+            if landing_m:
+                landing_approach(area, (east, north), ap.heading * 45.0, np.array([east, north]), approach, label)
             uavs.append(UavSpec(uav_id, (x, y), ap.heading, steps))
             ranges_m[uav_id] = range_m
-        altitudes = mission_altitudes([ap.altitude_m for ap in source.airports], args.altitude_m,
-                                      args.altitude_step_m)
+        layers = altitude_layers([ap.altitude_m for ap in source.airports], args.altitude_m, args.altitude_step_m,
+                                 args.ceiling_m)
         targets = []
         for t in source.targets:
             east, north = area.point_m(t.lon_deg, t.lat_deg)
@@ -142,11 +195,13 @@ def build_area_search(args: argparse.Namespace) -> AreaSetup:
         scenario = area_scenario(source.name, area, priors, uavs, targets, args.default_tep, args.default_eu, sensor)
         config = MissionConfig(np_steps=args.np_steps, oc=constraint_by_name(args.oc), strategy=args.strategy,
                                return_planner=args.return_planner, reserve_steps=args.reserve,
-                               range_aware_search=args.range_aware_search)
+                               range_aware_search=args.range_aware_search,
+                               horizon=None if getattr(args, "horizon_value", None) is False else HorizonValue())
         search = ClosedSearch(scenario, config, seed=args.seed)
     except ValueError as exc:
         raise UserError(f"{args.area}: {exc}") from None
-    return AreaSetup(source, area, search, ranges_m, altitudes, Vehicle(args.vehicle))
+    reference = AltitudeReference.TERRAIN if args.terrain_follow else AltitudeReference.HOME
+    return AreaSetup(source, area, search, ranges_m, layers, Vehicle(args.vehicle), reference, approach)
 
 
 def _rings_lat_lon(geometry) -> tuple[list, list]:
@@ -168,12 +223,19 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float) -> d
         ap = airports[u.uav_id]
         try:
             mission, flown = uav_mission(area, u, ap.name, setup.vehicle, (ap.lat_deg, ap.lon_deg),
-                                         setup.altitudes_m[u.uav_id])
+                                         setup.layers.altitudes_m[u.uav_id], home_amsl_m=ap.elevation_m or 0.0,
+                                         altitude_reference=setup.altitude_reference, approach=setup.approach)
         except ValueError as exc:
             raise UserError(f"{source.name}: {exc}") from None
         missions.append(mission)
         paths[u.uav_id] = flown
         extra[u.uav_id] = {"name": ap.name, "vehicle": setup.vehicle.value, "altitude_m": mission.altitude_m,
+                           "altitude_layer": setup.layers.layer[u.uav_id],
+                           "altitude_reference": setup.altitude_reference.value,
+                           "elevation_m": ap.elevation_m,
+                           "approach": None if mission.approach is None else {
+                               "lat_lon": [mission.approach.lat_deg, mission.approach.lon_deg],
+                               "alt_m": mission.approach.alt_m},
                            "range_m": round(setup.ranges_m[u.uav_id], 3),
                            "airport_lat_lon": [ap.lat_deg, ap.lon_deg],
                            "waypoints": [[a, b] for a, b in mission.waypoints],
@@ -215,10 +277,19 @@ def area_out_dir(args: argparse.Namespace) -> Path:
 
 def mission_table(setup: AreaSetup, plan: Plan, files: dict[str, str]) -> str:
     data = json.loads(files["plan.json"])
-    rows = [f"{'UAV':>3}  {'name':<16} {'alt m':>6} {'range m':>8} {'path m':>8} {'waypoints':>9}"]
+    rows = [f"{'UAV':>3}  {'name':<16} {'alt m':>6} {'layer':>5} {'range m':>8} {'path m':>8} {'waypoints':>9}"]
     for u in data["uavs"]:
-        rows.append(f"{u['id']:>3}  {u['name'][:16]:<16} {u['altitude_m']:>6.0f} {u['range_m']:>8.0f} "
+        layer = u.get("altitude_layer")
+        rows.append(f"{u['id']:>3}  {u['name'][:16]:<16} {u['altitude_m']:>6.0f} {layer or '-':>5} {u['range_m']:>8.0f} "
                     f"{u['length_m']:>8.0f} {len(u['waypoints']):>9}")
+    layers = setup.layers
+    above = "the ground below" if setup.altitude_reference is AltitudeReference.TERRAIN else "each airport"
+    if layers.levels_m:
+        rows.append(f"altitude layers {layers.levels_m[0]:g}-{layers.levels_m[-1]:g} m above {above} "
+                    f"({len(layers.levels_m)} layers)")
+    for level, uavs in sorted(layers.shared.items()):
+        rows.append(f"UAVs {', '.join(map(str, uavs))} share layer {level} ({layers.levels_m[level - 1]:g} m): "
+                    "the plan keeps them out of each other's cells; raise --ceiling or lower --altitude-step to part them")
     g = setup.area.grid
     rows.append(f"grid {g.nx}x{g.ny} cells of {g.cell_size_m:g} m, {int(setup.area.free.sum())} searchable, "
                 f"{setup.area.edge_blocked} blocked at edges")

@@ -7,10 +7,12 @@ no-fly zones as exclusion polygons."""
 
 from __future__ import annotations
 
-from gcs.missions.items import MavCmd, MissionItem, UavMission, mission_items
+from gcs.missions.items import AltitudeReference, MavCmd, MavFrame, MissionItem, UavMission, mission_items
 
 FIRMWARE_ARDUPILOT = 3     # MAV_AUTOPILOT_ARDUPILOTMEGA
+ALTITUDE_MODE_MIXED = 0  # QGroundControl's AltitudeMode: 0 mixed (per item), 1 above home, 4 the terrain frame
 ALTITUDE_MODE_RELATIVE = 1
+ALTITUDE_MODE_TERRAIN_FRAME = 4
 
 
 def _clockwise(ring: list[tuple[float, float]]) -> list[tuple[float, float]]:
@@ -23,14 +25,15 @@ def _clockwise(ring: list[tuple[float, float]]) -> list[tuple[float, float]]:
 def _simple_item(item: MissionItem, jump_id: int) -> dict:
     yaw = None if item.command in (MavCmd.NAV_WAYPOINT, MavCmd.NAV_TAKEOFF, MavCmd.NAV_LAND) else item.params[3]
     params = [item.params[0], item.params[1], item.params[2], yaw, item.lat_deg, item.lon_deg, item.alt_m]
+    frame = item.frame.in_files
     return {
         "AMSLAltAboveTerrain": None,
         "Altitude": item.alt_m,
-        "AltitudeMode": ALTITUDE_MODE_RELATIVE,
+        "AltitudeMode": ALTITUDE_MODE_TERRAIN_FRAME if frame is MavFrame.GLOBAL_TERRAIN_ALT else ALTITUDE_MODE_RELATIVE,
         "autoContinue": item.autocontinue,
         "command": int(item.command),
         "doJumpId": jump_id,
-        "frame": int(item.frame),
+        "frame": int(frame),
         "params": params,
         "type": "SimpleItem",
     }
@@ -38,7 +41,9 @@ def _simple_item(item: MissionItem, jump_id: int) -> dict:
 
 def qgc_plan(mission: UavMission, inclusion: list[list[tuple[float, float]]],
              exclusion: list[list[tuple[float, float]]], cruise_speed_m_s: float) -> dict:
-    """The .plan document; fence rings are lists of (lat, lon)."""
+    """The .plan document; fence rings are lists of (lat, lon). Speeds are whole metres per
+    second (Mission Planner's .plan importer fails on `12.0`); the planned home position carries
+    the airport's ground altitude above mean sea level."""
     items = [_simple_item(it, k) for k, it in enumerate(mission_items(mission), start=1)]
     fences = [{"inclusion": True, "polygon": [list(p) for p in _clockwise(r)], "version": 1} for r in inclusion]
     fences += [{"inclusion": False, "polygon": [list(p) for p in _clockwise(r)], "version": 1} for r in exclusion]
@@ -47,10 +52,11 @@ def qgc_plan(mission: UavMission, inclusion: list[list[tuple[float, float]]],
         "geoFence": {"circles": [], "polygons": fences, "version": 2},
         "groundStation": "QGroundControl",
         "mission": {
-            "cruiseSpeed": cruise_speed_m_s,
+            "cruiseSpeed": round(cruise_speed_m_s),
             "firmwareType": FIRMWARE_ARDUPILOT,
-            "globalPlanAltitudeMode": ALTITUDE_MODE_RELATIVE,
-            "hoverSpeed": cruise_speed_m_s,
+            "globalPlanAltitudeMode": (ALTITUDE_MODE_RELATIVE if mission.altitude_reference is AltitudeReference.HOME
+                                       else ALTITUDE_MODE_MIXED),
+            "hoverSpeed": round(cruise_speed_m_s),
             "items": items,
             "plannedHomePosition": [mission.home_lat_deg, mission.home_lon_deg, mission.home_amsl_m],
             "vehicleType": mission.vehicle.mav_type,

@@ -12,7 +12,7 @@ HEADER = "QGC WPL 110"
 
 
 def _line(index: int, item: MissionItem, current: bool) -> str:
-    fields = [str(index), "1" if current else "0", str(int(item.frame)), str(int(item.command))]
+    fields = [str(index), "1" if current else "0", str(int(item.frame.in_files)), str(int(item.command))]
     fields += [f"{p:.8g}" for p in item.params]
     fields += [f"{item.lat_deg:.9f}", f"{item.lon_deg:.9f}", f"{item.alt_m:.6g}", "1" if item.autocontinue else "0"]
     return "\t".join(fields)

@@ -14,7 +14,8 @@ it leaves the region, meets a hard vehicle or loses its way home) and J1 second;
 fitness `depth * DEPTH_WEIGHT + J1` gives the same order, since |J1| < 31 per step.
 
 Flock layout (arrays only, so every kernel can use it): `poses[g] = (x, y, heading, steps flown)`,
-`range_steps[g]`, `home_tables[g]` per subgroup g; `others` holds first `n_fixed` rows of other
+`range_steps[g]`, `home_tables[g]` and `horizons[g]` (the horizon-value window around the UAV,
+G x 0 x 0 when the option is off) per subgroup g; `others` holds first `n_fixed` rows of other
 vehicles' cells (committed or predicted), then one row per subgroup for its current best path,
 which the other subgroups score against (cooperation) and its own scoring ignores."""
 
@@ -26,7 +27,7 @@ import numpy as np
 
 from planner.config import njit
 from planner.motion import HEADING_DX, HEADING_DY
-from planner.reward import score_paths
+from planner.reward import add_terminal_value, score_paths
 from planner.search.competition import compete, padded_cells
 from planner.search.problem import Decision, PathScorer, Searcher, StepProblem
 
@@ -76,10 +77,11 @@ def decode_positions(positions, branching, choices):
 
 
 @njit
-def evaluate_flock(g, choices, n, poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map, others,
-                   others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness):
+def evaluate_flock(g, choices, n, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
+                   others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness):
     """Score the first n rows of `choices` for subgroup g against everything in `others` but
-    its own best row; `fitness[i] = depth * DEPTH_WEIGHT + J1`."""
+    its own best row; `fitness[i] = depth * DEPTH_WEIGHT + J1` (+ the horizon value of the
+    path's last cell when `horizons[g]` is not empty)."""
     row = n_fixed + g
     saved = others[row].copy()
     for q in range(others.shape[1]):
@@ -87,6 +89,7 @@ def evaluate_flock(g, choices, n, poses, range_steps, home_tables, successors, t
     score_paths(choices[:n], poses[g, 0], poses[g, 1], poses[g, 2], successors, tep, eu, blocked, fa_map, others,
                 others_hard, weights, poses[g, 3], range_steps[g], home_tables[g], tep_once, scores[:n], depths[:n],
                 cells[:n])
+    add_terminal_value(scores[:n], depths[:n], cells[:n], poses[g, 0], poses[g, 1], horizons[g])
     others[row] = saved
     for i in range(n):
         fitness[i] = depths[i] * DEPTH_WEIGHT + scores[i]
@@ -104,11 +107,21 @@ def share_best_cells(others, row, cells_row, depth):
             others[row, q, 1] = -1
 
 
-def flock_inputs(searchers: list[Searcher]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """`poses`, `range_steps` and `home_tables` for the flock layout."""
+def flock_inputs(searchers: list[Searcher]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """`poses`, `range_steps`, `home_tables` and `horizons` for the flock layout."""
     poses = np.array([[s.x, s.y, s.heading, s.steps_flown] for s in searchers], dtype=np.int64).reshape(-1, 4)
     ranges = np.array([s.range_steps for s in searchers], dtype=np.int64)
-    return poses, ranges, _stacked_tables(tuple(s.home_table for s in searchers))
+    return poses, ranges, _stacked_tables(tuple(s.home_table for s in searchers)), stacked_horizons(searchers)
+
+
+def stacked_horizons(searchers: list[Searcher]) -> np.ndarray:
+    """Every searcher's horizon window stacked (G x w x w); zeros for a searcher without one,
+    G x 0 x 0 when none has one (J1 alone)."""
+    windows = [s.horizon for s in searchers if s.horizon is not None]
+    if not windows:
+        return np.zeros((len(searchers), 0, 0))
+    shape = windows[0].shape
+    return np.stack([np.zeros(shape) if s.horizon is None else s.horizon for s in searchers])
 
 
 _STACKS: list[tuple[tuple[np.ndarray, ...], np.ndarray]] = []

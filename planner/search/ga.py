@@ -36,9 +36,9 @@ class GaParams:
 
 
 @njit
-def ga_population(poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map, others, others_hard,
-                  n_fixed, weights, tep_once, population, tournaments, crossover_draws, mask_draws, mutation_draws,
-                  mutation_values, crossover_rate, mutation_rate, elites, best_choice, trace):
+def ga_population(poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map, others,
+                  others_hard, n_fixed, weights, tep_once, population, tournaments, crossover_draws, mask_draws,
+                  mutation_draws, mutation_values, crossover_rate, mutation_rate, elites, best_choice, trace):
     """One population (subgroup 0 of the flock layout), C x Np turn choices updated in place.
     tournaments: T x C x 4 indices; crossover_draws: T x C; mask_draws, mutation_draws: T x C x Np
     uniform; mutation_values: T x C x Np choices. Returns the number of paths scored."""
@@ -50,8 +50,8 @@ def ga_population(poses, range_steps, home_tables, successors, tep, eu, blocked,
     child_scores = np.empty(n)
     children = np.empty((n, m), dtype=np.int64)
     child_fitness = np.empty(n)
-    evaluate_flock(0, population, n, poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map, others,
-                   others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness)
+    evaluate_flock(0, population, n, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
+                   others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness)
     evaluations = n
     best = 0
     for a in range(1, n):
@@ -82,9 +82,9 @@ def ga_population(poses, range_steps, home_tables, successors, tep, eu, blocked,
                 if mutation_draws[t, a, q] < mutation_rate:
                     gene = mutation_values[t, a, q]
                 children[a, q] = gene
-        evaluate_flock(0, children[elites:], n - elites, poses, range_steps, home_tables, successors, tep, eu, blocked,
-                       fa_map, others, others_hard, n_fixed, weights, tep_once, child_scores[elites:], depths,
-                       cells, child_fitness[elites:])
+        evaluate_flock(0, children[elites:], n - elites, poses, range_steps, home_tables, horizons, successors, tep,
+                       eu, blocked, fa_map, others, others_hard, n_fixed, weights, tep_once, child_scores[elites:],
+                       depths, cells, child_fitness[elites:])
         evaluations += n - elites
         population[:] = children
         fitness[:] = child_fitness
@@ -120,12 +120,12 @@ class GaStrategy(PopulationOptimiser):
         if warm is not None:
             population[0] = warm
         rate = p.mutation_rate if p.mutation_rate is not None else 1.0 / m
-        poses, ranges, tables = flock_inputs([searcher])
+        poses, ranges, tables, horizons = flock_inputs([searcher])
         rows, hard = others_with_groups(others, others_hard, 1, m)
         best = np.zeros(m, dtype=np.int64)
         trace = np.empty(t + 1)
-        evaluations = ga_population(poses, ranges, tables, successors, problem.tep, problem.eu, problem.blocked,
-                                    problem.fa_map, rows, hard, others.shape[0], problem.weights, problem.tep_once,
-                                    population, tournaments, crossover, masks, mutations, values, p.crossover_rate,
-                                    rate, p.elites, best, trace)
+        evaluations = ga_population(poses, ranges, tables, horizons, successors, problem.tep, problem.eu,
+                                    problem.blocked, problem.fa_map, rows, hard, others.shape[0], problem.weights,
+                                    problem.tep_once, population, tournaments, crossover, masks, mutations, values,
+                                    p.crossover_rate, rate, p.elites, best, trace)
         return best, int(evaluations), trace

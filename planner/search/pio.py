@@ -94,13 +94,13 @@ def landmark_centre(positions, fitness, n):
 
 
 @njit
-def _refresh_best(g, poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map, others, others_hard,
-                  n_fixed, weights, tep_once, best_choices, best_fitness, best_scores, best_depths,
+def _refresh_best(g, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map, others,
+                  others_hard, n_fixed, weights, tep_once, best_choices, best_fitness, best_scores, best_depths,
                   one_choice, one_score, one_depth, one_cells, one_fitness):
     """Re-score subgroup g's best path against the others' current bests (their moves change it)."""
     one_choice[0] = best_choices[g]
-    evaluate_flock(g, one_choice, 1, poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map, others,
-                   others_hard, n_fixed, weights, tep_once, one_score, one_depth, one_cells, one_fitness)
+    evaluate_flock(g, one_choice, 1, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
+                   others, others_hard, n_fixed, weights, tep_once, one_score, one_depth, one_cells, one_fitness)
     best_fitness[g] = one_fitness[0]
     best_scores[g] = one_score[0]
     best_depths[g] = one_depth[0]
@@ -121,8 +121,8 @@ def _keep_best(g, n, choices, positions, fitness, scores, depths, cells, others,
 
 
 @njit
-def pio_flocks(poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map, others, others_hard, n_fixed,
-               weights, tep_once, positions, compass_draws, landmark_draws, compass_coefficient, min_flock,
+def pio_flocks(poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map, others, others_hard,
+               n_fixed, weights, tep_once, positions, compass_draws, landmark_draws, compass_coefficient, min_flock,
                best_choices, best_scores, best_depths, trace):
     """Run PIO for G subgroups (positions: G x C x Np, updated in place) in lock-step.
 
@@ -152,8 +152,8 @@ def pio_flocks(poses, range_steps, home_tables, successors, tep, eu, blocked, fa
 
     for g in range(groups):
         decode_positions(positions[g], branching, choices)
-        evaluate_flock(g, choices, flock, poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map,
-                       others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness[g])
+        evaluate_flock(g, choices, flock, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked,
+                       fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness[g])
         evaluations += flock
         _keep_best(g, flock, choices, positions[g], fitness[g], scores, depths, cells, others, n_fixed,
                    best_positions, best_choices, best_fitness, best_scores, best_depths)
@@ -163,8 +163,8 @@ def pio_flocks(poses, range_steps, home_tables, successors, tep, eu, blocked, fa
         decay = np.exp(-compass_coefficient * u)
         for g in range(groups):
             if groups > 1:
-                _refresh_best(g, poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map, others,
-                              others_hard, n_fixed, weights, tep_once, best_choices, best_fitness, best_scores,
+                _refresh_best(g, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
+                              others, others_hard, n_fixed, weights, tep_once, best_choices, best_fitness, best_scores,
                               best_depths, one_choice, one_score, one_depth, one_cells, one_fitness)
                 evaluations += 1
             for a in range(flock):
@@ -174,8 +174,8 @@ def pio_flocks(poses, range_steps, home_tables, successors, tep, eu, blocked, fa
                     velocities[g, a, q] = v
                     positions[g, a, q] = clamp_position(positions[g, a, q] + v, branching)
             decode_positions(positions[g], branching, choices)
-            evaluate_flock(g, choices, flock, poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map,
-                           others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness[g])
+            evaluate_flock(g, choices, flock, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked,
+                           fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness[g])
             evaluations += flock
             _keep_best(g, flock, choices, positions[g], fitness[g], scores, depths, cells, others, n_fixed,
                        best_positions, best_choices, best_fitness, best_scores, best_depths)
@@ -186,8 +186,8 @@ def pio_flocks(poses, range_steps, home_tables, successors, tep, eu, blocked, fa
         n_new = landmark_flock_size(n, min_flock)
         for g in range(groups):
             if groups > 1:
-                _refresh_best(g, poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map, others,
-                              others_hard, n_fixed, weights, tep_once, best_choices, best_fitness, best_scores,
+                _refresh_best(g, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
+                              others, others_hard, n_fixed, weights, tep_once, best_choices, best_fitness, best_scores,
                               best_depths, one_choice, one_score, one_depth, one_cells, one_fitness)
                 evaluations += 1
             order = np.argsort(-fitness[g, :n], kind="mergesort")
@@ -203,8 +203,8 @@ def pio_flocks(poses, range_steps, home_tables, successors, tep, eu, blocked, fa
                     positions[g, a, q] = clamp_position(
                         positions[g, a, q] + landmark_draws[v, g, a, q] * (centre[q] - positions[g, a, q]), branching)
             decode_positions(positions[g, :n_new], branching, choices)
-            evaluate_flock(g, choices, n_new, poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map,
-                           others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness[g])
+            evaluate_flock(g, choices, n_new, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked,
+                           fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness[g])
             evaluations += n_new
             _keep_best(g, n_new, choices, positions[g], fitness[g], scores, depths, cells, others, n_fixed,
                        best_positions, best_choices, best_fitness, best_scores, best_depths)
@@ -233,7 +233,7 @@ def run_pio(problem: StepProblem, searchers: list[Searcher], fixed: np.ndarray, 
     `warm_starts[g]`, a turn-choice row, replaces the first pigeon of subgroup g."""
     successors = turn_ordered(problem.successors)
     groups = len(searchers)
-    poses, ranges, tables = flock_inputs(searchers)
+    poses, ranges, tables, horizons = flock_inputs(searchers)
     others, hard = others_with_groups(fixed, fixed_hard, groups, problem.np_steps, group_cells)
     positions, compass, landmark = pio_draws(params, groups, problem.np_steps, successors.shape[1], rng)
     for g, row in enumerate(warm_starts or []):
@@ -243,7 +243,7 @@ def run_pio(problem: StepProblem, searchers: list[Searcher], fixed: np.ndarray, 
     best_scores = np.empty(groups)
     best_depths = np.empty(groups, dtype=np.int64)
     trace = np.empty((groups, 1 + params.compass_iterations + params.landmark_iterations))
-    evaluations = pio_flocks(poses, ranges, tables, successors, problem.tep, problem.eu, problem.blocked,
+    evaluations = pio_flocks(poses, ranges, tables, horizons, successors, problem.tep, problem.eu, problem.blocked,
                              problem.fa_map, others, hard, fixed.shape[0], problem.weights, problem.tep_once,
                              positions, compass, landmark, params.compass_coefficient, params.min_flock,
                              best, best_scores, best_depths, trace)

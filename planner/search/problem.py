@@ -6,12 +6,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planner.reward import best_two, score_paths
+from planner.reward import add_terminal_value, best_two, score_paths
+
+NO_HORIZON = np.zeros((0, 0))
 
 
 @dataclass(frozen=True)
 class Searcher:
-    """A UAV in the search stage at this step."""
+    """A UAV in the search stage at this step. `horizon`, when given, is the value of ending a
+    path on each cell around the UAV (`planner.horizon.horizon_window`), added to J1."""
 
     uav_id: int
     x: int
@@ -20,6 +23,12 @@ class Searcher:
     steps_flown: int
     range_steps: int
     home_table: np.ndarray = field(repr=False)
+    horizon: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def horizon_window(self) -> np.ndarray:
+        """The horizon window, or an empty one (J1 alone)."""
+        return NO_HORIZON if self.horizon is None else self.horizon
 
 
 @dataclass
@@ -49,8 +58,9 @@ class StepProblem:
 
 @dataclass
 class Decision:
-    """A strategy's answer for one UAV: the chosen Np-step path (rows x, y, heading), its J1,
-    the runner-up, how many paths were scored, and the best fitness per iteration (optimisers)."""
+    """A strategy's answer for one UAV: the chosen Np-step path (rows x, y, heading), its J1
+    (plus the horizon value of its last cell when that is on), the runner-up, how many paths were
+    scored, and the best fitness per iteration (optimisers)."""
 
     uav_id: int
     path: np.ndarray
@@ -85,6 +95,7 @@ class PathScorer:
         score_paths(choices, s.x, s.y, s.heading, p.successors, p.tep, p.eu, p.blocked, p.fa_map,
                     self.others, self.others_hard, p.weights, s.steps_flown, s.range_steps, s.home_table,
                     p.tep_once, scores, depths, cells)
+        add_terminal_value(scores, depths, cells, s.x, s.y, s.horizon_window)
         self.evaluations += n
         return scores, depths, cells
 

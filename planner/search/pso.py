@@ -37,8 +37,8 @@ class PsoParams:
 
 
 @njit
-def pso_swarm(poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map, others, others_hard, n_fixed,
-              weights, tep_once, positions, velocities, r_personal, r_social, inertia, c_personal, c_social,
+def pso_swarm(poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map, others, others_hard,
+              n_fixed, weights, tep_once, positions, velocities, r_personal, r_social, inertia, c_personal, c_social,
               best_choice, trace):
     """One swarm (subgroup 0 of the flock layout); positions and velocities: C x Np, updated in
     place; r_personal, r_social: T x C x Np uniform draws. Writes the best turn choices and
@@ -68,8 +68,8 @@ def pso_swarm(poses, range_steps, home_tables, successors, tep, eu, blocked, fa_
                     velocities[a, q] = v
                     positions[a, q] = clamp_position(positions[a, q] + v, branching)
         decode_positions(positions, branching, choices)
-        evaluate_flock(0, choices, n, poses, range_steps, home_tables, successors, tep, eu, blocked, fa_map, others,
-                       others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness)
+        evaluate_flock(0, choices, n, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
+                       others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness)
         evaluations += n
         for a in range(n):
             if fitness[a] > personal_fitness[a]:
@@ -103,11 +103,11 @@ class PsoStrategy(PopulationOptimiser):
         r_social = rng.random((p.iterations, *shape))
         if warm is not None:
             positions[0] = warm
-        poses, ranges, tables = flock_inputs([searcher])
+        poses, ranges, tables, horizons = flock_inputs([searcher])
         rows, hard = others_with_groups(others, others_hard, 1, problem.np_steps)
         best = np.zeros(problem.np_steps, dtype=np.int64)
         trace = np.empty(p.iterations + 1)
-        evaluations = pso_swarm(poses, ranges, tables, successors, problem.tep, problem.eu, problem.blocked,
+        evaluations = pso_swarm(poses, ranges, tables, horizons, successors, problem.tep, problem.eu, problem.blocked,
                                 problem.fa_map, rows, hard, others.shape[0], problem.weights, problem.tep_once,
                                 positions, velocities, r_personal, r_social, p.inertia, p.c_personal, p.c_social,
                                 best, trace)

@@ -1,10 +1,11 @@
 """Output folder handling: atomic publication, winding independence, vehicle types, altitudes."""
 
 import json
+import math
 
 import pytest
 
-from gcs.missions.planning import mission_altitudes, write_outputs
+from gcs.missions.planning import altitude_layers, write_outputs
 
 
 def _snapshot(folder):
@@ -64,15 +65,36 @@ def test_ring_winding_does_not_matter(run_gcs, area_doc):
     assert cw["grid"] == ccw["grid"] and cw["uavs"] == ccw["uavs"]
 
 
-def test_plane_missions_end_with_return_to_launch(run_gcs, area_doc):
-    code, err, out = run_gcs(area_doc, "--vehicle", "plane")
+def test_plane_missions_land_on_the_runway_after_an_approach_lined_up_with_it(run_gcs, area_doc, shapes):
+    airports = [f for f in area_doc["features"] if f["properties"]["role"] == "airport"]
+    airports[0]["properties"]["heading"] = "W"   # lands westwards: the approach comes from the east, inside
+    airports[1]["properties"]["heading"] = "N"   # lands northwards: the approach comes from the south... outside
+    airports[1]["geometry"]["coordinates"] = shapes.lonlat([(255, -15)])[0]  # so it moves north, where there is room
+    code, err, out = run_gcs(area_doc, "--vehicle", "plane", "--approach-m", "400", "--approach-alt", "35",
+                             "--speed", "20")
     assert code == 0, err
-    lines = (out / "uav1.waypoints").read_text().splitlines()
-    takeoff, last = lines[2].split("\t"), lines[-1].split("\t")
-    assert takeoff[3] == "22" and float(takeoff[4]) == 15.0       # NAV_TAKEOFF, minimum pitch
-    assert last[3] == "20"                                       # NAV_RETURN_TO_LAUNCH
-    plan = json.loads((out / "uav1.plan").read_text())
-    assert plan["mission"]["vehicleType"] == 1 and plan["mission"]["items"][-1]["command"] == 20
+    plan = json.loads((out / "plan.json").read_text())
+    for uav, bearing in zip(plan["uavs"], (270.0, 0.0)):
+        lines = (out / f"uav{uav['id']}.waypoints").read_text().splitlines()
+        takeoff = lines[2].split("\t")
+        assert takeoff[3] == "22" and float(takeoff[4]) == 15.0       # NAV_TAKEOFF, climb pitch
+        land_start, approach, land = (line.split("\t") for line in lines[-3:])
+        assert [land_start[3], approach[3], land[3]] == ["189", "16", "21"]
+        assert float(approach[10]) == 35.0 and float(land[10]) == 0.0
+        airport = shapes.frame.geodetic2local(*uav["airport_lat_lon"])
+        point = shapes.frame.geodetic2local(float(approach[8]), float(approach[9]))
+        east, north = float(point[0] - airport[0]), float(point[1] - airport[1])
+        assert 250.0 - 1e-3 <= (east ** 2 + north ** 2) ** 0.5 <= 400.0 + 1e-3
+        behind = (bearing + 180.0) % 360.0  # the approach lies behind the airport on the runway axis
+        assert abs((math.degrees(math.atan2(east, north)) - behind + 180.0) % 360.0 - 180.0) < 0.01, (east, north)
+        assert uav["approach"]["alt_m"] == 35.0 and uav["length_m"] <= uav["range_m"]
+    qgc = json.loads((out / "uav1.plan").read_text())
+    assert qgc["mission"]["vehicleType"] == 1 and [i["command"] for i in qgc["mission"]["items"][-3:]] == [189, 16, 21]
+
+
+def test_a_plane_without_room_for_its_approach_is_one_line(run_gcs, area_doc):
+    code, err, out = run_gcs(area_doc, "--vehicle", "plane")  # both airports face out of the 600 m square
+    assert code == 2 and err.count("\n") == 1 and "no room for a landing approach" in err and not out.exists()
 
 
 def test_endurance_and_range_convert_to_conservative_steps(run_gcs, area_doc):
@@ -99,12 +121,23 @@ def test_margin_blocks_cells_near_no_fly_zones(run_gcs, area_doc):
     assert len(json.loads((out / "plan.json").read_text())["grid"]["no_fly"]) > len(plain)
 
 
-def test_default_altitudes_are_distinct_and_skip_explicit_ones():
-    assert mission_altitudes([None, None, None], 60, 10) == {1: 60, 2: 70, 3: 80}
-    assert mission_altitudes([None, 70, None], 60, 10) == {1: 60, 2: 70, 3: 80}
-    assert mission_altitudes([100, None, None, None], 60, 20) == {1: 100, 2: 60, 3: 80, 4: 120}
-    with pytest.raises(ValueError):
-        mission_altitudes([None, None], 10, -20)
+def test_altitude_layers_are_distinct_skip_explicit_ones_and_stay_under_the_ceiling():
+    layers = altitude_layers([None, None, None], 50, 10, 120)
+    assert layers.altitudes_m == {1: 50, 2: 60, 3: 70} and layers.layer == {1: 1, 2: 2, 3: 3} and not layers.shared
+    assert altitude_layers([None, 60, None], 50, 10, 120).altitudes_m == {1: 50, 2: 60, 3: 70}
+    assert altitude_layers([None, 60, None], 50, 10, 120).layer == {1: 1, 2: None, 3: 2}
+    assert altitude_layers([100, None, None, None], 60, 20, 120).altitudes_m == {1: 100, 2: 60, 3: 80, 4: 120}
+    crowded = altitude_layers([None] * 10, 50, 10, 120)  # 8 layers for 10 UAVs: two are shared
+    assert max(crowded.altitudes_m.values()) <= 120 and crowded.levels_m == (50, 60, 70, 80, 90, 100, 110, 120)
+    assert crowded.shared == {1: [1, 9], 2: [2, 10]}
+    for bad in (([None], 10, -20, 120), ([None], 130, 10, 120), ([None], 0, 10, 120), ([121], 50, 10, 120)):
+        with pytest.raises(ValueError):
+            altitude_layers(*bad)
+
+
+def test_a_ceiling_too_low_for_the_layers_is_one_line(run_gcs, area_doc):
+    code, err, out = run_gcs(area_doc, "--ceiling", "40")
+    assert code == 2 and "--ceiling 40 m is below the lowest layer" in err and not out.exists()
 
 
 def test_the_documented_example_plans(run_gcs):
@@ -115,7 +148,11 @@ def test_the_documented_example_plans(run_gcs):
     assert code == 0, err
     plan = json.loads((out / "plan.json").read_text())
     assert [u["name"] for u in plan["uavs"]] == ["west", "south-east"]
-    assert [u["altitude_m"] for u in plan["uavs"]] == [60, 80]
+    assert [u["altitude_m"] for u in plan["uavs"]] == [50, 80]
+    assert [u["altitude_layer"] for u in plan["uavs"]] == [1, None]
+    assert [u["elevation_m"] for u in plan["uavs"]] == [None, 437]
+    qgc = json.loads((out / "uav2.plan").read_text())["mission"]
+    assert qgc["plannedHomePosition"] == [*plan["uavs"][1]["airport_lat_lon"], 437]
     assert plan["grid"]["georef"]["cell_size_m"] == 30
     assert plan["targets"] and plan["targets"][0]["x"] <= 10
 
@@ -131,3 +168,31 @@ def test_wpl_text_reads_back_item_by_item(run_gcs, area_doc):
     assert [[i.lat_deg, i.lon_deg] for i in items[2:-1]] == plan["waypoints"]
     with pytest.raises(ValueError):
         parse_wpl("QGC WPL 120\n")
+
+
+def test_terrain_following_missions_use_the_terrain_frame_in_files_and_on_the_wire(run_gcs, area_doc):
+    from gcs.fleet import load_plan_dir
+    from gcs.autopilots import Autopilot
+    from gcs.missions import parse_wpl
+
+    code, err, out = run_gcs(area_doc, "--terrain-follow")
+    assert code == 0, err
+    plan = json.loads((out / "plan.json").read_text())
+    assert {u["altitude_reference"] for u in plan["uavs"]} == {"terrain"}
+    items = parse_wpl((out / "uav1.waypoints").read_text())
+    assert [int(i.frame) for i in items[2:-1]] == [10] * (len(items) - 3)  # waypoints above the ground
+    assert (int(items[1].frame), int(items[-1].frame)) == (3, 3)  # take-off and landing above home
+    qgc = json.loads((out / "uav1.plan").read_text())["mission"]
+    assert qgc["globalPlanAltitudeMode"] == 0
+    assert [i["AltitudeMode"] for i in qgc["items"]] == [1] + [4] * (len(qgc["items"]) - 2) + [1]
+    wire = load_plan_dir(out).uavs[1].mission_wire(Autopilot.ARDUPILOT)
+    assert [w.frame for w in wire[2:-1]] == [11] * (len(wire) - 3)  # MAV_FRAME_GLOBAL_TERRAIN_ALT_INT
+
+
+def test_qgc_speeds_are_whole_numbers_other_stations_can_import(run_gcs, area_doc):
+    code, err, out = run_gcs(area_doc, "--speed", "12.4")
+    assert code == 0, err
+    text = (out / "uav1.plan").read_text()
+    mission = json.loads(text)["mission"]
+    assert mission["cruiseSpeed"] == 12 and isinstance(mission["cruiseSpeed"], int)
+    assert mission["hoverSpeed"] == 12 and '"cruiseSpeed": 12,' in text

@@ -18,7 +18,7 @@ from gcs.cli import main
 from gcs.commands.fly import start_sim
 from gcs.flight import FlightController, FlyOptions
 from gcs.fleet import Stage, load_plan_dir
-from gcs.link import MavLink
+from gcs.links import MavLink
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -71,7 +71,7 @@ def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fle
     assert replies["return 2"].ok and replies["return 2"].station == "flyer"
     assert replies["return 2 again"].reason == "UAV 2 is already returning"
     assert replies["return 9"].reason.startswith("unknown UAV 9")
-    assert replies["range"].reason == "range changes need the planner in the loop (gcs fly --online)"
+    assert replies["range"].ok and controller.operator_range == {1: 90}  # the live trigger honours it
     assert controller.status[2].return_reason == "mqtt"
     assert all(st.stage is Stage.LANDED for st in controller.status.values())
     topics = Topics(fleet_name)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import socket
+
 import pytest
 
 from gcs.cli import main
@@ -19,11 +21,27 @@ def test_missing_plan_folder(tmp_path, capsys, command):
     assert "does not exist" in _one_error_line(capsys)
 
 
-@pytest.mark.parametrize("conn", ["udpout:127.0.0.1", "tcp:127.0.0.1:5760", "udpout:127.0.0.1:http",
-                                  "udpout:127.0.0.1:70000", "udpout::14540"])
+@pytest.mark.parametrize("conn", ["udpout:127.0.0.1", "tcp:127.0.0.1", "udpout:127.0.0.1:http",
+                                  "udpout:127.0.0.1:70000", "udpout::14540", "/dev/ttyUSB0,1234", "ttyUSB0"])
 def test_bad_connection_string(plan_dir, capsys, conn):
     assert main(["fly", "--plan", str(plan_dir), "--connect", conn]) == 2
     assert "connection string" in _one_error_line(capsys)
+
+
+@pytest.mark.parametrize("command", ["fly", "upload"])
+def test_links_that_cannot_open_are_one_line(plan_dir, capsys, tmp_path, command):
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))  # bound, not listening: connections are refused
+        port = s.getsockname()[1]
+        assert main([command, "--plan", str(plan_dir), "--connect", f"tcp:127.0.0.1:{port}", "--no-rrd"]
+                    if command == "fly" else [command, "--plan", str(plan_dir), "--connect",
+                                              f"tcp:127.0.0.1:{port}"]) == 2
+    assert "connection refused" in _one_error_line(capsys)
+    assert main([command, "--plan", str(plan_dir), "--connect", str(tmp_path / "ttyUSB7")]) == 2
+    assert f"serial device {tmp_path / 'ttyUSB7'}: no such device" in _one_error_line(capsys)
+    key = tmp_path / "missing.key"
+    assert main([command, "--plan", str(plan_dir), "--sim", "--signing-key", str(key)]) == 2
+    assert "cannot read signing key file" in _one_error_line(capsys)
 
 
 def test_unknown_uav_in_a_return_order(plan_dir, capsys):
@@ -45,7 +63,11 @@ def test_plan_without_geo_reference(tmp_path, capsys):
     assert "geo-reference" in _one_error_line(capsys)
 
 
-def test_wrong_number_of_connections(plan_dir, capsys):
-    assert main(["upload", "--plan", str(plan_dir), "--connect", "udpout:127.0.0.1:14540",
-                 "--connect", "udpout:127.0.0.1:14541"]) == 2
-    assert "2 connections for 4 UAVs" in _one_error_line(capsys)
+def test_vehicles_that_never_answer_are_named_with_the_links_listened_on(plan_dir, capsys):
+    assert main(["upload", "--plan", str(plan_dir), "--connect", "udpout:127.0.0.1:9",
+                 "--connect", "udpin:127.0.0.1:0", "--connect-timeout", "0.5"]) == 1
+    out = capsys.readouterr().out
+    for uid in (1, 2, 3, 4):
+        assert (f"UAV {uid}: FAILED: no HEARTBEAT from system id {uid} within 0.5 s on udpout:127.0.0.1:9, "
+                "udpin:127.0.0.1:0") in out
+    assert "0/4 vehicles verified" in out

@@ -145,8 +145,6 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     step, the same finds, the same false alarms. A lost, late or misplaced reading, or a step
     decided from a stale position, breaks that. (Seed 4: one UAV's search ends on its airport,
     with no return leg.)"""
-    import argparse
-
     from gcs.commands.fly import start_sim
     from gcs.flight import fly_async
     from gcs.fleet import load_plan_dir
@@ -160,11 +158,9 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
                  "--quiet", "--no-rrd"]) == 0
     plan = load_plan_dir(tmp_path)
     predicted = {(t["x"] - 1, t["y"] - 1) for t in plan.raw["targets"] if t["found_step"] is not None}
-    args = argparse.Namespace(area=area, cell_size_m=None, speed_m_s=12.0, range_m=None, endurance_s=900.0,
-                              altitude_m=60.0, altitude_step_m=10.0, vehicle="copter", margin_m=0.0,
-                              default_tep=0.5, default_eu=0.5, max_cells=1_000_000, pc=0.9, pf=0.1, footprint=0,
-                              np_steps=5, oc="3", strategy="exhaustive", return_planner="exact", reserve=0,
-                              range_aware_search=False, seed=seed)
+    from gcs.cli import build_parser
+
+    args = build_parser().parse_args(["plan", "--area", area, "--seed", str(seed), "--strategy", "exhaustive"])
     setup = area_plan.build_area_search(args)
     search = observed_search(setup.search.scenario, setup.search.config, seed=seed)
     fleet = start_sim(plan, speedup=40.0, seed=seed).start()

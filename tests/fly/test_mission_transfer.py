@@ -8,8 +8,9 @@ import random
 
 import pytest
 
-from gcs.link import mavlink
-from gcs.mission_transfer import Autopilot, Download, MissionType, Upload, WireItem, compare_items
+from gcs.links import mavlink
+from gcs.autopilots import Autopilot, compare_items
+from gcs.mission_transfer import Download, MissionType, Upload, WireItem
 from sim.mission_protocol import MissionProtocol, ProtocolConfig
 
 GCS = (255, 190)
@@ -36,14 +37,14 @@ def _ack(result, mtype=0):
     return _msg(mavlink.MAVLink_mission_ack_message(*GCS, result, mtype))
 
 
-def test_upload_happy_path_and_legacy_request():
+def test_upload_happy_path_and_legacy_request_answered_with_item_int():
     up = Upload(VEHICLE, _items(3), timeout_s=1.0)
     [count] = up.start(0.0)
     assert count.get_type() == "MISSION_COUNT" and count.count == 3
     [item] = up.handle(_req(0), 0.1)
     assert item.get_type() == "MISSION_ITEM_INT" and item.seq == 0
-    [item] = up.handle(_req(1, legacy=True), 0.2)
-    assert item.get_type() == "MISSION_ITEM" and item.x == pytest.approx(-35.0 + 1e-4)  # float degrees
+    [item] = up.handle(_req(1, legacy=True), 0.2)  # ArduPilot asks only this way: no float32 rounding
+    assert item.get_type() == "MISSION_ITEM_INT" and item.x == round((-35.0 + 1e-4) * 1e7)
     assert up.legacy_requests == 1
     up.handle(_req(2), 0.3)
     assert not up.done
@@ -108,22 +109,48 @@ def test_download_sequence_duplicates_and_busy_vehicle():
     items = _items(2)
     dl.handle(_msg(items[0].to_msg(GCS)), 0.3)
     assert dl.handle(_msg(items[0].to_msg(GCS)), 0.3) == []  # duplicate
-    [ack] = dl.handle(_msg(items[1].to_msg(GCS, legacy=True)), 0.4)
+    i = items[1]
+    legacy = mavlink.MAVLink_mission_item_message(*GCS, i.seq, i.frame, i.command, 0, 1, 0, 0, 0, 0, i.x / 1e7,
+                                                  i.y / 1e7, i.z, 0)  # an old vehicle answering in float degrees
+    [ack] = dl.handle(_msg(legacy), 0.4)
     assert ack.get_type() == "MISSION_ACK" and dl.done
-    assert compare_items(items, dl.items, skip_home=False) == []
+    assert abs(dl.items[1].x - i.x) <= 20 and dl.items[1].z == i.z
 
 
-def test_compare_items_tolerates_autopilot_rounding_but_not_changes():
-    items = _items(3)
-    rounded = [WireItem(**{**{f: getattr(i, f) for f in WireItem.__slots__}, "z": round(i.z, 2) + 0.004})
-               for i in items]
-    assert compare_items(items, rounded, skip_home=False) == []
-    moved = list(items)
-    moved[2] = WireItem(**{**{f: getattr(items[2], f) for f in WireItem.__slots__}, "x": items[2].x + 50})
-    assert compare_items(items, moved, skip_home=False) == ["item 2: position differs"]
-    assert compare_items(items, [WireItem(**{**{f: getattr(items[0], f) for f in WireItem.__slots__}, "z": 584.0}),
-                                 *items[1:]], skip_home=True) == []
-    assert compare_items(items, items[:2], skip_home=False) == ["2 items read back, 3 sent"]
+def _with(item: WireItem, **changes) -> WireItem:
+    return WireItem(**{**{f: getattr(item, f) for f in WireItem.__slots__}, **changes})
+
+
+def test_compare_items_expects_what_the_autopilot_stores_and_catches_corruption():
+    rel_int = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    sent = [WireItem.at(0, 0, 16, -35.0, 149.0, 0.0),
+            WireItem.at(1, rel_int, mavlink.MAV_CMD_NAV_TAKEOFF, -35.0, 149.0, 30.0, (15.3, 0, 0, 0)),
+            WireItem.at(2, rel_int, mavlink.MAV_CMD_NAV_WAYPOINT, -35.0001, 149.0001, 30.456),
+            WireItem.at(3, rel_int, mavlink.MAV_CMD_NAV_LAND, -35.0, 149.0, 0.0)]
+    # what ArduPilot 4.7 SITL returned for these: frames without _INT, altitude cut to cm, pitch as a
+    # whole degree, LAND param4 as yaw direction +1, item 0 replaced by the vehicle's home
+    stored = [WireItem.at(0, 0, 16, -35.1, 149.1, 584.09),
+              _with(sent[1], frame=3, param1=15.0), _with(sent[2], frame=3, z=30.45),
+              _with(sent[3], frame=3, param4=1.0)]
+    assert compare_items(sent, stored, Autopilot.ARDUPILOT) == []
+    assert compare_items(sent, stored, Autopilot.PX4)  # PX4 keeps frames and item 0 as sent
+    moved = [*stored[:2], _with(stored[2], x=stored[2].x + 1), stored[3]]
+    assert compare_items(sent, moved, Autopilot.ARDUPILOT) == \
+        ["item 2: position -35.0000999,149.0001000, sent -35.0001000,149.0001000"]
+    higher = [*stored[:2], _with(stored[2], z=30.47), stored[3]]
+    assert compare_items(sent, higher, Autopilot.ARDUPILOT) == ["item 2: altitude 30.47, expected 30.45 (sent 30.456)"]
+    retyped = [*stored[:3], _with(stored[3], command=mavlink.MAV_CMD_NAV_WAYPOINT)]
+    assert compare_items(sent, retyped, Autopilot.ARDUPILOT)[0].startswith("item 3: command/frame 16/3")
+    assert compare_items(sent, stored[:3], Autopilot.ARDUPILOT) == ["3 items read back, 4 sent"]
+
+
+def test_plane_waypoints_keep_radii_as_whole_metres_and_drop_the_hold_time():
+    rel = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT
+    wp = WireItem.at(1, rel, mavlink.MAV_CMD_NAV_WAYPOINT, 47.0, 11.0, 50.0, (7.5, 3.7, 300.0, 45.5))
+    plane = Autopilot.ARDUPILOT.stored_item(wp, fixed_wing=True)
+    copter = Autopilot.ARDUPILOT.stored_item(wp, fixed_wing=False)
+    assert (plane.param1, plane.param2, plane.param3, plane.param4) == (0.0, 3.0, 255.0, 0.0)
+    assert (copter.param1, copter.param2, copter.param3, copter.param4) == (7.0, 0.0, 0.0, 0.0)
 
 
 def test_autopilot_conventions():
@@ -176,4 +203,4 @@ def test_upload_and_read_back_against_the_vehicle_state_machine_under_loss(seed)
     dl = Download(VEHICLE, timeout_s=0.1, max_retries=50)
     _channel_run(dl, vehicle, seed + 100, loss=0.2, dup=0.1)
     assert dl.done
-    assert compare_items(items, dl.items, skip_home=True) == []
+    assert compare_items(items, dl.items, Autopilot.ARDUPILOT) == []

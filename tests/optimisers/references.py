@@ -1,6 +1,7 @@
 """Slow, plain-Python versions of the optimiser kernels, written straight from the equations,
 for the kernels to be checked against on the same draws. They score paths with the shared
-fitness `score_paths` (tested on its own) and share nothing else with the kernels."""
+fitness `score_paths` (tested on its own), add the horizon value of each path's last cell in
+plain Python, and share nothing else with the kernels."""
 
 from __future__ import annotations
 
@@ -17,8 +18,9 @@ class Scorer:
     """Scores choice rows for subgroup g, every other subgroup's current best counting as a soft
     vehicle; returns fitness, J1, depth and cells per row."""
 
-    def __init__(self, poses, ranges, tables, successors, problem, fixed, fixed_hard):
+    def __init__(self, poses, ranges, tables, successors, problem, fixed, fixed_hard, horizons=None):
         self.poses, self.ranges, self.tables = poses, ranges, tables
+        self.horizons = horizons
         self.successors, self.p = successors, problem
         self.fixed, self.fixed_hard = fixed, fixed_hard
         self.shared = {}
@@ -38,6 +40,12 @@ class Scorer:
         x, y, h, flown = (int(v) for v in self.poses[g])
         score_paths(rows, x, y, h, self.successors, self.p.tep, self.p.eu, self.p.blocked, self.p.fa_map, others, hard,
                     self.p.weights, flown, int(self.ranges[g]), self.tables[g], self.p.tep_once, scores, depths, cells)
+        if self.horizons is not None and self.horizons.shape[1] > 0:
+            centre = (self.horizons.shape[1] - 1) // 2
+            for i in range(n):
+                if depths[i] > 0:
+                    last_x, last_y = cells[i, depths[i] - 1, :2]
+                    scores[i] += self.horizons[g][last_x - x + centre, last_y - y + centre]
         return [(depths[i] * DEPTH_WEIGHT + scores[i], scores[i], depths[i], cells[i]) for i in range(n)]
 
     def share(self, g, cells, depth):

@@ -127,6 +127,23 @@ def test_targets_found_and_false_alarms_accumulate(recorded_run: RecordedRun):
     assert [len(p) for p in positions] == [recorded_run.false_alarms_by_step[k] for k in steps]
 
 
+def test_probability_of_success_is_plotted_per_step_per_uav_and_for_the_team(recorded_run: RecordedRun):
+    tables = read_recording(recorded_run.rrd)
+    success = recorded_run.plan.success
+    last = recorded_run.plan.steps
+    steps, expected = tables.column("success/expected", "Scalars:scalars")
+    assert steps == list(range(1, last + 1))
+    series = dict(zip(success.steps.tolist(), success.cumulative))
+    assert [v[0] for v in expected] == pytest.approx([series[k] for k in steps])
+    _, share = tables.column("success/share", "Scalars:scalars")
+    assert share[-1][0] == pytest.approx(100 * success.share)
+    for u in recorded_run.plan.uavs:
+        steps, values = tables.column(f"uav/{u.uav_id}/success", "Scalars:scalars")
+        assert steps == list(range(1, last + 1))
+        assert values[-1][0] == pytest.approx(success.by_uav[u.uav_id])
+        assert all(a[0] <= b[0] for a, b in zip(values, values[1:]))
+
+
 def test_static_scene_and_blueprint(recorded_run: RecordedRun):
     tables = read_recording(recorded_run.rrd)
     assert tables.blueprints == 1

@@ -1,44 +1,46 @@
-"""An async MAVLink link over UDP, on pymavlink's message codec.
+"""An async MAVLink link over any transport (UDP, TCP, serial), on pymavlink's codec.
 
-`MavLink` is an async context manager that owns one datagram endpoint and two background tasks
-(the GCS heartbeat and nothing else: receiving is the endpoint's callback). Every decoded
-message is offered to the listeners (`subscribe` for all traffic, `listen` for a queue of
-chosen message types from one system) and resolves the futures waiting for it, keyed by
-(system id, message type, key) — the key is the command of a COMMAND_ACK, the sequence
+`MavLink` is an async context manager that owns one transport and the GCS heartbeat task.
+Every decoded message is offered to the listeners (`subscribe` for all traffic, `listen` for a
+queue of chosen message types from one system) and resolves the futures waiting for it, keyed
+by (system id, message type, key): the key is the command of a COMMAND_ACK, the sequence
 number of a mission item, or None. The link never blocks: a vehicle that stops answering only
 times out the calls addressed to it.
 
-Connection strings follow pymavlink/MAVProxy: `udpout:HOST:PORT` sends to a vehicle (which
-answers whoever spoke to it last), `udpin:HOST:PORT` (or `udp:`) listens and answers the last
-sender, e.g. an autopilot pushing to a ground-station port."""
+Several vehicles can share one link (a router, MAVProxy, several SITLs pushing to one UDP
+port): each system id is answered on the peer it was last heard from, and messages without a
+target (our heartbeat) go to every peer. Each peer has its own parser, so interleaved byte
+streams never mix. With a `SigningKey`, everything sent is signed and anything unsigned or
+wrongly signed is refused and counted (`status` reports it once per system)."""
 
 from __future__ import annotations
 
 import asyncio
-import ipaddress
-import os
-import socket
 import time
 from collections import defaultdict
-from collections.abc import AsyncIterator, Callable, Iterable
-from contextlib import asynccontextmanager
-from dataclasses import dataclass
+from collections.abc import AsyncIterator, Callable, Hashable, Iterable, Sequence
+from contextlib import AsyncExitStack, asynccontextmanager
+from itertools import count
 
-os.environ.setdefault("MAVLINK20", "1")
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from gcs.errors import UserError
+from gcs.links.connection import Connection, parse_connection
+from gcs.links.mavlink_codec import MAVMessage, mavlink
+from gcs.links.signing import SignatureGuard, SignedCodec, SigningKey, enable_signing
+from gcs.links.transport import LinkState, LinkStatus, Transport, TransportError, open_transport
 
-__all__ = ["CommandError", "Endpoint", "LinkError", "MavLink", "mavlink", "parse_connection"]
+__all__ = ["AUTOPILOT_COMPONENT_ID", "CommandError", "GCS_SYSTEM_ID", "LinkError", "LinkUnavailable", "MavLink",
+           "command_name", "open_links"]
 
-MAVMessage = mavlink.MAVLink_message
 GCS_SYSTEM_ID = 255
 GCS_COMPONENT_ID = mavlink.MAV_COMP_ID_MISSIONPLANNER
 AUTOPILOT_COMPONENT_ID = mavlink.MAV_COMP_ID_AUTOPILOT1
 HEARTBEAT_PERIOD_S = 1.0
+_link_ids = count(1)
 
 
 class LinkError(Exception):
     """A link operation that failed: `operation` says what, `result` the MAV_RESULT (or None on
-    a timeout)."""
+    a timeout or when the link could not be opened)."""
 
     def __init__(self, operation: str, result: int | None = None, detail: str = "") -> None:
         self.operation = operation
@@ -50,6 +52,13 @@ class CommandError(LinkError):
     """A COMMAND_LONG that was refused (result = MAV_RESULT) or never acknowledged (None)."""
 
 
+class LinkUnavailable(LinkError, UserError):
+    """A link that could not be opened (no such device, nothing listening, port in use)."""
+
+    def __init__(self, connection: str, reason: str) -> None:
+        super().__init__(f"link {connection}", None, reason)
+
+
 def _result_name(result: int | None) -> str:
     if result is None:
         return "no answer (timeout)"
@@ -57,97 +66,68 @@ def _result_name(result: int | None) -> str:
     return entry.name if entry else f"result {result}"
 
 
-@dataclass(frozen=True, slots=True)
-class Endpoint:
-    """Where a link's socket points: `mode` is 'out' (we send first) or 'in' (we listen)."""
+class _Capture:
+    """The file-like sink pymavlink's encoder writes one packed message to."""
 
-    mode: str
-    host: str
-    port: int
-
-    def __str__(self) -> str:
-        return f"udp{self.mode}:{self.host}:{self.port}"
-
-
-def parse_connection(text: str) -> Endpoint:
-    """`udpout:HOST:PORT`, `udpin:HOST:PORT` or `udp:HOST:PORT`; ValueError otherwise."""
-    parts = text.split(":")
-    if len(parts) != 3 or parts[0] not in ("udpout", "udpin", "udp"):
-        raise ValueError(f"bad connection string {text!r} (expected udpout:HOST:PORT or udpin:HOST:PORT)")
-    kind, host, port_text = parts
-    try:
-        port = int(port_text)
-    except ValueError:
-        raise ValueError(f"bad connection string {text!r}: port {port_text!r} is not a number") from None
-    if not 0 < port < 65536 and not (kind != "udpout" and port == 0):
-        raise ValueError(f"bad connection string {text!r}: port {port} out of range")
-    if not host:
-        raise ValueError(f"bad connection string {text!r}: no host")
-    try:
-        ipaddress.ip_address(host)
-    except ValueError:
-        try:
-            socket.getaddrinfo(host, None)
-        except OSError:
-            raise ValueError(f"bad connection string {text!r}: unknown host {host!r}") from None
-    return Endpoint("out" if kind == "udpout" else "in", host, port)
-
-
-class _Writer:
-    """The file-like sink pymavlink's encoder writes packed messages to."""
-
-    def __init__(self, link: MavLink) -> None:
-        self._link = link
+    def __init__(self) -> None:
+        self.data = b""
 
     def write(self, data: bytes) -> None:
-        self._link._send_bytes(data)
-
-
-class _Protocol(asyncio.DatagramProtocol):
-    def __init__(self, link: MavLink) -> None:
-        self._link = link
-
-    def datagram_received(self, data: bytes, addr: tuple) -> None:
-        self._link._on_datagram(data, addr)
-
-    def error_received(self, exc: Exception) -> None:  # ICMP port unreachable: the peer is not up yet
-        self._link.errors += 1
+        self.data = bytes(data)
 
 
 class MavLink:
-    """One UDP MAVLink link; see the module docstring."""
+    """One MAVLink link; see the module docstring."""
 
-    def __init__(self, connection: str | Endpoint, *, source_system: int = GCS_SYSTEM_ID,
-                 source_component: int = GCS_COMPONENT_ID) -> None:
-        self.endpoint = connection if isinstance(connection, Endpoint) else parse_connection(connection)
-        self._mav = mavlink.MAVLink(_Writer(self), srcSystem=source_system, srcComponent=source_component)
-        self._mav.robust_parsing = True
-        self._transport: asyncio.DatagramTransport | None = None
-        self._peer: tuple | None = None
+    def __init__(self, connection: str | Connection, *, signing: SigningKey | None = None,
+                 source_system: int = GCS_SYSTEM_ID, source_component: int = GCS_COMPONENT_ID,
+                 heartbeat: bool = True) -> None:
+        self.connection = connection if isinstance(connection, Connection) else parse_connection(connection)
+        self.signing = signing
+        self.link_id = next(_link_ids) & 0xFF
+        self._capture = _Capture()
+        self._encoder = self._codec(self._capture, source_system, source_component, outgoing=True)
+        self._source = (source_system, source_component)
+        self._parsers: dict[Hashable, mavlink.MAVLink] = {}
+        self._route: dict[int, Hashable] = {}
+        self._transport: Transport | None = None
+        self._heartbeat = heartbeat
         self._tasks: list[asyncio.Task] = []
         self._subscribers: list[Callable[[MAVMessage], None]] = []
+        self._status_sinks: list[Callable[[LinkStatus], None]] = []
         self._queues: dict[int, list[tuple[frozenset[str], asyncio.Queue]]] = defaultdict(list)
         self._waiters: dict[tuple[int, str, object], list[asyncio.Future]] = defaultdict(list)
         self.systems: dict[int, float] = {}  # system id -> monotonic time last heard
+        self.guard = SignatureGuard()
+        self.signing_systems: set[int] = set()  # systems heard signing their messages
+        self.history: list[LinkStatus] = []
         self.received = 0
         self.sent = 0
         self.errors = 0
 
     def __repr__(self) -> str:
-        return f"MavLink({self.endpoint})"
+        return f"MavLink({self.connection})"
+
+    @property
+    def name(self) -> str:
+        return str(self.connection)
+
+    def _codec(self, sink: object, system: int, component: int, *, outgoing: bool) -> mavlink.MAVLink:
+        codec = SignedCodec(sink, srcSystem=system, srcComponent=component)
+        codec.robust_parsing = True
+        if self.signing is not None:
+            enable_signing(codec, self.signing, self.link_id, sign_outgoing=outgoing)
+        return codec
 
     # ---- lifecycle ---------------------------------------------------------------------
 
     async def __aenter__(self) -> MavLink:
-        loop = asyncio.get_running_loop()
-        ep = self.endpoint
-        if ep.mode == "out":
-            self._peer = (ep.host, ep.port)
-            transport, _ = await loop.create_datagram_endpoint(lambda: _Protocol(self), remote_addr=self._peer)
-        else:
-            transport, _ = await loop.create_datagram_endpoint(lambda: _Protocol(self), local_addr=(ep.host, ep.port))
-        self._transport = transport  # type: ignore[assignment]
-        self._tasks.append(asyncio.create_task(self._heartbeat_loop(), name=f"heartbeat {ep}"))
+        try:
+            self._transport = await open_transport(self.connection, self._on_bytes, self._on_status)
+        except TransportError as exc:
+            raise LinkUnavailable(self.name, str(exc)) from None
+        if self._heartbeat:
+            self._tasks.append(asyncio.create_task(self._heartbeat_loop(), name=f"heartbeat {self.name}"))
         return self
 
     async def __aexit__(self, *exc: object) -> None:
@@ -169,9 +149,13 @@ class MavLink:
             self._transport = None
 
     @property
+    def transport(self) -> Transport:
+        assert self._transport is not None, "the link is not open"
+        return self._transport
+
+    @property
     def local_address(self) -> tuple:
-        assert self._transport is not None
-        return self._transport.get_extra_info("sockname")
+        return self.transport.local_address  # type: ignore[attr-defined]
 
     async def _heartbeat_loop(self) -> None:
         while True:
@@ -179,42 +163,64 @@ class MavLink:
                                                         mavlink.MAV_STATE_ACTIVE, 3))
             await asyncio.sleep(HEARTBEAT_PERIOD_S)
 
+    # ---- status ------------------------------------------------------------------------
+
+    def on_status(self, sink: Callable[[LinkStatus], None]) -> None:
+        """Call `sink(status)` for every change the operator should see (lost, reconnected,
+        a new peer, refused signatures)."""
+        self._status_sinks.append(sink)
+
+    def _on_status(self, status: LinkStatus) -> None:
+        self.history.append(status)
+        for sink in list(self._status_sinks):
+            try:
+                sink(status)
+            except Exception:  # a display bug must not take the link down
+                self.errors += 1
+
     # ---- sending -----------------------------------------------------------------------
 
     def send(self, msg: MAVMessage) -> None:
-        """Encode and send one message (dropped silently while the link is closed)."""
+        """Encode (and sign) one message and send it to the peer its target system was heard
+        on, or to every peer (dropped silently while nobody can be reached)."""
         if self._transport is None:
             return
-        self._mav.send(msg)
-
-    def _send_bytes(self, data: bytes) -> None:
-        if self._transport is None:
-            return
-        if self.endpoint.mode == "out":
-            self._transport.sendto(data)
-        elif self._peer is not None:
-            self._transport.sendto(data, self._peer)
-        else:
-            return
-        self.sent += 1
+        self._encoder.send(msg)
+        target = getattr(msg, "target_system", 0)
+        peer = self._route.get(target) if target else None
+        if self._transport.send(self._capture.data, peer):
+            self.sent += 1
 
     # ---- receiving ---------------------------------------------------------------------
 
-    def _on_datagram(self, data: bytes, addr: tuple) -> None:
-        if self.endpoint.mode == "in":
-            self._peer = addr
+    def _on_bytes(self, data: bytes, peer: Hashable) -> None:
+        parser = self._parsers.get(peer)
+        if parser is None:
+            parser = self._parsers[peer] = self._codec(None, *self._source, outgoing=False)
+            parser.sender = self._encoder
         try:
-            messages = self._mav.parse_buffer(data) or []
-        except Exception:  # a corrupt datagram: count it, keep the link
+            messages = parser.parse_buffer(data) or []
+        except Exception:  # a corrupt packet: count it, keep the link
             self.errors += 1
             return
         now = time.monotonic()
         for msg in messages:
             if msg.get_type() == "BAD_DATA":
                 self.errors += 1
+                if "signature" in str(getattr(msg, "reason", "")).lower():
+                    self._refused(bytes(msg.data))
                 continue
             self.received += 1
+            self._route[msg.get_srcSystem()] = peer
+            if msg._header.incompat_flags & mavlink.MAVLINK_IFLAG_SIGNED:
+                self.signing_systems.add(msg.get_srcSystem())
             self._dispatch(msg, now)
+
+    def _refused(self, raw: bytes) -> None:
+        sysid = self.guard.note(raw)
+        if sysid is not None and self.guard.refused[sysid] == 1:
+            self._on_status(LinkStatus(self.name, LinkState.SIGNATURE_REFUSED,
+                                       f"unsigned or wrongly signed messages from system {sysid} are ignored"))
 
     def _dispatch(self, msg: MAVMessage, now: float) -> None:
         sysid = msg.get_srcSystem()
@@ -272,7 +278,7 @@ class MavLink:
         """COMMAND_LONG with the command protocol's retransmission (confirmation counts up);
         returns MAV_RESULT_ACCEPTED or raises CommandError carrying the result."""
         p = [float(x) for x in params] + [0.0] * (7 - len(params))
-        name = _command_name(command)
+        name = command_name(command)
         for confirmation in range(retries + 1):
             self.send(mavlink.MAVLink_command_long_message(sysid, component, command, confirmation, *p))
             ack = await self.wait_for(sysid, "COMMAND_ACK", command, timeout_s)
@@ -298,6 +304,15 @@ def _reply_key(msg: MAVMessage) -> object:
     return None
 
 
-def _command_name(command: int) -> str:
+def command_name(command: int) -> str:
     entry = mavlink.enums["MAV_CMD"].get(command)
     return entry.name.removeprefix("MAV_CMD_") if entry else f"command {command}"
+
+
+@asynccontextmanager
+async def open_links(connections: Sequence[str | Connection], *, signing: SigningKey | None = None
+                     ) -> AsyncIterator[list[MavLink]]:
+    """Open every link (all signed with `signing`, if given) for the duration of the context;
+    LinkUnavailable (one line for the user) when one cannot be opened."""
+    async with AsyncExitStack() as stack:
+        yield [await stack.enter_async_context(MavLink(c, signing=signing)) for c in connections]

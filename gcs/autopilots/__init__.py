@@ -1,0 +1,159 @@
+"""The autopilots the station flies, and what differs between them.
+
+`Autopilot` names the family a vehicle's HEARTBEAT reports. Everything that depends on it lives
+here, one method per difference (docs/autopilots.md has the table), so the flight code asks
+instead of branching: whether mission item 0 is home, what the autopilot keeps of an uploaded
+item (`stored_item`, what a read-back is compared with), its flight modes, the telemetry to ask
+for, when it is ready to arm, the mode to arm in and how a mission is started, and the mode
+that holds a vehicle while its mission is replaced."""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import replace
+from enum import Enum
+from typing import TYPE_CHECKING
+
+from gcs.autopilots import ardupilot_storage, modes
+from gcs.links import mavlink
+
+if TYPE_CHECKING:
+    from gcs.mission_transfer import WireItem
+
+__all__ = ["Autopilot", "compare_items"]
+
+
+class Autopilot(str, Enum):
+    ARDUPILOT = "ardupilot"
+    PX4 = "px4"
+    GENERIC = "generic"
+
+    @classmethod
+    def from_heartbeat(cls, autopilot: int) -> Autopilot:
+        """From HEARTBEAT.autopilot (MAV_AUTOPILOT)."""
+        if autopilot == mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA:
+            return cls.ARDUPILOT
+        if autopilot == mavlink.MAV_AUTOPILOT_PX4:
+            return cls.PX4
+        return cls.GENERIC
+
+    def home_item(self, mission_type: int) -> bool:
+        """Whether item 0 of this list is the home position."""
+        return self is Autopilot.ARDUPILOT and mission_type == mavlink.MAV_MISSION_TYPE_MISSION
+
+    def first_mission_seq(self) -> int:
+        return 1 if self is Autopilot.ARDUPILOT else 0
+
+    # ---- modes ---------------------------------------------------------------------------
+
+    def mode_name(self, mav_type: int | None, custom_mode: int) -> str:
+        if self is Autopilot.PX4:
+            return modes.px4_mode_name(custom_mode)
+        return modes.ardupilot_mode_name(mav_type, custom_mode)
+
+    def set_mode_params(self, mav_type: int | None, name: str) -> tuple[float, float, float]:
+        """MAV_CMD_DO_SET_MODE params 1-3 for a mode by name (AUTO, GUIDED, LOITER, RTL, LAND);
+        ValueError when the vehicle has no such mode."""
+        flag = float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
+        if self is Autopilot.PX4:
+            main, sub = modes.PX4[modes.PX4_ALIASES.get(name, name)]
+            return flag, float(main), float(sub)
+        table = modes.ardupilot_table(mav_type)
+        if name not in table:
+            raise ValueError(f"mode {name} is not available on this vehicle")
+        return flag, float(table[name]), 0.0
+
+    # ---- flying ----------------------------------------------------------------------------
+
+    def streams_hz(self) -> dict[int, float]:
+        """Telemetry to ask for with MAV_CMD_SET_MESSAGE_INTERVAL (rates in vehicle time).
+        ArduCopter streams nothing until asked; readiness needs GPS_RAW_INT, HOME_POSITION and,
+        on ArduPilot, EKF_STATUS_REPORT."""
+        streams = {mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 4.0, mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: 1.0,
+                   mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0, mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: 1.0,
+                   mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
+                   mavlink.MAVLINK_MSG_ID_HOME_POSITION: 0.5}
+        if self is Autopilot.ARDUPILOT:
+            streams[mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT] = 1.0
+        return streams
+
+    def arm_mode(self, fixed_wing: bool) -> str | None:
+        """The mode to arm in: ArduCopter arms in GUIDED (AUTO is not armable) and is launched
+        by MISSION_START; ArduPlane armed in AUTO takes off by itself. None: arm as it is."""
+        if self is Autopilot.ARDUPILOT:
+            return "AUTO" if fixed_wing else "GUIDED"
+        return None
+
+    def start_after_arming(self, fixed_wing: bool) -> bool:
+        """Whether MISSION_START is needed once armed (not for a plane armed in AUTO)."""
+        return not (self is Autopilot.ARDUPILOT and fixed_wing)
+
+    def mission_start_params(self) -> tuple[float, float]:
+        """MISSION_START param1, param2: ArduPilot accepts only (0, 0) and refuses anything
+        else; (0, 0) is "the whole mission" for every autopilot. Where to start is set first
+        with DO_SET_MISSION_CURRENT."""
+        return 0.0, 0.0
+
+    def hold_mode(self, fixed_wing: bool) -> str:
+        """The mode that holds a flying vehicle while its mission is replaced: ArduCopter GUIDED
+        (LOITER without RC descends), ArduPlane LOITER (circles), PX4 HOLD."""
+        if self is Autopilot.ARDUPILOT:
+            return "LOITER" if fixed_wing else "GUIDED"
+        return "HOLD" if self is Autopilot.PX4 else "GUIDED"
+
+    def stored_item(self, item: WireItem, *, fixed_wing: bool = False) -> WireItem:
+        """What this autopilot returns on read-back for `item` as sent."""
+        if self is Autopilot.ARDUPILOT:
+            return ardupilot_storage.stored_item(item, fixed_wing=fixed_wing)
+        p = [_f32(v) for v in (item.param1, item.param2, item.param3, item.param4)]
+        return replace(item, param1=p[0], param2=p[1], param3=p[2], param4=p[3], z=_f32(item.z))
+
+    def tolerances(self, item: WireItem) -> tuple[float, float]:
+        """(altitude m, params) allowed between `stored_item` and a read-back: float32 where the
+        model was measured, ArduPilot's whole centimetres and whole-number params where not."""
+        if self is Autopilot.ARDUPILOT and not ardupilot_storage.known_command(item.command, item.mission_type):
+            return 0.011, 1.0
+        return 1e-3, 1e-6
+
+
+def _f32(value: float) -> float:
+    return struct.unpack("<f", struct.pack("<f", value))[0]
+
+
+def compare_items(sent: list[WireItem], got: list[WireItem], autopilot: Autopilot, *,
+                  fixed_wing: bool = False) -> list[str]:
+    """Differences between what the autopilot should hold after `sent` was uploaded and what a
+    read-back returned (`got`); empty when they agree. Item 0 of an ArduPilot mission (home) is
+    not compared. Items the model covers must agree to float32; others are allowed the rounding
+    of `Autopilot.tolerances`."""
+    if len(sent) != len(got):
+        return [f"{len(got)} items read back, {len(sent)} sent"]
+    problems = []
+    for a, b in zip(sent, got):
+        if a.seq == 0 and autopilot.home_item(a.mission_type):
+            continue
+        expected = autopilot.stored_item(a, fixed_wing=fixed_wing)
+        alt_tol, param_tol = autopilot.tolerances(a)
+        if (expected.command, expected.frame) != (b.command, b.frame):
+            problems.append(f"item {a.seq}: command/frame {b.command}/{b.frame}, expected {expected.command}/"
+                            f"{expected.frame}")
+            continue
+        if expected.x != b.x or expected.y != b.y:
+            problems.append(f"item {a.seq}: position {b.x / 1e7:.7f},{b.y / 1e7:.7f}, sent "
+                            f"{a.x / 1e7:.7f},{a.y / 1e7:.7f}")
+        if not _close(expected.z, b.z, alt_tol):
+            problems.append(f"item {a.seq}: altitude {b.z:g}, expected {expected.z:g} (sent {a.z:g})")
+        for name in ("param1", "param2", "param3", "param4"):
+            want, have = getattr(expected, name), getattr(b, name)
+            if not _close(want, have, param_tol):
+                problems.append(f"item {a.seq}: {name} {have:g}, expected {want:g} (sent {getattr(a, name):g})")
+        if a.mission_type == mavlink.MAV_MISSION_TYPE_MISSION and expected.autocontinue != b.autocontinue:
+            problems.append(f"item {a.seq}: autocontinue {b.autocontinue}, expected {expected.autocontinue}")
+    return problems
+
+
+def _close(a: float, b: float, tol: float) -> bool:
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    return abs(a - b) <= max(tol, 1e-6 * abs(a))

@@ -1,0 +1,140 @@
+"""ArduCopter / ArduPlane SITL as a test peer: `ArduPilotSitl` starts one instance with
+`run-sitl` (its README lists ports, start-up times and quirks), pushing MAVLink to a UDP port
+of ours and listening on its TCP ports, and stops it again.
+
+Tests that use it carry the `autopilot` marker; `require_ardupilot()` skips them, saying why,
+only where the peers folder is absent."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def peers_dir() -> Path:
+    return Path(os.environ.get("GCS_PEERS_DIR", REPO.parent / "shared" / "peers"))
+
+
+def ardupilot_dir() -> Path:
+    return peers_dir() / "ardupilot"
+
+
+def require_ardupilot() -> Path:
+    folder = ardupilot_dir()
+    if not (folder / "run-sitl").exists():
+        pytest.skip(f"ArduPilot SITL not found at {folder} (set GCS_PEERS_DIR to the peers folder)")
+    return folder
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _tcp_free(port: int) -> bool:
+    with socket.socket() as s:
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError:
+            return False
+    return True
+
+
+def free_instance(first: int = 0) -> int:
+    """An instance number whose TCP ports (5760 + 10 I .. 5763 + 10 I) are all free."""
+    for instance in range(first, first + 50):
+        if all(_tcp_free(5760 + 10 * instance + k) for k in (0, 2, 3)):
+            return instance
+    raise RuntimeError("no free SITL instance number")
+
+
+@dataclass
+class ArduPilotSitl:
+    """One SITL process. `gcs_port`: the UDP port SERIAL1 pushes to (`udpin:127.0.0.1:PORT` on our
+    side); `tcp_port`: SERIAL0; `tcp_port_2`: SERIAL2 (a companion computer's port)."""
+
+    vehicle: str = "copter"
+    home: tuple[float, float, float, float] = (47.2771883, 11.4039709, 584.0, 90.0)
+    sysid: int = 1
+    speedup: float = 10.0
+    params: dict[str, float] = field(default_factory=dict)
+    gcs_port: int | None = None
+    instance: int | None = None
+    serial2: str | None = None
+    process: subprocess.Popen | None = None
+    workdir: Path | None = None
+
+    @property
+    def tcp_port(self) -> int:
+        assert self.instance is not None
+        return 5760 + 10 * self.instance
+
+    @property
+    def tcp_port_2(self) -> int:
+        assert self.instance is not None
+        return 5763 + 10 * self.instance
+
+    @property
+    def udp_connection(self) -> str:
+        return f"udpin:127.0.0.1:{self.gcs_port}"
+
+    @property
+    def tcp_connection(self) -> str:
+        return f"tcp:127.0.0.1:{self.tcp_port}"
+
+    def start(self) -> ArduPilotSitl:
+        folder = require_ardupilot()
+        self.instance = free_instance() if self.instance is None else self.instance
+        self.gcs_port = self.gcs_port or free_udp_port()
+        self.workdir = Path(tempfile.mkdtemp(prefix=f"sitl-{self.vehicle}-{self.instance}-"))
+        env = dict(os.environ, SPEEDUP=f"{self.speedup:g}", WIPE="1", SYSID=str(self.sysid),
+                   SITL_HOME=str(self.workdir))
+        if self.params:
+            extra = self.workdir / "extra.parm"
+            extra.write_text("".join(f"{k} {v:g}\n" for k, v in self.params.items()))
+            env["EXTRA_PARAMS"] = str(extra)
+        lat, lon, alt, hdg = self.home
+        args = [str(folder / "run-sitl"), self.vehicle, str(self.instance), f"{lat:.7f}", f"{lon:.7f}", f"{alt:g}",
+                f"{hdg:g}", "--serial1", f"udpclient:127.0.0.1:{self.gcs_port}"]
+        if self.serial2:
+            args += ["--serial2", self.serial2]
+        log = open(self.workdir / "sitl.log", "wb")  # noqa: SIM115 - closed with the process
+        self.process = subprocess.Popen(args, env=env, stdout=log, stderr=subprocess.STDOUT, cwd=self.workdir)
+        log.close()
+        deadline = time.monotonic() + 20.0
+        while _tcp_free(self.tcp_port):  # SERIAL0 listens once the process is up
+            if self.process.poll() is not None:
+                raise RuntimeError(f"SITL exited at start: {(self.workdir / 'sitl.log').read_text()[-2000:]}")
+            assert time.monotonic() < deadline, "SITL did not open its TCP port"
+            time.sleep(0.05)
+        return self
+
+    def stop(self) -> None:
+        if self.process is not None and self.process.poll() is None:
+            self.process.terminate()
+            try:
+                self.process.wait(10)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait(5)
+        self.process = None
+        if self.workdir is not None:
+            shutil.rmtree(self.workdir, ignore_errors=True)
+            self.workdir = None
+
+    def __enter__(self) -> ArduPilotSitl:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

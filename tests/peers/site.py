@@ -1,0 +1,92 @@
+"""A small search site for flights on real autopilots: a square area in local metres around a
+centre (by default ArduPilot SITL's home at Innsbruck), a no-fly box, a likely corner and
+airports where the SITL vehicles are started; planned through `gcs plan --area`."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from gcs.cli import main
+from planner.georef import LocalFrame
+
+CENTRE = (47.2771883, 11.4039709)
+GROUND_AMSL_M = 584.0
+
+
+@dataclass(frozen=True)
+class Airport:
+    name: str
+    east_m: float
+    north_m: float
+    heading: str
+    range_m: float
+
+
+@dataclass(frozen=True)
+class Site:
+    """`half_m`: half the square's side; airports and targets in local metres."""
+
+    airports: tuple[Airport, ...]
+    half_m: float = 300.0
+    cell_m: float = 30.0
+    no_fly: tuple[float, float, float, float] | None = (30.0, 30.0, 120.0, 120.0)
+    centre: tuple[float, float] = CENTRE
+    targets: tuple[tuple[float, float], ...] = ()
+
+    @property
+    def frame(self) -> LocalFrame:
+        return LocalFrame(*self.centre)
+
+    def lat_lon(self, east_m: float, north_m: float) -> tuple[float, float]:
+        lat, lon = self.frame.local2geodetic(east_m, north_m)
+        return float(lat), float(lon)
+
+    def home(self, index: int) -> tuple[float, float, float, float]:
+        """SITL `--home` of airport `index` (0-based): lat, lon, ground AMSL, heading degrees."""
+        ap = self.airports[index]
+        heading = {"N": 0, "NE": 45, "E": 90, "SE": 135, "S": 180, "SW": 225, "W": 270, "NW": 315}[ap.heading]
+        return (*self.lat_lon(ap.east_m, ap.north_m), GROUND_AMSL_M, float(heading))
+
+    def _ring(self, points: list[tuple[float, float]]) -> list[list[float]]:
+        pts = np.asarray(points, dtype=float)
+        lat, lon = self.frame.local2geodetic(pts[:, 0], pts[:, 1])
+        coords = [[float(b), float(a)] for a, b in zip(lat, lon)]
+        return coords + [coords[0]]
+
+    def geojson(self) -> dict:
+        h = self.half_m
+        features = [{"type": "Feature", "properties": {"role": "area", "name": "sitl square"},
+                     "geometry": {"type": "Polygon", "coordinates": [self._ring([(-h, -h), (h, -h), (h, h), (-h, h)])]}},
+                    {"type": "Feature", "properties": {"role": "prior", "tep": 0.9, "eu": 0.9},
+                     "geometry": {"type": "Polygon",
+                                  "coordinates": [self._ring([(-h, 0), (0, 0), (0, h), (-h, h)])]}}]
+        if self.no_fly is not None:
+            x0, y0, x1, y1 = self.no_fly
+            features.append({"type": "Feature", "properties": {"role": "no_fly", "name": "box"},
+                             "geometry": {"type": "Polygon",
+                                          "coordinates": [self._ring([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])]}})
+        for ap in self.airports:
+            lat, lon = self.lat_lon(ap.east_m, ap.north_m)
+            features.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": [lon, lat]},
+                             "properties": {"role": "airport", "name": ap.name, "heading": ap.heading,
+                                            "range_m": ap.range_m, "elevation_m": GROUND_AMSL_M}})
+        for i, (east, north) in enumerate(self.targets):
+            lat, lon = self.lat_lon(east, north)
+            features.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": [lon, lat]},
+                             "properties": {"role": "target", "name": f"target {i + 1}"}})
+        return {"type": "FeatureCollection", "properties": {"cell_size_m": self.cell_m}, "features": features}
+
+    def plan(self, folder: Path, *extra: str) -> Path:
+        """Plan the site with `gcs plan --area` into `folder`; the plan folder."""
+        folder.mkdir(parents=True, exist_ok=True)
+        area = folder / "site.geojson"
+        area.write_text(json.dumps(self.geojson()))
+        out = folder / "plan"
+        code = main(["plan", "--area", str(area), "--out", str(out), "--quiet", "--no-rrd", "--strategy", "exhaustive",
+                     *extra])
+        assert code == 0
+        return out
