@@ -42,6 +42,8 @@ def mission(n: int) -> list[WireItem]:
 async def gcs_times(connection: str, items: list[WireItem], repeats: int) -> tuple[list[float], list[float]]:
     verified, upload_only = [], []
     async with MavLink(connection) as link:
+        await link.wait_for(1, "HEARTBEAT", timeout_s=30.0)
+        await link.command(1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_HOME_POSITION, 1e6)
         assert await link.wait_for(1, "HOME_POSITION", timeout_s=60.0) is not None, "no home from the SITL"
         for _ in range(repeats):
             start = time.perf_counter()

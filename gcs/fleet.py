@@ -295,6 +295,7 @@ class VehicleStatus:
     prearm_ok: bool | None = None
     consumed_mah: float | None = None
     odometer_m: float = 0.0
+    steps_flown: float = 0.0  # planner steps along the plan, kept up by the flight controller
     unsupported_streams: set = field(default_factory=set)
 
     @property
@@ -408,7 +409,7 @@ class VehicleStatus:
             return
         if self.battery_samples and self.battery_samples[-1][0] >= self.time_boot_s:
             return
-        self.battery_samples.append((self.time_boot_s, self.battery_pct, self.odometer_m))
+        self.battery_samples.append((self.time_boot_s, self.battery_pct, self.steps_flown))
 
     def _detection(self, msg: MAVMessage) -> None:
         if msg.image_index in self.detection_indices:

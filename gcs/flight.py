@@ -27,7 +27,7 @@ from gcs.fleet import FINAL_STAGES, Detection, FleetPlan, Stage, VehicleStatus
 from gcs.links import CommandError, LinkError, LinkStatus, MavLink, SigningKey, mavlink, open_links
 from gcs.autopilots import Autopilot
 from gcs.mission_transfer import MissionTransferError, MissionType, upload_verified
-from gcs.return_trigger import RangeModel, check_return, estimate_range_steps, landing_steps
+from gcs.return_trigger import RangeModel, check_return, estimate_range_steps, landing_seconds
 from gcs.status_table import render_table
 from planner.return_exact import follow_table
 
@@ -550,11 +550,22 @@ class FlightController:
         while i + 1 < len(track) and np.hypot(*(track[i + 1] - pos)) <= np.hypot(*(track[i] - pos)):
             i += 1
         st.track_index = i
+        st.steps_flown = float(i)
+
+    def _landing_circuit_steps(self, uid: int) -> float:
+        """A plane flies out to its approach point and back before it lands (a copter lands where
+        the way home ends): those metres in steps."""
+        task = self.plan.uavs[uid]
+        if task.approach is None:
+            return 0.0
+        out = _distance_m(self.plan, task.airport_lat_lon, (task.approach.lat_deg, task.approach.lon_deg))
+        return 2.0 * out / self.model.step_m
 
     def evaluate(self, uid: int) -> bool:
         """Update range and margin of one searching vehicle; True when it must turn home now."""
         st, task = self.status[uid], self.plan.uavs[uid]
-        st.range_left = estimate_range_steps(st.battery_pct, st.time_remaining_s, list(st.battery_samples), self.model)
+        st.range_left = estimate_range_steps(st.battery_pct, st.time_remaining_s, list(st.battery_samples), self.model,
+                                             landing_seconds(task.altitude_m, self.model))
         if uid in self.operator_range:
             st.range_left = min(st.range_left, max(0.0, self.operator_range[uid] - st.track_index))
         if st.stage is not Stage.SEARCH or not st.airborne_seen:
@@ -566,7 +577,7 @@ class FlightController:
             return False
         cost = max(self.plan.steps_home(uid, (p.x, p.y, p.heading)) + j for j, p in enumerate(ahead)
                    if p.stage == "search")
-        check = check_return(st.range_left, cost, landing_steps(task.altitude_m, self.model))
+        check = check_return(st.range_left, cost, self._landing_circuit_steps(uid))
         st.margin = check.margin
         return check.must_return
 

@@ -23,10 +23,10 @@ import time
 
 
 from gcs.flight import ReadingReceived
-from gcs.fleet import Stage
+from gcs.fleet import FINAL_STAGES, Stage
 from gcs.links import CommandError, LinkError, mavlink
 from gcs.autopilots import Autopilot
-from gcs.return_trigger import estimate_range_steps, landing_steps
+from gcs.return_trigger import estimate_range_steps, landing_seconds
 from planner.dtscs import ClosedSearch
 from planner.plan import Stage as PlanStage
 
@@ -177,12 +177,13 @@ class OnlineFlight:
             if uid in self.c.operator_range:
                 self._range_cap[uid] = self.c.operator_range[uid]
             cap = self._range_cap.setdefault(uid, u.range_steps)
-            left = estimate_range_steps(st.battery_pct, st.time_remaining_s, list(st.battery_samples), self.c.model)
+            st.steps_flown = float(u.steps_flown)
+            left = estimate_range_steps(st.battery_pct, st.time_remaining_s, list(st.battery_samples), self.c.model,
+                                        landing_seconds(self.plan.uavs[uid].altitude_m, self.c.model))
             st.range_left = left
             want = cap
             if math.isfinite(left):
-                want = min(cap, max(1, u.steps_flown + int(left - landing_steps(self.plan.uavs[uid].altitude_m,
-                                                                                 self.c.model))))
+                want = min(cap, max(1, u.steps_flown + int(left)))
             if want != u.range_steps:
                 self.search.set_range(uid, want)
             self._range_set[uid] = want
@@ -265,6 +266,8 @@ class OnlineFlight:
             record = search.step()
             for ev in record.returns:
                 st = c.status[ev.uav_id]
+                if st.stage in FINAL_STAGES:
+                    continue  # never took off (failed, or ordered home on the ground)
                 st.return_reason = st.return_reason or {"range_cut": "battery"}.get(ev.reason.value, ev.reason.value)
                 c._set_stage(ev.uav_id, Stage.RETURN, f"going home ({ev.reason.value})")
             for uid in list(flying):

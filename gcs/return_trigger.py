@@ -5,18 +5,21 @@ Pure functions, no I/O. Ranges are counted in planner steps (cells). One step is
 docs/areas.md), so the same charge here keeps the estimate on the safe side.
 
 The remaining range comes from the battery and a consumption figure learned in flight: the
-usable charge (remaining % above the reserve) divided by the charge one metre of flight costs
-gives metres, over `step_m` steps. The cost per metre is the least-squares slope of remaining %
-against the ground distance flown (the vehicle's own odometer from its positions), over the
-samples taken since the search began; it includes the vehicle's real speed, wind and turns. Until
-the vehicle has flown far enough for that slope (`MIN_SPAN_M` and `MIN_DROP_PCT`), the figure is
-time-based: the drain per second (the larger of the autopilot's own estimate, when it sends one,
-and the observed rate) divided by the cruise speed. A battery that drains faster than planned
-shortens the range as soon as it shows.
+charge one planner step costs, the least-squares slope of remaining % against the steps flown
+along the plan, over the samples taken since take-off. It is measured in the planner's own unit,
+so it carries the vehicle's real speed on this plan's legs, its turns, wind and climb. Until the
+vehicle has flown `MIN_STEPS` steps and used `MIN_DROP_PCT` (the autopilot reports whole percent),
+the figure comes from time: the drain per second (the larger of the autopilot's own estimate,
+when it sends one, and the observed rate) times the seconds a step takes at the cruise speed.
+The descent at the airport is charged by time at the observed drain. Then
+
+    range left = (remaining % - reserve % - descent %) / (% per step)
+
+A battery that drains faster than planned shortens the range as soon as it shows.
 
 The decision (eq. 23 at step k+1, Algorithm 3): keep searching while, after one more step, the
-lowest-cost return from the next pose (the exact table under the OC), plus the descent, plus a
-reserve, is still covered; otherwise return now."""
+lowest-cost return from the next pose (the exact table under the OC) is still covered by the
+range left; otherwise return now."""
 
 from __future__ import annotations
 
@@ -24,10 +27,10 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-__all__ = ["RangeModel", "ReturnCheck", "battery_drain_pct_s", "check_return", "consumption_pct_per_m",
-           "drain_rate_pct_s", "estimate_range_steps", "landing_steps", "range_left_steps"]
+__all__ = ["RangeModel", "ReturnCheck", "battery_drain_pct_s", "check_return", "consumption_pct_per_step",
+           "drain_rate_pct_s", "estimate_range_steps", "landing_seconds", "range_left_steps"]
 
-MIN_SPAN_M = 200.0
+MIN_STEPS = 5.0
 MIN_DROP_PCT = 2.0
 
 
@@ -40,10 +43,12 @@ class RangeModel:
     speed_m_s: float
     reserve_pct: float = 30.0
     descent_m_s: float = 1.5
+    final_descent_m_s: float = 0.5
+    final_descent_m: float = 10.0
 
     def __post_init__(self) -> None:
-        if not (self.step_m > 0 and self.speed_m_s > 0 and self.descent_m_s > 0):
-            raise ValueError("step length, speed and descent rate must be positive")
+        if not (self.step_m > 0 and self.speed_m_s > 0 and self.descent_m_s > 0 and self.final_descent_m_s > 0):
+            raise ValueError("step length, speed and descent rates must be positive")
         if not 0 <= self.reserve_pct < 100:
             raise ValueError(f"reserve must be in [0, 100) %, got {self.reserve_pct}")
 
@@ -66,14 +71,13 @@ def drain_rate_pct_s(samples: Sequence[tuple[float, ...]], min_span_s: float = 5
     return _falling_slope([s[0] for s in samples], [s[1] for s in samples])
 
 
-def consumption_pct_per_m(samples: Sequence[tuple[float, float, float]], min_span_m: float = MIN_SPAN_M,
-                          min_drop_pct: float = MIN_DROP_PCT) -> float | None:
-    """Charge one metre of flight costs (% per metre) over (time_s, remaining_pct, odometer_m)
-    samples; None until they span `min_span_m` of flight and `min_drop_pct` of charge (the
-    autopilot reports whole percent)."""
+def consumption_pct_per_step(samples: Sequence[tuple[float, float, float]], min_steps: float = MIN_STEPS,
+                             min_drop_pct: float = MIN_DROP_PCT) -> float | None:
+    """Charge one planner step costs (% per step) over (time_s, remaining_pct, steps_flown)
+    samples; None until they span `min_steps` steps and `min_drop_pct` of charge."""
     if len(samples) < 2:
         return None
-    if samples[-1][2] - samples[0][2] < min_span_m or samples[0][1] - samples[-1][1] < min_drop_pct:
+    if samples[-1][2] - samples[0][2] < min_steps or samples[0][1] - samples[-1][1] < min_drop_pct:
         return None
     return _falling_slope([s[2] for s in samples], [s[1] for s in samples])
 
@@ -104,20 +108,29 @@ def range_left_steps(remaining_pct: float | None, drain_pct_s: float | None, mod
 
 
 def estimate_range_steps(remaining_pct: float | None, time_remaining_s: float | None,
-                         samples: Sequence[tuple[float, float, float]], model: RangeModel) -> float:
-    """Steps the charge above the reserve still buys (see the module doc): by the learned cost
-    per metre once known, else by the drain per second and the cruise speed; infinite while
-    neither is known."""
-    per_m = consumption_pct_per_m(samples)
-    if per_m is not None and per_m > 0 and remaining_pct is not None:
-        return max(0.0, remaining_pct - model.reserve_pct) / per_m / model.step_m
-    drain = battery_drain_pct_s(remaining_pct, time_remaining_s, drain_rate_pct_s(samples))
-    return range_left_steps(remaining_pct, drain, model)
+                         samples: Sequence[tuple[float, float, float]], model: RangeModel,
+                         descent_s: float = 0.0) -> float:
+    """Steps the charge above the reserve still buys after a descent of `descent_s` (see the
+    module doc): by the learned cost per step once known, else by time at the cruise speed;
+    infinite while neither is known, 0 when the charge is at or below what is kept back."""
+    per_s = battery_drain_pct_s(remaining_pct, time_remaining_s, drain_rate_pct_s(samples))
+    per_step = consumption_pct_per_step(samples)
+    if per_step is None or per_step <= 0:
+        if per_s is None or per_s <= 0:
+            return math.inf
+        per_step = per_s * model.step_m / model.speed_m_s
+    if remaining_pct is None:
+        return 0.0
+    descent_pct = descent_s * per_s if per_s else 0.0
+    return max(0.0, remaining_pct - model.reserve_pct - descent_pct) / per_step
 
 
-def landing_steps(altitude_m: float, model: RangeModel) -> float:
-    """The descent from `altitude_m`, charged as the steps the same flight time would buy."""
-    return max(0.0, altitude_m) / model.descent_m_s * model.speed_m_s / model.step_m
+def landing_seconds(altitude_m: float, model: RangeModel) -> float:
+    """The descent from `altitude_m`: at `descent_m_s`, and the last `final_descent_m` at
+    `final_descent_m_s` (ArduCopter lands the last 10 m at LAND_SPEED, 0.5 m/s)."""
+    alt = max(0.0, altitude_m)
+    final = min(alt, model.final_descent_m)
+    return (alt - final) / model.descent_m_s + final / model.final_descent_m_s
 
 
 @dataclass(frozen=True, slots=True)

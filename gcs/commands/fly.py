@@ -29,22 +29,20 @@ def start_sim(plan: FleetPlan, *, speedup: float, profile: str = "ardupilot", se
     """The built-in simulated fleet on free loopback ports: vehicle i (system id i) at UAV i's
     airport with its start heading, the plan's targets, a sensor on the plan's grid."""
     from sim import BatteryConfig, FleetOptions, HomePose, LinkFaults, SimFleet, VehicleConfig
-    from sim.sensor import SensorConfig
+    from sim.detector import World
 
     ids = sorted(plan.uavs)
     if ids != list(range(1, len(ids) + 1)):
         raise UserError(f"--sim needs UAV ids 1..N, the plan has {ids}")
     homes = [HomePose(*plan.uavs[i].airport_lat_lon, 0.0, plan.uavs[i].start_heading * 45.0) for i in ids]
-    targets = tuple(plan.cell_lat_lon(x, y) for x, y in plan.targets)
+    world = World.of_plan(plan)  # the world `gcs detector` gives real vehicles
     vehicle = plan.uavs[ids[0]].vehicle.value
-    config = VehicleConfig(vehicle_type=vehicle, profile=profile,
-                           sensor=SensorConfig(cell_size_m=plan.cell_size_m, pc=pc, pf=pf),
+    config = VehicleConfig(vehicle_type=vehicle, profile=profile, sensor=world.sensor_config(pc, pf),
                            battery=BatteryConfig(endurance_s=endurance_s))
-    corner = plan.frame.local2geodetic(plan.grid.east0_m, plan.grid.north0_m)
-    fleet = SimFleet(homes, config, FleetOptions(base_port=0, speedup=speedup, targets=targets, seed=seed,
+    fleet = SimFleet(homes, config, FleetOptions(base_port=0, speedup=speedup, targets=world.targets, seed=seed,
                                                  faults=LinkFaults(loss=loss, seed=seed),
                                                  signing_key=signing.secret if signing else None,
-                                                 grid_origin=(float(corner[0]), float(corner[1]))))
+                                                 grid_origin=world.grid_origin))
     for uid, k in (drain or {}).items():
         fleet.vehicle(uid).set_drain_multiplier(k)
     return fleet
@@ -81,6 +79,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="read return orders ('r ID') from stdin even when it is not a terminal")
     p.add_argument("--allow-home-offset", action="store_true",
                    help="fly even when a vehicle's home is more than a cell from its UAV's airport")
+    p.add_argument("--arm-timeout", type=float, default=60.0,
+                   help="seconds to keep retrying arming while the autopilot refuses (its reasons are shown)")
     p.add_argument("--ready-timeout", type=float, default=180.0,
                    help="seconds to wait for each vehicle's GPS fix, position estimate and home")
     p.add_argument("--link-timeout", type=float, default=3.0, help="seconds without telemetry before a vehicle is lost")
@@ -174,7 +174,7 @@ def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
     return FlyOptions(speed_m_s=args.cruise_speed, reserve_pct=args.reserve_pct, descent_m_s=args.descent_speed,
                       link_timeout_s=args.link_timeout, lost_giveup_s=args.lost_giveup, return_after_s=returns,
                       fence=not args.no_fence, live_table=sys.stdout.isatty(), check_home=not args.allow_home_offset,
-                      ready_timeout_s=args.ready_timeout)
+                      ready_timeout_s=args.ready_timeout, arm_timeout_s=args.arm_timeout)
 
 
 def flight_recorder(args: argparse.Namespace, plan: FleetPlan):

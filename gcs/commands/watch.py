@@ -1,10 +1,14 @@
-"""`gcs watch`: a second station on the MQTT fleet bus. Shows the live fleet table from the
-broker alone (retained states and telemetry) or sends one command and prints its reply.
+"""`gcs watch`: a second station on the MQTT fleet bus, or a look at vehicles straight over
+their MAVLink links. On the bus it shows the live fleet table from the broker alone (retained
+states and telemetry) or sends one command and prints its reply; over `--connect` it shows
+every vehicle heard (mode, position, battery, GPS, what it still waits for before it can fly).
 
     gcs watch --mqtt mqtt://127.0.0.1:1883 --fleet demo              # live table, Ctrl-C stops
     gcs watch --mqtt mqtt://127.0.0.1:1883 --fleet demo --once       # print the table once
     gcs watch --mqtt mqtt://operator@broker:1883 --return 2          # order UAV 2 home
     gcs watch --mqtt ... --return all | --range 2=150 | --abort 3
+    gcs watch --connect tcp:127.0.0.1:5760 --once                    # vehicles on a link
+    gcs watch --connect /dev/ttyUSB0,57600 --connect udpin:0.0.0.0:14550
 
 Exit 0 when the command was done, 2 with the reason when it was refused or not answered."""
 
@@ -17,14 +21,16 @@ import time
 import uuid
 
 from gcs.bus import Command, CommandKind, FleetWatcher, TlsOptions, parse_broker_url, render_fleet
+from gcs.commands._links import add_link_arguments, connections_from, signing_from
 from gcs.errors import UserError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("watch", help="watch (and command) a fleet over the MQTT fleet bus",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--mqtt", required=True, metavar="URL",
+    p.add_argument("--mqtt", metavar="URL",
                    help="broker: mqtt://[user@]host[:port] or mqtts://... (password: --password or $GCS_MQTT_PASSWORD)")
+    add_link_arguments(p)
     p.add_argument("--fleet", default="default", help="fleet name (topic gcs/FLEET/...; default: default)")
     p.add_argument("--username", help="broker user name (overrides the URL's)")
     p.add_argument("--password", help="broker password (prefer $GCS_MQTT_PASSWORD)")
@@ -37,7 +43,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     what.add_argument("--range", dest="range_change", metavar="ID=STEPS", help="set UAV ID's range in planner steps")
     what.add_argument("--abort", dest="abort_uav", metavar="ID|all", help="autopilot RTL for UAV ID (or all) at once")
     p.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the reply (default 5)")
-    p.add_argument("--once", action="store_true", help="print the table once, after --duration-s (default 1 s)")
+    p.add_argument("--once", action="store_true",
+                   help="print the table once, after --duration-s (default 1 s on the bus, 3 s on links)")
     p.add_argument("--duration-s", type=float, default=None,
                    help="watch this long, print the table, exit (default: until Ctrl-C; 1 with --once)")
     p.add_argument("--every-s", type=float, default=1.0, help="refresh period of the live table (default 1 s)")
@@ -117,10 +124,35 @@ async def _run(args: argparse.Namespace, command: Command | None) -> int:
     return 0
 
 
+async def _watch_links(args: argparse.Namespace) -> int:
+    from gcs.link_watch import LinkWatcher, render_vehicles
+
+    async with LinkWatcher(connections_from(args), signing=signing_from(args)) as watcher:
+        duration = args.duration_s if args.duration_s is not None else (3.0 if args.once else None)
+        live = sys.stdout.isatty() and duration is None
+        end = None if duration is None else time.monotonic() + duration
+        while end is None or time.monotonic() < end:
+            await asyncio.sleep(args.every_s if end is None else max(0.0, min(args.every_s, end - time.monotonic())))
+            if end is None:
+                sys.stdout.write(("\x1b[H\x1b[2J" if live else "") + render_vehicles(watcher) + "\n\n")
+                sys.stdout.flush()
+        print(render_vehicles(watcher), flush=True)
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
-    command = command_from(args)
     if args.duration_s is not None and args.duration_s < 0:
         raise UserError("--duration-s must be >= 0")
+    if bool(args.mqtt) == bool(args.connect):
+        raise UserError("give --mqtt URL (the fleet bus) or --connect CONN (vehicles' MAVLink links), one of them")
+    if args.connect:
+        if any(v is not None for v in (args.return_uav, args.range_change, args.abort_uav)):
+            raise UserError("--return, --range and --abort go to the flying station over the bus: give --mqtt")
+        try:
+            return asyncio.run(_watch_links(args))
+        except KeyboardInterrupt:
+            return 130
+    command = command_from(args)
     try:
         from gcs.bus.messages import check_name
 

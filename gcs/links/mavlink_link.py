@@ -225,8 +225,9 @@ class MavLink:
     def _dispatch(self, msg: MAVMessage, now: float) -> None:
         sysid = msg.get_srcSystem()
         kind = msg.get_type()
-        if msg.get_srcComponent() == AUTOPILOT_COMPONENT_ID or kind == "HEARTBEAT":
-            self.systems[sysid] = now
+        if msg.get_srcComponent() == AUTOPILOT_COMPONENT_ID or (
+                kind == "HEARTBEAT" and msg.autopilot != mavlink.MAV_AUTOPILOT_INVALID):
+            self.systems[sysid] = now  # a vehicle: its autopilot, not a camera or a station beside it
         for callback in self._subscribers:
             try:
                 callback(msg)

@@ -127,7 +127,7 @@ class UdpTransport(Transport):
             else:
                 sock, _ = await loop.create_datagram_endpoint(lambda: _Datagrams(self), local_addr=(c.host, c.port))
         except OSError as exc:
-            raise TransportError(f"cannot open {self.name}: {_os_reason(exc)}") from None
+            raise TransportError(f"cannot open the UDP port: {_os_reason(exc)}") from None
         self._socket = sock  # type: ignore[assignment]
 
     def received(self, data: bytes, addr: tuple) -> None:
@@ -247,7 +247,7 @@ class TcpClient(ReopeningStream):
         try:
             transport, _ = await asyncio.get_running_loop().create_connection(lambda: protocol, c.host, c.port)
         except OSError as exc:
-            raise TransportError(f"cannot connect to {self.name}: {_os_reason(exc)}") from None
+            raise TransportError(f"cannot connect: {_os_reason(exc)}") from None
         return transport
 
 
@@ -263,7 +263,7 @@ class SerialPort(ReopeningStream):
             transport, _ = await serial_asyncio_fast.create_serial_connection(
                 asyncio.get_running_loop(), lambda: protocol, c.device, baudrate=c.baud, exclusive=True)
         except (serial.SerialException, OSError, ValueError) as exc:
-            raise TransportError(f"cannot open serial device {c.device}: {_serial_reason(exc)}") from None
+            raise TransportError(f"cannot open the serial device: {_serial_reason(exc)}") from None
         return transport  # type: ignore[return-value]
 
 
@@ -307,7 +307,7 @@ class TcpServer(Transport):
         try:
             self._server = await asyncio.get_running_loop().create_server(self._accept, c.host, c.port)
         except OSError as exc:
-            raise TransportError(f"cannot listen on {self.name}: {_os_reason(exc)}") from None
+            raise TransportError(f"cannot listen: {_os_reason(exc)}") from None
 
     def _accept(self) -> asyncio.Protocol:
         return _ServerClient(self)

@@ -16,11 +16,12 @@ from gcs.autopilots import Autopilot
 from gcs.links import MavLink, SigningKey, mavlink
 from gcs.mission_transfer import MissionTransferError, WireItem, download, upload_verified
 from tests.peers.ardupilot import ArduPilotSitl
-from tests.peers.site import Airport, Site
+from tests.peers.site import COPTERS, PLANE, Site
 
 pytestmark = pytest.mark.autopilot
 
-SITE = Site((Airport("west", -240.0, -30.0, "E", 2500.0),))
+SITE = Site(COPTERS.airports[:1])
+SITES = {"copter": SITE, "plane": PLANE}
 KEY = SigningKey.from_passphrase("gcs autopilot tests")
 
 
@@ -31,34 +32,36 @@ def _gcs(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
 @pytest.fixture(scope="module")
 def plans(tmp_path_factory) -> dict[str, Path]:
     root = tmp_path_factory.mktemp("site")
-    return {"copter": SITE.plan(root / "copter"), "plane": SITE.plan(root / "plane", "--vehicle", "plane")}
+    return {"copter": SITE.plan(root / "copter"), "plane": PLANE.plan(root / "plane", "--vehicle", "plane")}
 
 
 @pytest.mark.parametrize("vehicle", ["copter", "plane"])
 @pytest.mark.parametrize("transport", ["udp", "tcp"])
 def test_planned_mission_uploads_and_reads_back(plans, vehicle, transport):
-    with ArduPilotSitl(vehicle, home=SITE.home(0)) as sitl:
+    with ArduPilotSitl(vehicle, home=SITES[vehicle].home(0)) as sitl:
         conn = sitl.udp_connection if transport == "udp" else sitl.tcp_connection
         done = _gcs("upload", "--plan", str(plans[vehicle]), "--connect", conn, "--connect-timeout", "30")
     assert done.returncode == 0, done.stdout + done.stderr
     plan = json.loads((plans[vehicle] / "plan.json").read_text())
-    items = 1 + 1 + len(plan["uavs"][0]["waypoints"]) + 1  # home, take-off, waypoints, end
+    landing = 3 if vehicle == "plane" else 1  # DO_LAND_START, approach, NAV_LAND; or NAV_LAND
+    items = 1 + 1 + len(plan["uavs"][0]["waypoints"]) + landing  # home, take-off, waypoints, landing
     assert f"UAV 1: verified: mission {items} items" in done.stdout
     assert "fence" in done.stdout and "rally 1 items" in done.stdout
     assert "1/1 vehicles verified" in done.stdout
 
 
-def test_signed_upload_after_provisioning_and_unsigned_station_told_why(plans):
-    with ArduPilotSitl("copter", home=SITE.home(0)) as sitl:
+@pytest.mark.parametrize("vehicle", ["copter", "plane"])
+def test_signed_upload_after_provisioning_and_unsigned_station_told_why(plans, vehicle):
+    with ArduPilotSitl(vehicle, home=SITES[vehicle].home(0)) as sitl:
         provisioned = _gcs("signing", "--connect", sitl.tcp_connection, "--signing-passphrase",
                            "gcs autopilot tests", "--wait", "15")
         assert provisioned.returncode == 0, provisioned.stdout + provisioned.stderr
         # SERIAL0 is ArduPilot's USB port, which it trusts unsigned; the UDP link below must refuse
         assert f"signs with key {KEY.fingerprint}; this link still accepts unsigned" in provisioned.stdout
-        signed = _gcs("upload", "--plan", str(plans["copter"]), "--connect", sitl.udp_connection,
+        signed = _gcs("upload", "--plan", str(plans[vehicle]), "--connect", sitl.udp_connection,
                       "--signing-passphrase", "gcs autopilot tests", "--connect-timeout", "30")
         assert signed.returncode == 0, signed.stdout + signed.stderr
-        unsigned = _gcs("upload", "--plan", str(plans["copter"]), "--connect", sitl.udp_connection,
+        unsigned = _gcs("upload", "--plan", str(plans[vehicle]), "--connect", sitl.udp_connection,
                         "--connect-timeout", "30")
         assert unsigned.returncode == 1
         assert "signs its MAVLink messages" in unsigned.stdout and "--signing-key" in unsigned.stdout
@@ -67,6 +70,8 @@ def test_signed_upload_after_provisioning_and_unsigned_station_told_why(plans):
 
 async def _ready(link: MavLink) -> None:
     """Until ArduPilot has a home (its mission storage is ready then; before, it holds 0 items)."""
+    await link.wait_for(1, "HEARTBEAT", timeout_s=30.0)
+    await link.command(1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_HOME_POSITION, 1e6)
     assert await link.wait_for(1, "HOME_POSITION", timeout_s=30.0) is not None, "the SITL never set its home"
 
 

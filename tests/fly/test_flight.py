@@ -81,7 +81,8 @@ def test_fast_draining_battery_is_sent_home_early_and_lands_above_the_reserve(pl
 
 
 def test_operator_return_order_sends_one_uav_home_at_once(plan):
-    controller, fleet = fly(plan, fast_options(return_after_s={2: 1.0}))
+    # 2.5 s: after take-off (the simulated ArduPilot needs 42 s of its time, 0.7 s here, to be ready)
+    controller, fleet = fly(plan, fast_options(return_after_s={2: 2.5}))
     st = controller.status[2]
     assert st.return_reason == "order"
     assert st.stage is Stage.LANDED

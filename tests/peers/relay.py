@@ -1,0 +1,62 @@
+"""A UDP relay that can go silent: stands between a vehicle pushing to a ground-station port and
+the station, as a radio link that drops out and comes back."""
+
+from __future__ import annotations
+
+import socket
+import threading
+
+
+class UdpRelay:
+    """Listens on `port` (where the vehicle sends), forwards to the station at `station_port` from
+    its own socket, and sends the station's replies back to the vehicle. `silence()` drops
+    everything both ways until `restore()`."""
+
+    def __init__(self, station_port: int) -> None:
+        self.station = ("127.0.0.1", station_port)
+        self._vehicle_side = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._vehicle_side.bind(("127.0.0.1", 0))
+        self._station_side = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._station_side.bind(("127.0.0.1", 0))
+        self.port = self._vehicle_side.getsockname()[1]
+        self._vehicle: tuple | None = None
+        self._silent = threading.Event()
+        self._stop = threading.Event()
+        self.dropped = 0
+        self._threads = [threading.Thread(target=self._pump, args=(self._vehicle_side, True), daemon=True),
+                         threading.Thread(target=self._pump, args=(self._station_side, False), daemon=True)]
+
+    def _pump(self, sock: socket.socket, from_vehicle: bool) -> None:
+        sock.settimeout(0.2)
+        while not self._stop.is_set():
+            try:
+                data, addr = sock.recvfrom(65536)
+            except OSError:
+                continue
+            if from_vehicle:
+                self._vehicle = addr
+            if self._silent.is_set():
+                self.dropped += 1
+                continue
+            if from_vehicle:
+                self._station_side.sendto(data, self.station)
+            elif self._vehicle is not None:
+                self._vehicle_side.sendto(data, self._vehicle)
+
+    def silence(self) -> None:
+        self._silent.set()
+
+    def restore(self) -> None:
+        self._silent.clear()
+
+    def __enter__(self) -> UdpRelay:
+        for t in self._threads:
+            t.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        for t in self._threads:
+            t.join(2)
+        self._vehicle_side.close()
+        self._station_side.close()
