@@ -2,10 +2,11 @@
 
     python benchmarks/bench_sim.py [--counts 1,10,25,50,75,100] [--seconds 5] [--hz 10]
 
-For each fleet size the simulator runs in this process at speedup 1 with position, attitude and
-HUD streams at --hz; a separate receiver process (so decoding does not steal the simulator's
-CPU) says hello to every vehicle from one UDP socket and counts GLOBAL_POSITION_INT datagrams
-by reading the MAVLink 2 header. Reported: achieved position rate per vehicle, total datagrams
+For each fleet size the simulator runs in this process at speedup 1; a separate receiver process
+(so decoding does not steal the simulator's CPU) says hello to every vehicle from one UDP socket,
+asks each for position, attitude and HUD at --hz and the status messages at 1 Hz
+(MAV_CMD_SET_MESSAGE_INTERVAL: a simulated ArduCopter, like a real one, streams nothing unasked)
+and counts GLOBAL_POSITION_INT datagrams by reading the MAVLink 2 header. Reported: achieved position rate per vehicle, total datagrams
 per second, simulated/real time ratio, and the process CPU share.
 """
 
@@ -31,14 +32,24 @@ from sim.mission_client import MissionClient  # noqa: E402
 HOME = HomePose(-35.363261, 149.165230, 584.0, 0.0)
 
 
-def _receiver(ports: list[int], seconds: float, out: mp.Queue) -> None:
+FAST = (mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, mavlink.MAVLINK_MSG_ID_ATTITUDE, mavlink.MAVLINK_MSG_ID_VFR_HUD)
+SLOW = (mavlink.MAVLINK_MSG_ID_SYS_STATUS, mavlink.MAVLINK_MSG_ID_BATTERY_STATUS,
+        mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, mavlink.MAVLINK_MSG_ID_MISSION_CURRENT)
+
+
+def _receiver(ports: list[int], seconds: float, hz: float, out: mp.Queue) -> None:
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.bind(("127.0.0.1", 0))
     sock.settimeout(0.1)
     mav = mavlink.MAVLink(None, srcSystem=255, srcComponent=190)
     hello = mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_GCS, 8, 0, 0, 0, 3).pack(mav)
-    for port in ports:
+    for sysid, port in enumerate(ports, start=1):
         sock.sendto(hello, ("127.0.0.1", port))
+        for msg_id in FAST + SLOW:
+            interval_us = 1e6 / (hz if msg_id in FAST else 1.0)
+            ask = mavlink.MAVLink_command_long_message(sysid, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0, msg_id,
+                                                       interval_us, 0, 0, 0, 0, 0)
+            sock.sendto(ask.pack(mav), ("127.0.0.1", port))
     settle = time.monotonic() + 1.0  # streams start once the vehicles know us
     while time.monotonic() < settle:
         try:
@@ -65,7 +76,7 @@ def bench_fleet(n: int, seconds: float, hz: float) -> dict:
         ports = [port for _, port in fleet.addresses]
         ctx = mp.get_context("spawn")
         queue = ctx.Queue()
-        proc = ctx.Process(target=_receiver, args=(ports, seconds, queue))
+        proc = ctx.Process(target=_receiver, args=(ports, seconds, hz, queue))
         proc.start()
         time.sleep(1.0)
         wall0, sim0, cpu0 = time.monotonic(), fleet.vehicles[0].time_s, time.process_time()

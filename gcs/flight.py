@@ -418,8 +418,8 @@ class FlightController:
         end = time.monotonic() + opts.arm_timeout_s
         reasons: list[str] = []
         while True:
-            if self._interrupted or uid in self._stay_on_ground or any(o[0] == uid for o in self._orders):
-                self._set_stage(uid, Stage.LANDED, "not launched (return ordered before take-off)")
+            if self._ordered_home(uid):
+                self._set_stage(uid, Stage.LANDED, "kept on the ground: return ordered before take-off")
                 return False
             try:
                 await self.command(uid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
@@ -433,6 +433,9 @@ class FlightController:
                     reasons.append(reason)
                     self.say(uid, f"arming refused: {reason} (retrying for up to {opts.arm_timeout_s:g} s)")
                 await asyncio.sleep(1.0)
+        if self._ordered_home(uid):
+            await self._keep_on_ground(uid)
+            return False
         if autopilot.start_after_arming(st.fixed_wing):
             try:
                 await self.command(uid, mavlink.MAV_CMD_MISSION_START, *autopilot.mission_start_params())
@@ -442,6 +445,18 @@ class FlightController:
                                                    + ("disarmed again" if disarmed else "COULD NOT DISARM: check it"))
                 return False
         self._set_stage(uid, Stage.SEARCH, "mission started")
+        return True
+
+    def _ordered_home(self, uid: int) -> bool:
+        return self._interrupted or uid in self._stay_on_ground or any(o[0] == uid for o in self._orders)
+
+    async def _keep_on_ground(self, uid: int) -> bool:
+        """A vehicle ordered home after its mission started but before it left the ground:
+        disarm it there. False when it would not disarm (it is already lifting off: it then
+        comes home like any other)."""
+        if not await self.disarm(uid):
+            return False
+        self._set_stage(uid, Stage.LANDED, "kept on the ground: return ordered before take-off")
         return True
 
     async def disarm(self, uid: int) -> bool:
@@ -501,9 +516,12 @@ class FlightController:
         if st.stage in FINAL_STAGES or st.stage in (Stage.RETURN, Stage.RTL):
             return
         st.return_reason = reason
-        if not st.airborne_seen and st.stage is not Stage.SEARCH:
-            self._stay_on_ground.add(uid)  # not launched yet: launch() sees it and stays on the ground
-            return
+        if not st.airborne_seen:
+            self._stay_on_ground.add(uid)
+            if st.stage is not Stage.SEARCH:
+                return  # not launched yet: launch() sees it and keeps it on the ground
+            if await self._keep_on_ground(uid):
+                return  # started, still on the ground: disarmed there; else it is lifting off
         self._set_stage(uid, Stage.RETURN, f"going home ({reason})")
         self._busy.add(uid)
         started = time.monotonic()
@@ -647,9 +665,22 @@ class FlightController:
                 last_table = start
                 sys.stdout.write("\x1b[H\x1b[2J" + render_table(self) + "\n\n" + "\n".join(self.recent) + "\n")
                 sys.stdout.flush()
-            if self.finished(start) and not self._tasks:
+            if self.finished(start):
+                await self._give_up_on_lost(start)
                 return
             await asyncio.sleep(self.options.tick_s)
+
+    async def _give_up_on_lost(self, now: float) -> None:
+        """Every vehicle has landed, failed or stayed lost past `lost_giveup_s`: stop waiting for
+        the lost ones (their preparation or return may still be waiting on the link) and say so."""
+        for uid, st in self.status.items():
+            if st.stage is Stage.LOST:
+                self.say(uid, f"lost for {now - self._lost_since.get(uid, now):.0f} s: no longer waited for; its "
+                              "autopilot's own failsafe is the backstop")
+        tasks = list(self._tasks)
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
 
     async def bring_everyone_home(self) -> None:
         """Ctrl-C, or the controller failed: RTL for every vehicle in the air, disarm every one
@@ -699,10 +730,13 @@ def _distance_m(plan: FleetPlan, a: tuple[float, float], b: tuple[float, float])
 
 async def fly_async(plan: FleetPlan, connections: Sequence[str], options: FlyOptions,
                     stdin_orders: bool = False, online=None, recorder=None, bus: dict | None = None,
-                    listeners: Sequence[FlightListener] = (), signing: SigningKey | None = None) -> FlightController:
+                    listeners: Sequence[FlightListener] = (), signing: SigningKey | None = None,
+                    watchers: Sequence = ()) -> FlightController:
     """Fly the plan (or, with `online` an observed search, search with the planner in the loop);
     `recorder` (a `gcs.flight_recording.FlightRecorder`) records it; `bus` (keywords of
     `gcs.bus.flight.attach_bus`) shares it over MQTT; `listeners` get every `FlightEvent`;
+    `watchers` (e.g. `gcs.sortie.SortieLog`) are held, as the recorder is, by their
+    `attach(controller)` for the whole flight and see how it ends;
     with `signing` every link signs what it sends and refuses unsigned traffic."""
     async with AsyncExitStack() as stack:
         links = await stack.enter_async_context(open_links(connections, signing=signing))
@@ -715,6 +749,8 @@ async def fly_async(plan: FleetPlan, connections: Sequence[str], options: FlyOpt
             await stack.enter_async_context(attach_bus(controller, **bus))
         if recorder is not None:
             await stack.enter_async_context(recorder.attach(controller))
+        for watcher in watchers:
+            await stack.enter_async_context(watcher.attach(controller))
         loop = asyncio.get_running_loop()
         try:
             loop.add_signal_handler(signal.SIGINT, controller.interrupt)

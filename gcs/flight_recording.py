@@ -34,6 +34,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from gcs.flight import FlightEvent, LinkChanged, ModeChanged, ReadingReceived, StageChanged, TookOff
+from gcs.flight_watch import watching
 from gcs.overview import uav_colour
 from gcs.recording import APPLICATION_ID, FLUSH_TIMEOUT_S, GEO_STRING, _lighter, _Rows, open_stream
 
@@ -123,28 +124,21 @@ class FlightRecorder:
         self.t0 = controller.t0
         self._controller = controller
         self.open()
-        unsubscribe = controller.subscribe(self.on_event)
-        task = asyncio.create_task(self._run(controller), name="rerun-flight-recorder")
         try:
-            yield self
-        except BaseException as exc:
-            what = "Ctrl-C" if isinstance(exc, (KeyboardInterrupt, asyncio.CancelledError)) else f"{type(exc).__name__}: {exc}"
-            self._event(time.monotonic(), None, f"flight interrupted ({what})", "ERROR")
-            raise
+            async with watching(controller, self.on_event,
+                                lambda last: self.sample(controller, time.monotonic(), force=last), self.poll_s,
+                                "rerun-flight-recorder"):
+                try:
+                    yield self
+                except BaseException as exc:
+                    what = "Ctrl-C" if isinstance(exc, (KeyboardInterrupt, asyncio.CancelledError)) \
+                        else f"{type(exc).__name__}: {exc}"
+                    self._event(time.monotonic(), None, f"flight interrupted ({what})", "ERROR")
+                    raise
         finally:
-            unsubscribe()
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
-            self.sample(controller, time.monotonic(), force=True)
             if controller._interrupted:
                 self._event(time.monotonic(), None, "interrupted by the operator: RTL commanded", "WARN")
             self.close()
-
-    async def _run(self, controller: FlightController) -> None:
-        while True:
-            self.sample(controller, time.monotonic())
-            await asyncio.sleep(self.poll_s)
 
     # -- what is logged -----------------------------------------------------------------------
 

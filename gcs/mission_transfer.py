@@ -192,10 +192,18 @@ class Upload(_Machine):
         self.items = renumber(items, mission_type)
         self.requested: set[int] = set()
         self.legacy_requests = 0
+        self.last_item_sends = 0
+        self.unconfirmed = False
 
     def start(self, now: float) -> list[MAVMessage]:
         msg = mavlink.MAVLink_mission_count_message(*self.target, len(self.items), self.mission_type)
         return self._send(msg, now)
+
+    def poll(self, now: float) -> list[MAVMessage]:
+        out = super().poll(now)
+        if out and out[0].get_type() == "MISSION_ITEM_INT" and out[0].seq == len(self.items) - 1:
+            self.last_item_sends += 1
+        return out
 
     def handle(self, msg: MAVMessage, now: float) -> list[MAVMessage]:
         if self.finished or not self._mine(msg):
@@ -208,14 +216,22 @@ class Upload(_Machine):
             if msg.seq not in self.requested:
                 self.requested.add(msg.seq)
                 self._progress()
+            self.last_item_sends += msg.seq == len(self.items) - 1
             return self._send(self.items[msg.seq].to_msg(self.target), now)
         if kind == "MISSION_ACK":
+            last_asked = not self.items or len(self.items) - 1 in self.requested
             if msg.type == mavlink.MAV_MISSION_ACCEPTED:
-                if not self.items or len(self.items) - 1 in self.requested:
+                if last_asked:
                     self.done = True
                     self.deadline = math.inf
                 return []  # an ACK before our last item was asked for is stale
             if msg.type == mavlink.MAV_MISSION_INVALID_SEQUENCE:
+                return []
+            if msg.type == mavlink.MAV_MISSION_ERROR and last_asked and self.last_item_sends > 1:
+                # ArduPilot answers an item that arrives after its upload ended with ERROR: our
+                # re-sent last item crossed its ACCEPTED. Finished, unconfirmed: the read-back settles it.
+                self.done = self.unconfirmed = True
+                self.deadline = math.inf
                 return []
             return self._fail(msg.type, "refused by the vehicle")
         return []
@@ -259,6 +275,8 @@ class Download(_Machine):
             self.items.append(WireItem.from_msg(msg))
             self._progress()
             return self._request_next(now)
+        if kind == "MISSION_ACK" and msg.type == mavlink.MAV_MISSION_ERROR:
+            return []  # a read-back never ends in ERROR: the answer to an upload's stale last item
         if kind == "MISSION_ACK" and msg.type != mavlink.MAV_MISSION_ACCEPTED:
             if msg.type == mavlink.MAV_MISSION_DENIED and self.count is None:
                 return []  # busy with another transfer: our timeout asks again
@@ -355,7 +373,7 @@ async def upload_verified(link: MavLink, sysid: int, items: list[WireItem], auto
             back = await download(link, sysid, mission_type, timeout_s=timeout_s)
         except MissionTransferError as exc:
             resends += up.resends
-            if exc.result is not None and up.requested and autopilot is Autopilot.ARDUPILOT:
+            if exc.result is not None and up.requested and not up.done and autopilot is Autopilot.ARDUPILOT:
                 cleared = await clear(link, sysid, mission_type, timeout_s=timeout_s)
                 raise MissionTransferError(exc.operation, exc.result, exc.detail + (
                     "; the partly replaced list was cleared" if cleared else

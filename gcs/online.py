@@ -1,7 +1,8 @@
 """Online mode: the planner in the loop. Every step the DTSCS search decides each vehicle's next
 cell from the vehicles' observed cells and the shared map, which is Bayes-updated (eq. 2-4) with
 every reading the vehicles report (CAMERA_IMAGE_CAPTURED, positive or negative); the vehicles are
-steered in GUIDED with SET_POSITION_TARGET_GLOBAL_INT (ArduPilot) or DO_REPOSITION (PX4).
+steered in GUIDED with SET_POSITION_TARGET_GLOBAL_INT (ArduCopter) or DO_REPOSITION as COMMAND_INT
+(PX4, and ArduPlane, which ignores position targets and circles the point it is sent to).
 
 Steps are flown in lock step: every flying vehicle gets its next cell, and the next decision is
 taken when every one of them has reported that cell (a reading comes as a vehicle passes within
@@ -131,7 +132,7 @@ class OnlineFlight:
             return
         lat, lon = self.targets[uid]
         alt = self.plan.uavs[uid].altitude_m
-        if st.autopilot is Autopilot.PX4:
+        if st.autopilot is Autopilot.PX4 or st.fixed_wing:  # ArduPlane ignores position targets
             link.send(mavlink.MAVLink_command_int_message(
                 uid, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_DO_REPOSITION, 0, 0, -1,
                 mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0, math.nan, round(lat * 1e7), round(lon * 1e7), alt))

@@ -12,6 +12,7 @@ import numpy as np
 from gcs.atomic import staged_outputs
 from planner.plan import Plan
 from planner.scenario import Scenario
+from planner.success import expected_finds
 
 WIDTH_PX = 1400
 HEIGHT_PX = 1000
@@ -33,10 +34,11 @@ def uav_colour(index: int) -> tuple[int, int, int]:
 
 
 def region_masks(scenario: Scenario) -> dict[str, np.ndarray]:
-    """Known and key regions of the prior, by the bands above, outside no-fly cells."""
+    """Known and key regions of the prior (a later sortie's: the campaign's first prior TEP), by
+    the bands above, outside no-fly cells."""
     m = scenario.search_map
-    free = ~m.no_fly
-    return {"known": free & (m.tep <= KNOWN_MAX) & (m.eu <= KNOWN_MAX), "key": free & (m.tep >= KEY_MIN_TEP)}
+    free, tep = ~m.no_fly, scenario.success_prior
+    return {"known": free & (tep <= KNOWN_MAX) & (m.eu <= KNOWN_MAX), "key": free & (tep >= KEY_MIN_TEP)}
 
 
 def mask_outline(mask: np.ndarray) -> np.ndarray:
@@ -56,6 +58,36 @@ def mask_outline(mask: np.ndarray) -> np.ndarray:
             start, end = np.stack([xs + offset, top], -1), np.stack([xs + offset, top + 1], -1)
         segments.append(np.stack([start, end], axis=1))
     return np.concatenate(segments).astype(np.float64)
+
+
+def searched_before(scenario: Scenario) -> np.ndarray | None:
+    """Cells read by earlier sorties of a campaign (None for a first sortie)."""
+    looks = scenario.looks_before
+    return None if looks is None or not np.any(looks) else np.asarray(looks) > 0
+
+
+def hatch_image(mask: np.ndarray, px_per_cell: int) -> np.ndarray:
+    """An RGBA image (rows from the south, `px_per_cell` pixels a cell) greying the cells of a
+    [x, y] mask and hatching them with diagonal lines."""
+    nx, ny = mask.shape
+    cells = np.repeat(np.repeat(np.asarray(mask, dtype=bool).T, px_per_cell, axis=0), px_per_cell, axis=1)
+    rows, cols = np.indices(cells.shape)
+    lines = (rows + cols) % max(px_per_cell, 3) < max(1, px_per_cell // 4)
+    image = np.zeros((ny * px_per_cell, nx * px_per_cell, 4), dtype=np.uint8)
+    image[cells] = (140, 140, 140, 90)
+    image[cells & lines] = (25, 25, 25, 180)
+    return image
+
+
+def campaign_outcome(plan: Plan, scenario: Scenario) -> str | None:
+    """A later sortie's line: the campaign's probability of success before and after it."""
+    if plan.success is None or scenario.looks_before is None or not plan.success.available:
+        return None
+    m = scenario.search_map
+    before = expected_finds(scenario.success_prior, ~m.no_fly, scenario.sensor.pc, scenario.looks_before)
+    available = plan.success.available
+    return (f"campaign PoS {before / available:.1%} -> {(before + plan.success.expected) / available:.1%} "
+            f"(this sortie +{plan.success.share:.1%})")
 
 
 def _rgb(colour: tuple[int, int, int]) -> tuple[float, float, float]:
@@ -124,6 +156,10 @@ def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
     overlay = np.zeros((ny, nx, 4))
     overlay[m.no_fly.T] = (0.8, 0.1, 0.1, 0.55)
     ax.imshow(overlay, origin="lower", extent=extent, interpolation="nearest")
+    searched = searched_before(scenario)
+    if searched is not None:
+        ax.imshow(hatch_image(searched, max(2, min(8, 1600 // max(nx, ny)))), origin="lower", extent=extent,
+                  interpolation="nearest", zorder=1.5)
     for name, mask in region_masks(scenario).items():
         if mask.any():
             segments = mask_outline(mask)
@@ -154,9 +190,11 @@ def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
     ax.set_aspect("equal")
     ax.set_xlabel("x (cell, east)")
     ax.set_ylabel("y (cell, north)")
-    ax.set_title(f"{plan.scenario}: {title_outcome(plan)}\n{settings_text(plan.settings)}", fontsize=12)
+    campaign = campaign_outcome(plan, scenario)
+    ax.set_title(f"{plan.scenario}: {title_outcome(plan)}\n" + (f"{campaign}\n" if campaign else "")
+                 + settings_text(plan.settings), fontsize=12)
     cbar = fig.colorbar(prior, cax=fig.add_axes((0.67, 0.3, 0.012, 0.4)))
-    cbar.set_label("prior TEP")
+    cbar.set_label("prior TEP" if scenario.looks_before is None else "belief TEP before this sortie")
     cbar.ax.set_ylim(0, 1)
 
     handles = [Line2D([], [], color=_rgb(uav_colour(i)), lw=2.5, label=uav_label(plan, u)) for i, u in enumerate(plan.uavs)]
@@ -171,6 +209,9 @@ def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
         Patch(facecolor="none", edgecolor=REGION_COLOURS["known"], lw=2, label="known region"),
         Patch(facecolor="none", edgecolor=REGION_COLOURS["key"], lw=2, label="key region"),
     ]
+    if searched is not None:
+        handles.append(Patch(facecolor=(0.55, 0.55, 0.55, 0.35), edgecolor=(0.1, 0.1, 0.1, 0.7), hatch="///", lw=0,
+                             label=f"searched in earlier sorties ({int(searched.sum())} cells)"))
     fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.73, 0.5), fontsize=11, frameon=False,
                labelspacing=0.8)
     with staged_outputs([path]) as staged:

@@ -239,7 +239,7 @@ class PlanRecorder:
         self.map_every = map_every
         self.flush_interval_s = flush_interval_s
         self.nx, self.ny = scenario.search_map.shape
-        self._available = float(scenario.search_map.tep[~scenario.search_map.no_fly].sum())
+        self._available = float(scenario.success_prior[~scenario.search_map.no_fly].sum())
         self.rec: rr.RecordingStream | None = None
         self._rows: dict[str, _Rows | _MapRows] = {}
         self._tracks: dict[int, _Track] = {}

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from planner.environment import eu_after_visit, footprint_cells, sense, tep_after_no_report, tep_after_report
+from planner.environment import footprint_cells, sense
 from planner.horizon import Flyer, HorizonValue, block_size, horizon_window, team_fields, visit_reward
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
 from planner.plan import Plan, ReturnReason, Stage, TargetOutcome, TrajectoryPoint, UavPlan
@@ -188,8 +188,8 @@ class ClosedSearch:
             uav = _Uav(spec, table, spec.airport[0], spec.airport[1], spec.heading, spec.range_steps)
             uav.trajectory.append(TrajectoryPoint(0, uav.x, uav.y, uav.heading, Stage.SEARCH))
             self.uavs[spec.uav_id] = uav
-        prior = scenario.search_map
-        self.tally = SuccessTally(prior.tep, ~prior.no_fly, scenario.sensor.pc, self.uavs)
+        self.tally = SuccessTally(scenario.success_prior, ~scenario.search_map.no_fly, scenario.sensor.pc, self.uavs,
+                                  scenario.looks_before)
         self._count_looks([(uid, u.x, u.y) for uid, u in self.uavs.items()])
         self._simulate_sensing([(uid, u.x, u.y) for uid, u in self.uavs.items()], 0)
 
@@ -221,10 +221,7 @@ class ClosedSearch:
         """Fold one sensor reading (by UAV `by`) into the shared map (eq. 2 or 3, and eq. 4),
         counting first finds and false alarms; True when it found a target for the first time."""
         x, y = cell
-        m = self.map
-        m.tep[x, y] = tep_after_report(m.tep[x, y], pc, pf) if reported else tep_after_no_report(m.tep[x, y], pc, pf)
-        m.eu[x, y] = eu_after_visit(m.eu[x, y])
-        m.visits[x, y] += 1
+        self.map.observe(x, y, reported, pc, pf)
         if not reported:
             return False
         if not self.target_grid[x, y]:
@@ -490,11 +487,13 @@ class ClosedSearch:
 
     def success(self) -> Success:
         """Expected targets found by the trajectories so far, under the scenario's prior and
-        sensor (`planner.success`): every cell flown and each airport at step 0 is one reading."""
-        prior = self.scenario.search_map
+        sensor (`planner.success`): every cell flown and each airport at step 0 is one reading.
+        A later sortie of a campaign counts against the campaign's first prior, after the
+        earlier sorties' looks (`Scenario.looks_before`): what this sortie adds."""
+        s = self.scenario
         trajectories = {uid: [(p.step, p.x, p.y) for p in u.trajectory] for uid, u in self.uavs.items()}
-        looks = plan_looks(trajectories, self.scenario.sensor.footprint_radius, prior.shape)
-        return success_of_looks(prior.tep, ~prior.no_fly, self.scenario.sensor.pc, looks, self.uavs)
+        looks = plan_looks(trajectories, s.sensor.footprint_radius, s.search_map.shape)
+        return success_of_looks(s.success_prior, ~s.search_map.no_fly, s.sensor.pc, looks, self.uavs, s.looks_before)
 
 
 def fly(scenario: Scenario, config: MissionConfig | None = None, seed: int = 0) -> Plan:

@@ -57,6 +57,21 @@ class SearchMap:
         out.visits = self.visits.copy()
         return out
 
+    def observe(self, x: int, y: int, reported: bool, pc: float, pf: float) -> None:
+        """Fold one reading of cell (x, y) into the map: eq. (2) after a report, eq. (3) after
+        none, eq. (4) for the EU, and one more visit. The planner in the loop and a flight's
+        posterior (`gcs.sortie`) both update through here.
+
+        A reading the model rules out (a report where P = 0 and Pf = 0, none where P = 1 and
+        Pc = 1: the Bayes denominator is 0) leaves the TEP as it is; the EU still halves."""
+        p = self.tep[x, y]
+        if reported and (pc - pf) * p + pf > 0:
+            self.tep[x, y] = tep_after_report(p, pc, pf)
+        elif not reported and (pf - pc) * p + 1.0 - pf > 0:
+            self.tep[x, y] = tep_after_no_report(p, pc, pf)
+        self.eu[x, y] = eu_after_visit(self.eu[x, y])
+        self.visits[x, y] += 1
+
 
 @njit
 def tep_after_report(p, pc, pf):

@@ -24,17 +24,28 @@ class UavSpec:
 
 @dataclass
 class Scenario:
-    """Everything the planner needs to fly a closed search."""
+    """Everything the planner needs to fly a closed search.
+
+    A later sortie of a campaign (`planner.campaign`) searches a `search_map` that is the belief
+    the earlier sorties left; `p0` is then the campaign's first prior TEP and `looks_before` the
+    earlier sorties' readings per cell, and the probability of success counts against them
+    (`planner.success`). Both None: the search map is the prior, nothing was read before."""
 
     name: str
     search_map: SearchMap
     uavs: list[UavSpec]
     targets: np.ndarray
     sensor: Sensor = field(default_factory=Sensor)
+    p0: np.ndarray | None = None
+    looks_before: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.targets = np.asarray(self.targets, dtype=np.int64).reshape(-1, 2)
         nx, ny = self.search_map.shape
+        for name in ("p0", "looks_before"):
+            value = getattr(self, name)
+            if value is not None and np.shape(value) != (nx, ny):
+                raise ValueError(f"{name} must be a {nx}x{ny} grid, got shape {np.shape(value)}")
         seen: set[tuple[int, int]] = set()
         for uav in self.uavs:
             x, y = uav.airport
@@ -54,6 +65,11 @@ class Scenario:
         for tx, ty in self.targets:
             if not (0 <= tx < nx and 0 <= ty < ny):
                 raise ValueError(f"target ({tx + 1}, {ty + 1}) is outside the grid")
+
+    @property
+    def success_prior(self) -> np.ndarray:
+        """P0 of the probability of success: the campaign's first prior, else the search map."""
+        return self.search_map.tep if self.p0 is None else self.p0
 
     def target_grid(self) -> np.ndarray:
         grid = np.zeros(self.search_map.shape, dtype=np.int64)

@@ -1,5 +1,6 @@
 """Kinematic software-in-the-loop vehicles that speak MAVLink 2 over UDP (see docs/sim.md)."""
 
+from sim.ardupilot import BootTimes
 from sim.battery import BatteryConfig, FailsafeLevel
 from sim.fleet import FleetOptions, SimFleet, homes_for
 from sim.geo import HomePose, LocalFrame
@@ -11,6 +12,7 @@ from sim.vehicle import SimVehicle, VehicleConfig, VehicleState
 
 __all__ = [
     "BatteryConfig",
+    "BootTimes",
     "FailsafeLevel",
     "FleetOptions",
     "HomePose",

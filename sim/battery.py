@@ -8,13 +8,13 @@ from enum import Enum
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class BatteryConfig:
-    """Capacity as flight endurance; drain on the ground is a fraction of that in flight."""
+    """Capacity as flight endurance at `flight_current_a`; on the ground (powered) the current
+    is `ground_drain_fraction` of that."""
 
     endurance_s: float = 1200.0
     ground_drain_fraction: float = 0.05
     cells: int = 4
     flight_current_a: float = 20.0
-    ground_current_a: float = 1.0
     low_pct: float = 20.0
     critical_pct: float = 5.0
 
@@ -44,27 +44,42 @@ def failsafe_to_trigger(current: FailsafeLevel, reached: FailsafeLevel) -> Fails
 
 
 class Battery:
-    """Charge state; `drain_multiplier` speeds draining and `fail()` empties it at once."""
+    """Charge state: consumed charge is integrated from the current, so a capacity changed
+    mid-flight (ArduPilot's BATT_CAPACITY) changes the remaining charge at once.
+    `drain_multiplier` scales the current and `fail()` empties the battery."""
 
     def __init__(self, config: BatteryConfig) -> None:
         self.config = config
-        self.remaining_fraction = 1.0
+        self.capacity_mah = config.capacity_mah
         self.drain_multiplier = 1.0
         self.current_a = 0.0
         self.consumed_mah = 0.0
+        self.energy_j = 0.0
 
-    def step(self, dt_s: float, *, flying: bool) -> None:
+    def step(self, dt_s: float, *, flying: bool, powered: bool = True, voltage_v: float | None = None) -> None:
+        """`powered` False: no current at all (ArduPilot draws none while disarmed)."""
         cfg = self.config
+        if not powered:
+            self.current_a = 0.0
+            return
         rate = 1.0 if flying else cfg.ground_drain_fraction
-        used = self.drain_multiplier * rate * dt_s / cfg.endurance_s
-        self.remaining_fraction = max(0.0, self.remaining_fraction - used)
-        self.current_a = (cfg.flight_current_a if flying else cfg.ground_current_a) * self.drain_multiplier
-        self.consumed_mah = (1.0 - self.remaining_fraction) * cfg.capacity_mah
+        self.current_a = cfg.flight_current_a * rate * self.drain_multiplier
+        self.consumed_mah += self.current_a * dt_s / 3.6
+        self.energy_j += self.current_a * (self.voltage_v if voltage_v is None else voltage_v) * dt_s
 
     def fail(self) -> None:
         """Immediate battery failure: no charge left."""
-        self.remaining_fraction = 0.0
-        self.consumed_mah = self.config.capacity_mah
+        self.consumed_mah = max(self.consumed_mah, self.capacity_mah)
+
+    @property
+    def remaining_fraction(self) -> float:
+        if self.capacity_mah <= 0:
+            return 0.0
+        return min(1.0, max(0.0, 1.0 - self.consumed_mah / self.capacity_mah))
+
+    @property
+    def remaining_mah(self) -> float:
+        return max(0.0, self.capacity_mah - self.consumed_mah)
 
     @property
     def remaining_pct(self) -> float:

@@ -24,6 +24,10 @@ from sim.link import Address, LinkFaults, VehicleLink
 from sim.vehicle import SimVehicle, VehicleConfig
 
 MAX_STEP_S = 0.1
+# Real seconds one tick may simulate at most: a process that falls behind slows simulated time
+# down, as SITL does, instead of jumping it forward past messages still waiting in the socket
+# (a jump would expire the vehicles' mission-protocol timeouts, which run in vehicle time).
+MAX_TICK_LAG_S = 0.05
 log = logging.getLogger(__name__)
 
 
@@ -33,7 +37,7 @@ class FleetOptions:
     `grid_origin` is the (lat, lon) of the sensor grid's south-west corner; by default vehicle
     1's home is a cell centre. With `tcp` every vehicle also listens on a TCP port
     (`tcp_base_port` + i, or one the OS picks), like SITL's SERIAL0; `serial_devices` serves
-    vehicle i on the i-th serial device ("/dev/pts/3" or "/dev/ttyUSB0,57600")."""
+    vehicle i on the i-th serial device ("/dev/pts/3" or "/dev/ttyUSB0,57600"; "" for none)."""
 
     base_port: int = 14540
     bind: str = "127.0.0.1"
@@ -111,7 +115,7 @@ class SimFleet:
                 if opts.tcp:
                     tcp_port = opts.tcp_base_port + i if opts.tcp_base_port else 0
                     await self._serve_stream(link, Connection(LinkKind.TCP_SERVER, host=opts.bind, port=tcp_port))
-                if i < len(opts.serial_devices):
+                if i < len(opts.serial_devices) and opts.serial_devices[i]:
                     await self._serve_stream(link, parse_connection(opts.serial_devices[i]))
         except BaseException:
             self._close()
@@ -251,7 +255,7 @@ class SimFleet:
         last = time.monotonic()
         while True:
             start = time.monotonic()
-            sim_dt = min(start - last, 1.0) * opts.speedup
+            sim_dt = min(start - last, MAX_TICK_LAG_S) * opts.speedup
             last = start
             self._tick(sim_dt, start)
             self.ticks += 1

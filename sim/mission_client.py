@@ -58,6 +58,7 @@ class MissionClient:
         start = time.monotonic()
         resends0 = self.resends
         send_last = lambda: mav.mission_count_send(*self.target, len(items), mission_type)  # noqa: E731
+        last_sends = 0
         send_last()
         while time.monotonic() - start < self.deadline_s:
             msg = self._recv(["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"], self.timeout_s)
@@ -72,15 +73,35 @@ class MissionClient:
                     return TransferStats(elapsed_s=time.monotonic() - start, resends=self.resends - resends0)
                 if msg.type == mavlink.MAV_MISSION_INVALID_SEQUENCE:
                     continue  # a stale item crossed a re-request; the vehicle asks again
+                if msg.type == mavlink.MAV_MISSION_ERROR and last_sends > 1 and self._count(mission_type) == len(items):
+                    # ArduPilot answers the last item re-sent after its ACK was lost with an
+                    # error (it no longer receives); the list it holds says the upload is done
+                    return TransferStats(elapsed_s=time.monotonic() - start, resends=self.resends - resends0)
                 raise MissionTransferError("upload", msg.type)
             if not 0 <= msg.seq < len(items):
                 continue
             item = items[msg.seq]
             item_msg = MissionItem(**{**_fields(item), "seq": msg.seq, "mission_type": mission_type})
-            out = item_msg.to_msg(self.target, legacy=msg.get_type() == "MISSION_REQUEST")
-            send_last = lambda out=out: mav.send(out)  # noqa: E731
+            out = item_msg.to_msg(self.target)  # MISSION_ITEM_INT, also for ArduPilot's MISSION_REQUEST
+            last_sends = 0
+
+            def send_last(out=out, last=msg.seq == len(items) - 1) -> None:
+                nonlocal last_sends
+                last_sends += last
+                mav.send(out)
+
             send_last()
         raise MissionTransferError("upload", None, f"no ACK within {self.deadline_s} s")
+
+    def _count(self, mission_type: int) -> int | None:
+        """The vehicle's item count of one list, or None if it does not answer."""
+        for _ in range(5):
+            self.conn.mav.mission_request_list_send(*self.target, mission_type)
+            msg = self._recv(["MISSION_COUNT"], self.timeout_s)
+            if msg is not None and msg.mission_type == mission_type:
+                self.conn.mav.mission_ack_send(*self.target, mavlink.MAV_MISSION_ACCEPTED, mission_type)
+                return msg.count
+        return None
 
     def download(self, mission_type: int = MissionType.MISSION) -> list[MissionItem]:
         mav = self.conn.mav
@@ -109,7 +130,10 @@ class MissionClient:
                 self.resends += 1
                 continue
             if msg.get_type() == "MISSION_ACK":
-                if msg.mission_type == mission_type and msg.type != mavlink.MAV_MISSION_ACCEPTED:
+                # MAV_MISSION_ERROR never answers a read-back: it is ArduPilot's answer to an item
+                # that arrived after the upload had ended (a re-sent last item)
+                if msg.mission_type == mission_type and msg.type not in (mavlink.MAV_MISSION_ACCEPTED,
+                                                                          mavlink.MAV_MISSION_ERROR):
                     raise MissionTransferError("download", msg.type)
                 continue
             if msg.seq == len(items) and msg.mission_type == mission_type:

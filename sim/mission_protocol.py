@@ -11,6 +11,7 @@ execution starts at item 1. With `home_item=False` (PX4) every item is part of t
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
 
@@ -87,7 +88,11 @@ class MissionItem:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class ProtocolConfig:
+    """`store` turns an item as received into the item as the autopilot keeps it (ArduPilot
+    packs items into its own format, `gcs.autopilots.ardupilot_storage`); None keeps it as sent."""
+
     home_item: bool = True
+    store: Callable[[MissionItem], MissionItem] | None = None
     capacity: dict[int, int] = field(
         default_factory=lambda: {MissionType.MISSION: 1000, MissionType.FENCE: 100, MissionType.RALLY: 20}
     )
@@ -142,10 +147,8 @@ class MissionProtocol:
 
     def replace(self, items: list[MissionItem], mission_type: int = MissionType.MISSION) -> None:
         """Store items directly (the Python API's upload)."""
-        self._stores[mission_type] = [
-            MissionItem(**{**_fields(it), "seq": i, "mission_type": mission_type}) for i, it in enumerate(items)
-        ]
-        self.versions[mission_type] += 1
+        self._commit(mission_type, [MissionItem(**{**_fields(it), "seq": i, "mission_type": mission_type})
+                                    for i, it in enumerate(items)])
 
     def handle(self, msg: MAVMessage, now_s: float) -> list[MAVMessage]:
         kind = msg.get_type()
@@ -268,7 +271,8 @@ class MissionProtocol:
         return [_ack(sender, mavlink.MAV_MISSION_ACCEPTED, msg.mission_type)]
 
     def _commit(self, mission_type: int, items: list[MissionItem]) -> None:
-        self._stores[mission_type] = list(items)
+        store = self.config.store
+        self._stores[mission_type] = [store(it) for it in items] if store else list(items)
         self.versions[mission_type] += 1
 
 

@@ -3,6 +3,11 @@
 Intervals are in simulated seconds, so `--speedup K` sends K times as often in real time, as
 ArduPilot SITL does. A stream sends at most once per fleet tick: an overloaded process sends
 less often rather than in bursts.
+
+Defaults per profile: an ArduCopter streams nothing but HEARTBEAT until a station asks
+(SET_MESSAGE_INTERVAL or REQUEST_DATA_STREAM), an ArduPlane streams every group at 1 Hz
+(research `ardupilot_flight` §1); the px4 profile streams status at 1 Hz and position at
+`telemetry_hz`. Before its GPS fix an ArduPilot vehicle reports position 0, 0.
 """
 
 from __future__ import annotations
@@ -28,17 +33,21 @@ ATTITUDE = mavlink.MAVLINK_MSG_ID_ATTITUDE
 VFR_HUD = mavlink.MAVLINK_MSG_ID_VFR_HUD
 HOME_POSITION = mavlink.MAVLINK_MSG_ID_HOME_POSITION
 AUTOPILOT_VERSION = mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION
+GPS_RAW_INT = mavlink.MAVLINK_MSG_ID_GPS_RAW_INT
+EKF_STATUS_REPORT = mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT
+GPS_GLOBAL_ORIGIN = mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN
 
 SLOW_STREAMS = (HEARTBEAT, SYS_STATUS, BATTERY_STATUS, EXTENDED_SYS_STATE, MISSION_CURRENT)
 FAST_STREAMS = (GLOBAL_POSITION_INT, ATTITUDE, VFR_HUD)
+ARDUPILOT_STREAMS = SLOW_STREAMS + FAST_STREAMS + (GPS_RAW_INT, EKF_STATUS_REPORT)
 
 # REQUEST_DATA_STREAM groups, as ArduPilot assigns messages to them.
 DATA_STREAM_GROUPS: dict[int, tuple[int, ...]] = {
-    mavlink.MAV_DATA_STREAM_EXTENDED_STATUS: (SYS_STATUS, MISSION_CURRENT, EXTENDED_SYS_STATE),
+    mavlink.MAV_DATA_STREAM_EXTENDED_STATUS: (SYS_STATUS, MISSION_CURRENT, EXTENDED_SYS_STATE, GPS_RAW_INT),
     mavlink.MAV_DATA_STREAM_POSITION: (GLOBAL_POSITION_INT,),
     mavlink.MAV_DATA_STREAM_EXTRA1: (ATTITUDE,),
     mavlink.MAV_DATA_STREAM_EXTRA2: (VFR_HUD,),
-    mavlink.MAV_DATA_STREAM_EXTRA3: (BATTERY_STATUS,),
+    mavlink.MAV_DATA_STREAM_EXTRA3: (BATTERY_STATUS, EKF_STATUS_REPORT),
 }
 DATA_STREAM_GROUPS[mavlink.MAV_DATA_STREAM_ALL] = tuple(m for g in DATA_STREAM_GROUPS.values() for m in g)
 
@@ -62,8 +71,15 @@ _SENSORS = (
 _GRAVITY_M_S2 = 9.80665
 
 
-def default_intervals_s(fast_hz: float) -> dict[int, float]:
-    """Slow streams at 1 Hz, position/attitude/HUD at `fast_hz`."""
+def default_intervals_s(fast_hz: float, *, profile: str = "px4", vehicle_type: str = "copter"
+                        ) -> dict[int, float | None]:
+    """What a vehicle streams before anyone asks: ArduCopter only HEARTBEAT, ArduPlane every
+    stream at 1 Hz; px4: slow streams at 1 Hz, position/attitude/HUD at `fast_hz`."""
+    if profile == "ardupilot":
+        hz = 1.0 if vehicle_type == "plane" else None
+        intervals: dict[int, float | None] = dict.fromkeys(ARDUPILOT_STREAMS, hz)
+        intervals[HEARTBEAT] = 1.0
+        return intervals
     intervals = dict.fromkeys(SLOW_STREAMS, 1.0)
     intervals.update(dict.fromkeys(FAST_STREAMS, 1.0 / fast_hz))
     return intervals
@@ -72,7 +88,7 @@ def default_intervals_s(fast_hz: float) -> dict[int, float]:
 class StreamScheduler:
     """Next due time per message id; interval None means off."""
 
-    def __init__(self, intervals_s: dict[int, float]) -> None:
+    def __init__(self, intervals_s: dict[int, float | None]) -> None:
         self._defaults = dict(intervals_s)
         self._interval: dict[int, float | None] = dict(intervals_s)
         self._due: dict[int, float] = dict.fromkeys(intervals_s, 0.0)
@@ -99,10 +115,15 @@ class StreamScheduler:
         return out
 
 
+def known(msg_id: int, v: SimVehicle) -> bool:
+    """Whether vehicle `v` can send message `msg_id` (when it has the data)."""
+    return msg_id in _BUILDERS and (v.ardupilot or msg_id not in _ARDUPILOT_ONLY)
+
+
 def build(msg_id: int, v: SimVehicle) -> mavlink.MAVLink_message | None:
-    """The message `msg_id` describing vehicle `v` now, or None if we cannot produce it."""
-    builder = _BUILDERS.get(msg_id)
-    return builder(v) if builder else None
+    """The message `msg_id` describing vehicle `v` now, or None if it cannot be sent now (an
+    ArduPilot vehicle without a home yet sends no HOME_POSITION) or at all."""
+    return _BUILDERS[msg_id](v) if known(msg_id, v) else None
 
 
 def _clamp(value: float, lo: int, hi: int) -> int:
@@ -121,8 +142,8 @@ def heartbeat(v: SimVehicle) -> mavlink.MAVLink_message:
         base |= mavlink.MAV_MODE_FLAG_GUIDED_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
     if v.mode in (Mode.AUTO, Mode.RTL, Mode.LAND, Mode.TAKEOFF):
         base |= mavlink.MAV_MODE_FLAG_AUTO_ENABLED
-    if not v.armed:
-        status = mavlink.MAV_STATE_STANDBY
+    if not v.armed or (v.ardupilot and v.landed):
+        status = mavlink.MAV_STATE_STANDBY  # ArduPilot: ACTIVE only once flying
     elif v.failsafe != FailsafeLevel.NONE:
         status = mavlink.MAV_STATE_CRITICAL
     else:
@@ -132,15 +153,42 @@ def heartbeat(v: SimVehicle) -> mavlink.MAVLink_message:
 
 def global_position_int(v: SimVehicle) -> mavlink.MAVLink_message:
     s = v.kin
+    hdg = round(math.degrees(s.heading_rad) % 360 * 100) % 36000
+    if not v.gps_fixed:  # ArduPilot's estimator has no origin yet
+        return mavlink.MAVLink_global_position_int_message(_time_boot_ms(v), 0, 0, 0, 0, 0, 0, 0, hdg)
     lat, lon = v.lat_lon_deg
     vn = s.speed_m_s * math.cos(s.heading_rad)
     ve = s.speed_m_s * math.sin(s.heading_rad)
     return mavlink.MAVLink_global_position_int_message(
         _time_boot_ms(v), round(lat * 1e7), round(lon * 1e7),
         round((v.home.alt_m + s.alt_m) * 1000), round(s.alt_m * 1000),
-        round(vn * 100), round(ve * 100), round(-s.climb_m_s * 100),
-        round(math.degrees(s.heading_rad) % 360 * 100) % 36000,
+        round(vn * 100), round(ve * 100), round(-s.climb_m_s * 100), hdg,
     )
+
+
+def gps_raw_int(v: SimVehicle) -> mavlink.MAVLink_message:
+    """SITL's GPS: no fix and zeros until `gps_fix_s`, then fix type 6 with 10 satellites."""
+    if not v.gps_fixed:
+        return mavlink.MAVLink_gps_raw_int_message(0, mavlink.GPS_FIX_TYPE_NO_FIX, 0, 0, 0, 65535, 65535, 0, 0, 0)
+    s = v.kin
+    lat, lon = v.lat_lon_deg
+    alt_mm = round((v.home.alt_m + s.alt_m) * 1000)
+    cog = round(math.degrees(s.heading_rad) % 360 * 100) % 36000
+    return mavlink.MAVLink_gps_raw_int_message(
+        int(v.time_s * 1e6), mavlink.GPS_FIX_TYPE_RTK_FIXED, round(lat * 1e7), round(lon * 1e7), alt_mm,
+        121, 200, round(s.speed_m_s * 100), cog, 10, alt_mm, 300, 300, 0, 0, 0)
+
+
+def ekf_status_report(v: SimVehicle) -> mavlink.MAVLink_message:
+    return mavlink.MAVLink_ekf_status_report_message(v.ekf_flags, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+def gps_global_origin(v: SimVehicle) -> mavlink.MAVLink_message | None:
+    if v.origin is None:
+        return None
+    lat, lon, alt = v.origin
+    return mavlink.MAVLink_gps_global_origin_message(round(lat * 1e7), round(lon * 1e7), round(alt * 1000),
+                                                     int(v.time_s * 1e6))
 
 
 def attitude(v: SimVehicle) -> mavlink.MAVLink_message:
@@ -161,16 +209,27 @@ def vfr_hud(v: SimVehicle) -> mavlink.MAVLink_message:
 
 def sys_status(v: SimVehicle) -> mavlink.MAVLink_message:
     b = v.battery
+    present = health = _SENSORS
+    if v.ardupilot:  # the pre-arm bit: healthy when its pre-arm checks pass in the current mode
+        present |= mavlink.MAV_SYS_STATUS_PREARM_CHECK
+        health |= mavlink.MAV_SYS_STATUS_PREARM_CHECK if v.prearm_ok else 0
     return mavlink.MAVLink_sys_status_message(
-        _SENSORS, _SENSORS, _SENSORS, 200, round(b.voltage_v * 1000), _clamp(b.current_a * 100, -1, 32767),
+        present, present, health, 200, round(v.battery_voltage_v * 1000), _clamp(b.current_a * 100, -1, 32767),
         round(b.remaining_pct), 0, 0, 0, 0, 0, 0,
     )
 
 
 def battery_status(v: SimVehicle) -> mavlink.MAVLink_message:
+    """ArduPilot (flight §5): the pack voltage in voltages[0], no time remaining (0), consumed
+    charge and energy; px4: cell voltages and a time-remaining estimate."""
     b = v.battery
-    cell_mv = round(b.voltage_v / b.config.cells * 1000)
-    voltages = [cell_mv] * b.config.cells + [0xFFFF] * (10 - b.config.cells)
+    if v.ardupilot:
+        voltages = [round(v.battery_voltage_v * 1000)] + [0xFFFF] * 9
+        remaining_s, energy_hj = 0, _clamp(b.energy_j / 100.0, -1, 2**31 - 1)
+    else:
+        cell_mv = round(b.voltage_v / b.config.cells * 1000)
+        voltages = [cell_mv] * b.config.cells + [0xFFFF] * (10 - b.config.cells)
+        remaining_s, energy_hj = _clamp(b.time_remaining_s, 0, 2**31 - 1), -1
     if b.remaining_fraction <= 0.0:
         charge = mavlink.MAV_BATTERY_CHARGE_STATE_FAILED
     else:
@@ -181,16 +240,20 @@ def battery_status(v: SimVehicle) -> mavlink.MAVLink_message:
         }[v.failsafe]
     return mavlink.MAVLink_battery_status_message(
         0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, 0x7FFF, voltages,
-        _clamp(b.current_a * 100, -1, 32767), _clamp(b.consumed_mah, -1, 2**31 - 1), -1, round(b.remaining_pct),
-        _clamp(b.time_remaining_s, 0, 2**31 - 1), charge,
+        _clamp(b.current_a * 100, -1, 32767), _clamp(b.consumed_mah, -1, 2**31 - 1), energy_hj,
+        round(b.remaining_pct), remaining_s, charge,
     )
 
 
 def extended_sys_state(v: SimVehicle) -> mavlink.MAVLink_message:
-    if v.landed:
+    if v.landed and v.landing:  # an ArduCopter is LANDING until it disarms (flight §2)
+        landed = mavlink.MAV_LANDED_STATE_LANDING
+    elif v.landed:
         landed = mavlink.MAV_LANDED_STATE_ON_GROUND
     elif v.landing:
         landed = mavlink.MAV_LANDED_STATE_LANDING
+    elif v.ardupilot and v.taking_off:  # ArduPilot: TAKEOFF until the take-off is done (flight §2)
+        landed = mavlink.MAV_LANDED_STATE_TAKEOFF
     else:
         landed = mavlink.MAV_LANDED_STATE_IN_AIR
     return mavlink.MAVLink_extended_sys_state_message(mavlink.MAV_VTOL_STATE_UNDEFINED, landed)
@@ -202,7 +265,9 @@ def mission_current(v: SimVehicle) -> mavlink.MAVLink_message:
     )
 
 
-def home_position(v: SimVehicle) -> mavlink.MAVLink_message:
+def home_position(v: SimVehicle) -> mavlink.MAVLink_message | None:
+    if not v.home_set:
+        return None
     h = v.home
     east, north = v.frame.geodetic2en(h.lat_deg, h.lon_deg)
     return mavlink.MAVLink_home_position_message(
@@ -229,4 +294,8 @@ _BUILDERS = {
     VFR_HUD: vfr_hud,
     HOME_POSITION: home_position,
     AUTOPILOT_VERSION: autopilot_version,
+    GPS_RAW_INT: gps_raw_int,
+    EKF_STATUS_REPORT: ekf_status_report,
+    GPS_GLOBAL_ORIGIN: gps_global_origin,
 }
+_ARDUPILOT_ONLY = frozenset({GPS_RAW_INT, EKF_STATUS_REPORT, GPS_GLOBAL_ORIGIN})

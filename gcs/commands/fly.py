@@ -18,7 +18,9 @@ from gcs.flight import FlyOptions, fly_async
 from gcs.fleet import FleetPlan, Stage, load_plan_dir
 from gcs.commands._links import add_link_arguments, connections_from, signing_from
 from gcs.links import SigningKey
+from gcs.sortie import SortieLog
 from gcs.status_table import render_summary
+from planner.campaign import sortie_seed
 
 # ---- the simulated fleet ------------------------------------------------------------------
 
@@ -223,20 +225,24 @@ def run(args: argparse.Namespace) -> int:
 
         setup = area_plan.build_area_search(plan_namespace(args))
         online = observed_search(setup.search.scenario, setup.search.config, seed=args.seed)
+    sortie = SortieLog(plan)
     fleet = None
     if args.sim:
-        fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile, seed=args.seed, pc=args.pc,
+        # a later sortie's readings draw new noise (planner.campaign.sortie_seed)
+        fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile,
+                          seed=sortie_seed(args.seed, sortie.sortie), pc=args.pc,
                           pf=args.pf, drain=drains, loss=args.sim_loss,
                           endurance_s=args.sim_endurance, signing=signing).start()
         connections = fleet.connection_strings()
         print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}", flush=True)
     try:
         controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online,
-                                           recorder=recorder, bus=bus, signing=signing))
+                                           recorder=recorder, bus=bus, signing=signing, watchers=[sortie]))
     finally:
         if fleet is not None:
             fleet.stop()
     print(render_summary(controller))
+    print(sortie.report())
     if recorder is not None and recorder.rrd_path is not None:
         print(f"recording {recorder.rrd_path}")
     if controller._interrupted:

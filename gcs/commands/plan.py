@@ -55,6 +55,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--rerun-connect", nargs="?", const="rerun+http://127.0.0.1:9876/proxy", metavar="ADDR",
                    help="also stream the run to a running Rerun viewer (ADDR default: %(const)s)")
     area_plan.add_arguments(p)
+    g = p.add_argument_group("campaigns of sorties (docs/campaigns.md)")
+    g.add_argument("--continue", dest="continue_from", metavar="FOLDER", default=None,
+                   help="plan the next sortie from the posterior a finished gcs fly left in FOLDER, with fresh "
+                        "batteries and FOLDER's area and options (default --out: FOLDER-sortie<N+1>)")
+    g.add_argument("--sorties", type=int, metavar="N", default=None,
+                   help="plan N closed sorties in a row, each from the belief the one before is predicted to leave "
+                        "(its looks reporting nothing), into --out/sortie<k>/ with campaign.json")
     p.set_defaults(func=run)
 
 
@@ -143,9 +150,13 @@ def summary_table(plan: Plan) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.area is not None:
-        return area_plan.run_area(args, lambda search, rrd, name, geo: fly_and_record(search, args, rrd, name, geo),
-                                  summary_table, recording_path)
+    if args.area is not None or args.continue_from is not None:
+        from gcs.missions.campaign import run_area
+
+        return run_area(args, lambda search, rrd, name, geo: fly_and_record(search, args, rrd, name, geo),
+                        summary_table, recording_path)
+    if args.sorties is not None:
+        raise UserError("--sorties needs --area (or --continue): sorties are flown over a real area")
     search = build_search(args)
     out = plan_path(args.out or "runs/plan.json")
     rrd = recording_path(args, out.with_suffix(".rrd"))

@@ -1,4 +1,5 @@
-"""`gcs plan --area`: area file -> grid and scenario -> closed search -> mission files.
+"""`gcs plan --area`: area file -> grid and scenario -> closed search -> mission files (run by
+`gcs.missions.campaign.run_area`, which also plans later sorties).
 
 Bad input raises `UserError` before anything is written; the outputs are staged and published
 together (`gcs.atomic.staged_outputs`), so a failed run leaves the output folder as it was."""
@@ -8,9 +9,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 from shapely.geometry import MultiPolygon, Point
@@ -34,12 +34,13 @@ from planner.area_grid import (
     build_area_grid,
     steps_for_range,
 )
+from planner.campaign import Belief, sortie_seed
 from planner.dtscs import ClosedSearch, MissionConfig
 from planner.environment import Sensor
 from planner.horizon import HorizonValue
 from planner.motion import constraint_by_name
 from planner.plan import Plan
-from planner.scenario import UavSpec
+from planner.scenario import Scenario, UavSpec
 
 DEFAULT_CELL_SIZE_M = 50.0
 
@@ -92,6 +93,23 @@ class AreaSetup:
     vehicle: Vehicle
     altitude_reference: AltitudeReference = AltitudeReference.HOME
     approach: ApproachOptions = ApproachOptions()
+    belief: Belief | None = None
+
+    def __post_init__(self) -> None:
+        if self.belief is None:
+            self.belief = Belief.prior(self.search.scenario.search_map)
+
+    def for_belief(self, belief: Belief, seed: int) -> AreaSetup:
+        """The same area, airports and fresh ranges searching `belief` (sortie `belief.sortie` of
+        the campaign on `seed`)."""
+        return replace(self, search=_search(self.search.scenario, self.search.config, seed, belief), belief=belief)
+
+
+def _search(scenario: Scenario, config: MissionConfig, seed: int, belief: Belief | None) -> ClosedSearch:
+    """The closed search of `scenario`, or of a later sortie's belief over it (its own seed)."""
+    if belief is None:
+        return ClosedSearch(scenario, config, seed=seed)
+    return ClosedSearch(belief.scenario(scenario), config, seed=sortie_seed(seed, belief.sortie))
 
 
 def _positive(value: float, what: str) -> float:
@@ -152,7 +170,9 @@ def altitude_layers(explicit: list[float | None], floor_m: float, step_m: float,
     return AltitudeLayers(altitudes, layer, levels)
 
 
-def build_area_search(args: argparse.Namespace) -> AreaSetup:
+def build_area_search(args: argparse.Namespace, belief: Belief | None = None) -> AreaSetup:
+    """The area, airports, ranges and closed search of `args`; with `belief`, the search of that
+    belief instead of the area's prior (a later sortie of a campaign, `gcs.missions.campaign`)."""
     source = read_area_file(args.area)
     cell = _positive(args.cell_size_m or source.cell_size_m or DEFAULT_CELL_SIZE_M, "--cell-size")
     speed = _positive(args.speed_m_s, "--speed")
@@ -197,11 +217,11 @@ def build_area_search(args: argparse.Namespace) -> AreaSetup:
                                return_planner=args.return_planner, reserve_steps=args.reserve,
                                range_aware_search=args.range_aware_search,
                                horizon=None if getattr(args, "horizon_value", None) is False else HorizonValue())
-        search = ClosedSearch(scenario, config, seed=args.seed)
+        search = _search(scenario, config, args.seed, belief)
     except ValueError as exc:
         raise UserError(f"{args.area}: {exc}") from None
     reference = AltitudeReference.TERRAIN if args.terrain_follow else AltitudeReference.HOME
-    return AreaSetup(source, area, search, ranges_m, layers, Vehicle(args.vehicle), reference, approach)
+    return AreaSetup(source, area, search, ranges_m, layers, Vehicle(args.vehicle), reference, approach, belief)
 
 
 def _rings_lat_lon(geometry) -> tuple[list, list]:
@@ -212,8 +232,10 @@ def _rings_lat_lon(geometry) -> tuple[list, list]:
     return outer, holes
 
 
-def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float) -> dict[str, str]:
-    """File name -> text of every output of an area plan."""
+def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, campaign: dict | None = None
+                 ) -> dict[str, str]:
+    """File name -> text of every output of an area plan; `campaign` is plan.json's campaign
+    section (`gcs.missions.campaign`)."""
     source, area = setup.source, setup.area
     missions: list[UavMission] = []
     paths: dict[int, FlownPath] = {}
@@ -242,7 +264,10 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float) -> d
                            "length_m": round(flown.length_m, 3)}
     outer, holes = _rings_lat_lon(source.area)
     exclusion = holes + [ring for zone in source.no_fly for ring in _rings_lat_lon(zone)[0]]
-    files = {"plan.json": json.dumps(plan_to_dict(plan, seed=seed, area=area, uav_extra=extra), indent=1) + "\n"}
+    data = plan_to_dict(plan, seed=seed, area=area, uav_extra=extra)
+    if campaign is not None:
+        data["campaign"] = campaign
+    files = {"plan.json": json.dumps(data, indent=1) + "\n"}
     for m in missions:
         files[f"uav{m.uav_id}.waypoints"] = wpl_text(m)
         files[f"uav{m.uav_id}.plan"] = json.dumps(qgc_plan(m, outer, exclusion, speed_m_s), indent=1) + "\n"
@@ -252,15 +277,19 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float) -> d
 
 
 def write_outputs(out_dir: Path, files: dict[str, str]) -> None:
-    """Publish all files together; on failure remove nothing old and leave no new folder behind."""
-    created = not out_dir.exists()
+    """Publish all files together (names may hold sub-folders, `sortie2/plan.json`); on failure
+    remove nothing old and leave no new folder behind."""
+    paths = [out_dir / name for name in files]
+    folders = {out_dir} | {parent for path in paths for parent in path.parents if out_dir in parent.parents}
+    new_dirs = sorted((d for d in folders if not d.exists()), key=lambda d: len(d.parts), reverse=True)
     try:
-        with staged_outputs([out_dir / name for name in files]) as staged:
+        with staged_outputs(paths) as staged:
             for name, text in files.items():
                 staged[out_dir / name].write_text(text, encoding="utf-8")
     except BaseException:
-        if created and out_dir.is_dir() and not any(out_dir.iterdir()):
-            out_dir.rmdir()
+        for folder in new_dirs:  # deepest first
+            if folder.is_dir() and not any(folder.iterdir()):
+                folder.rmdir()
         raise
 
 
@@ -294,24 +323,3 @@ def mission_table(setup: AreaSetup, plan: Plan, files: dict[str, str]) -> str:
     rows.append(f"grid {g.nx}x{g.ny} cells of {g.cell_size_m:g} m, {int(setup.area.free.sum())} searchable, "
                 f"{setup.area.edge_blocked} blocked at edges")
     return "\n".join(rows)
-
-
-def run_area(args: argparse.Namespace, fly: Callable[..., Plan], summary: Callable[[Plan], str],
-             recording_path: Callable[[argparse.Namespace, Path], Path | None]) -> int:
-    """`gcs plan --area`: `fly(search, rrd, name, cells_to_lat_lon)` runs and records the search."""
-    from gcs.overview import draw_overview
-
-    out_dir = area_out_dir(args)
-    rrd = recording_path(args, out_dir / "plan.rrd")
-    setup = build_area_search(args)
-    plan = fly(setup.search, rrd, Path(args.area).stem, setup.area.cells_lonlat)
-    files = area_outputs(setup, plan, args.seed, args.speed_m_s)
-    write_outputs(out_dir, files)
-    picture = draw_overview(plan, setup.search.scenario, out_dir / "plan.png")
-    if not args.quiet:
-        print(summary(plan))
-        print(mission_table(setup, plan, files))
-        print(f"plan, missions and paths written to {out_dir}/ ({', '.join(sorted(files))}), picture {picture.name}"
-              + (f", recording {rrd}" if rrd else ""))
-    return 0
-

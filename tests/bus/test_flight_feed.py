@@ -50,10 +50,10 @@ def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fle
             add_bus_arguments(parser)  # as gcs fly would
             args = parser.parse_args(["--mqtt", broker.url, "--fleet", fleet_name, "--mqtt-station", "flyer",
                                       "--mqtt-telemetry-hz", "5"])
-            async with attach_bus(controller, online=None, **bus_options(args)):
+            async with attach_bus(controller, **bus_options(args)):
                 flight = asyncio.create_task(controller.run())
                 async with FleetWatcher(url, fleet=fleet_name) as watcher:
-                    while controller.status[2].stage is not Stage.SEARCH:
+                    while not controller.status[2].airborne_seen:  # ordered on the ground, it would stay there
                         await asyncio.sleep(0.05)
                     replies["return 2"] = await watcher.command(Command("r2", CommandKind.RETURN, 2), 5)
                     replies["return 2 again"] = await watcher.command(Command("r2b", CommandKind.RETURN, 2), 5)

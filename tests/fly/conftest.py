@@ -37,7 +37,7 @@ def fast_options(**overrides) -> FlyOptions:
     return FlyOptions(**base)
 
 
-def fly(plan: FleetPlan, options: FlyOptions | None = None, *, during=None, listeners=(),
+def fly(plan: FleetPlan, options: FlyOptions | None = None, *, during=None, listeners=(), watchers=(),
         **sim) -> tuple[FlightController, object]:
     """Fly `plan` against a fresh simulated fleet; `during(fleet)` runs once it is up."""
     sim.setdefault("speedup", SPEEDUP)
@@ -46,7 +46,8 @@ def fly(plan: FleetPlan, options: FlyOptions | None = None, *, during=None, list
         if during is not None:
             during(fleet)
         controller = asyncio.run(asyncio.wait_for(
-            fly_async(plan, fleet.connection_strings(), options or fast_options(), listeners=listeners), 120))
+            fly_async(plan, fleet.connection_strings(), options or fast_options(), listeners=listeners,
+                      watchers=watchers), 120))
     finally:
         fleet.stop()
     assert not fleet.errors, fleet.errors

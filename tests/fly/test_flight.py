@@ -104,7 +104,8 @@ def test_unknown_uav_in_a_return_order_is_refused(plan):
 
 
 def test_a_vehicle_that_goes_silent_does_not_stop_the_others(plan):
-    controller, fleet = fly(plan, during=lambda f: f.call(f.stop_answering, 3, 40.0))
+    # 150 s of vehicle time: in flight (the simulated ArduCopter is ready to arm after 42 s)
+    controller, fleet = fly(plan, during=lambda f: f.call(f.stop_answering, 3, 150.0))
     assert controller.status[3].stage is Stage.LOST
     for uid in (1, 2, 4):
         assert controller.status[uid].stage is Stage.LANDED
@@ -134,18 +135,21 @@ def test_upload_under_20_percent_packet_loss_still_verifies(plan):
     assert resends > 0  # the loss really hit the transfers
 
 
-@pytest.mark.parametrize("seed", [0, 4])
-def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_seed(tmp_path, seed):
+@pytest.mark.parametrize("seed, horizon", [(0, False), (4, False), (0, True)])
+def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_seed(tmp_path, seed, horizon):
     """The planner in the loop and the precomputed plan, both flown through the simulator on the
     same seed: the same targets and the same sensor noise (drawn per UAV, cell and visit), targets
     counted from the readings the vehicles sent.
 
     Online mode finds at least as many targets. Flown in lock step (each decision waits for
     every vehicle's reading of its cell), it takes the planner's decisions on the map the planner
-    would have, so nominal flights match the plan's own prediction exactly: the same cells step by
-    step, the same finds, the same false alarms. A lost, late or misplaced reading, or a step
-    decided from a stale position, breaks that. (Seed 4: one UAV's search ends on its airport,
-    with no return leg.)"""
+    would have, so with the paper's reward (no horizon value) nominal flights match the plan's
+    own prediction exactly: the same cells step by step, the same finds, the same false alarms. A
+    lost, late or misplaced reading, or a step decided from a stale position, breaks that. The
+    horizon value (the default for area plans) weighs what lies within the range left, and online
+    the range is the live battery's, so decisions may rightly part from the precomputed plan's:
+    there only the finds are compared. (Seed 4: one UAV's search ends on its airport, with no
+    return leg.)"""
     from gcs.commands.fly import start_sim
     from gcs.flight import fly_async
     from gcs.fleet import load_plan_dir
@@ -155,13 +159,13 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     from tests.fly.conftest import ROOT
 
     area = str(ROOT / "missions" / "paper.geojson")
-    assert main(["plan", "--area", area, "--seed", str(seed), "--strategy", "exhaustive", "--out", str(tmp_path),
-                 "--quiet", "--no-rrd"]) == 0
+    options = ["--seed", str(seed), "--strategy", "exhaustive"] + ([] if horizon else ["--no-horizon-value"])
+    assert main(["plan", "--area", area, *options, "--out", str(tmp_path), "--quiet", "--no-rrd"]) == 0
     plan = load_plan_dir(tmp_path)
     predicted = {(t["x"] - 1, t["y"] - 1) for t in plan.raw["targets"] if t["found_step"] is not None}
     from gcs.cli import build_parser
 
-    args = build_parser().parse_args(["plan", "--area", area, "--seed", str(seed), "--strategy", "exhaustive"])
+    args = build_parser().parse_args(["plan", "--area", area, *options])
     setup = area_plan.build_area_search(args)
     search = observed_search(setup.search.scenario, setup.search.config, seed=seed)
     fleet = start_sim(plan, speedup=40.0, seed=seed).start()
@@ -181,6 +185,8 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     print(f"seed {seed}: targets found online {len(online_found)}, precomputed {len(plan_found)}, "
           f"predicted {len(predicted)} of {len(plan.targets)}")
     assert len(online_found) >= len(plan_found)
+    if horizon:
+        return
     flown = {u.uav_id: [(p.x, p.y) for p in u.trajectory] for u in search.plan().uavs}
     for uid, task in plan.uavs.items():
         assert flown[uid] == [(p.x, p.y) for p in task.trajectory], f"UAV {uid} left the planner's path"

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from sim import FleetOptions, HomePose, SimFleet
+from sim import FleetOptions, HomePose, SimFleet, VehicleConfig
 
 HOMES = [HomePose(-35.3632, 149.1652), HomePose(-35.3633, 149.1653), HomePose(-35.3634, 149.1654)]
 
@@ -23,7 +23,8 @@ def make_fleet() -> Iterator:
     def make(count: int = 1, **options) -> SimFleet:
         options.setdefault("base_port", 0)
         options.setdefault("speedup", 10.0)
-        fleet = SimFleet(HOMES[:count], options=FleetOptions(**options)).start()
+        # ready to arm at once: these tests are about links, not about an autopilot's start-up
+        fleet = SimFleet(HOMES[:count], VehicleConfig(boot_scale=0.0), FleetOptions(**options)).start()
         fleets.append(fleet)
         return fleet
 

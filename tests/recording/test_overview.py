@@ -43,3 +43,38 @@ def test_overview_differs_between_plans(recorded_run: RecordedRun, tmp_path: Pat
     a = np.asarray(Image.open(draw_overview(recorded_run.plan, recorded_run.scenario, tmp_path / "a.png")).convert("RGB"))
     b = np.asarray(Image.open(draw_overview(other, other_scenario, tmp_path / "b.png")).convert("RGB"))
     assert a.shape == b.shape and (a != b).any(axis=-1).mean() > 0.01
+
+
+def test_a_later_sortie_hatches_what_earlier_sorties_searched(tmp_path: Path):
+    """A campaign's second sortie: the cells the first read are greyed and hatched, the title
+    gives the campaign's probability of success before and after."""
+    from dataclasses import replace
+
+    from gcs.overview import campaign_outcome, hatch_image
+    from planner.campaign import Belief, predicted_after
+    from planner.dtscs import MissionConfig, fly
+    from planner.scenario import paper_scenario
+
+    mask = np.zeros((5, 4), dtype=bool)
+    mask[1, 2] = mask[4, 0] = True
+    image = hatch_image(mask, 4)
+    assert image.shape == (16, 20, 4)
+    inked = image[..., 3] > 0
+    assert np.array_equal(inked.reshape(4, 4, 5, 4).any(axis=(1, 3)), mask.T)  # exactly the masked cells
+    assert len({tuple(p) for p in image[inked]}) == 2  # grey fill and dark lines
+
+    scenario = paper_scenario(5, range_steps=40)
+    first = fly(scenario, MissionConfig(np_steps=3), seed=5)
+    belief = predicted_after(Belief.prior(scenario.search_map), first, scenario.sensor)
+    later = belief.scenario(scenario)
+    second = fly(later, MissionConfig(np_steps=3), seed=6)
+    assert campaign_outcome(first, scenario) is None
+    line = campaign_outcome(second, later)
+    assert line.startswith(f"campaign PoS {first.success.share:.1%} -> ")
+    unread = replace(later, looks_before=np.zeros_like(later.looks_before))  # the same picture but the hatch
+    plain = np.asarray(Image.open(draw_overview(second, unread, tmp_path / "a.png")).convert("RGB"), dtype=np.int64)
+    hatched = np.asarray(Image.open(draw_overview(second, later, tmp_path / "b.png")).convert("RGB"), dtype=np.int64)
+    changed = (np.abs(hatched - plain).sum(axis=-1) > 30).mean()
+    read = int((later.looks_before > 0).sum())
+    # the map is drawn in at most 0.6 x 0.84 of the figure: at least half of the read cells changed
+    assert changed > 0.5 * read / later.search_map.tep.size * 0.6 * 0.84

@@ -7,7 +7,7 @@ from collections.abc import Callable, Iterator
 import pytest
 
 from sim import FleetOptions, HomePose, SimFleet, VehicleConfig
-from tests.sim.helpers import HOME, Gcs
+from tests.sim.helpers import HOME, Gcs, fast
 
 
 @pytest.fixture
@@ -17,7 +17,7 @@ def make_fleet() -> Iterator[Callable[..., SimFleet]]:
     def make(homes: list[HomePose] | None = None, config: VehicleConfig | None = None, **options) -> SimFleet:
         options.setdefault("base_port", 0)
         options.setdefault("speedup", 20.0)
-        fleet = SimFleet(homes or [HOME], config or VehicleConfig(), FleetOptions(**options))
+        fleet = SimFleet(homes or [HOME], config or fast(), FleetOptions(**options))
         fleets.append(fleet.start())
         return fleet
 

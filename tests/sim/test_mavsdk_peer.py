@@ -1,4 +1,6 @@
-"""The simulator as seen by an independent client: MAVSDK (native binding, v4)."""
+"""The simulator as seen by an independent client: MAVSDK (native binding, v4), used as against
+a real ArduPilot: position streams asked for (ArduCopter sends none unasked), arming retried
+until the autopilot is ready, MissionRaw with its own home item."""
 
 from __future__ import annotations
 
@@ -6,14 +8,15 @@ import asyncio
 import math
 
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
-from mavsdk.asyncio.plugins.action import ActionAsync
+from mavsdk.asyncio.plugins.action import ActionAsync, ActionError
 from mavsdk.asyncio.plugins.mission import MissionAsync, MissionItem, MissionPlan
 from mavsdk.asyncio.plugins.mission_raw import MissionItem as RawItem
 from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 
-from sim import VehicleConfig
-from tests.sim.helpers import HOME, distance_m, offset
+from gcs.autopilots.ardupilot_storage import stored_item
+from sim import MissionItem as SimItem
+from tests.sim.helpers import HOME, distance_m, fast, offset
 
 
 async def _with_system(port: int, body):
@@ -26,9 +29,24 @@ async def _with_system(port: int, body):
 
 
 async def _position(system):
-    async for position in TelemetryAsync(system).subscribe_position():
-        if not math.isnan(position.latitude_deg):
+    """The first position after the GPS fix (ArduPilot reports 0, 0 before)."""
+    telemetry = TelemetryAsync(system)
+    await telemetry.set_rate_position(4.0)
+    async for position in telemetry.subscribe_position():
+        if not math.isnan(position.latitude_deg) and (position.latitude_deg, position.longitude_deg) != (0.0, 0.0):
             return position
+
+
+async def _arm(system, timeout_s: float = 20.0):
+    """Arm, retrying while the autopilot refuses (it does until its EKF has a position)."""
+    end = asyncio.get_running_loop().time() + timeout_s
+    while True:
+        try:
+            return await ActionAsync(system).arm()
+        except ActionError:
+            if asyncio.get_running_loop().time() > end:
+                raise
+            await asyncio.sleep(0.1)
 
 
 def _run(fleet, body):
@@ -63,8 +81,10 @@ def test_mavsdk_raw_mission_of_200_items_round_trips(make_fleet):
 
     back = _run(fleet, body)
     assert len(back) == 201
-    key = lambda it: (it.seq, it.frame, it.command, it.param2, it.x, it.y, it.z)  # noqa: E731
-    assert [key(b) for b in back[1:]] == [key(i) for i in items[1:]]
+    key = lambda it: (it.seq, it.frame, it.command, it.current, it.param1, it.param2, it.x, it.y, it.z)  # noqa: E731
+    kept = [stored_item(SimItem(seq=i.seq, frame=i.frame, command=i.command, current=i.current, param2=i.param2,
+                                x=i.x, y=i.y, z=i.z), fixed_wing=False) for i in items]
+    assert [key(b) for b in back[1:]] == [key(k) for k in kept[1:]]  # frame 6 reads back as 3, param2 dropped
     assert (back[0].x, back[0].y) == (round(HOME.lat_deg * 1e7), round(HOME.lon_deg * 1e7))
     stored = fleet.vehicle(1).mission.items()
     assert [(s.x, s.y) for s in stored[1:]] == [(i.x, i.y) for i in items[1:]]
@@ -79,7 +99,7 @@ def _plan(points):
 
 
 def test_mavsdk_mission_plugin_round_trips_on_the_px4_profile(make_fleet):
-    fleet = make_fleet(config=VehicleConfig(profile="px4"))
+    fleet = make_fleet(config=fast(profile="px4"))
     points = [offset(HOME, e, n) for e, n in ((0, 40), (40, 40), (40, 0))]
 
     async def body(system):
@@ -107,7 +127,8 @@ def test_mavsdk_raw_mission_flight_on_the_ardupilot_profile(make_fleet):
     async def body(system):
         raw = MissionRawAsync(system)
         await raw.upload_mission(items)
-        await ActionAsync(system).arm()
+        await _position(system)
+        await _arm(system)
         await raw.start_mission()
         async for progress in raw.subscribe_mission_progress():
             if progress.current >= 4:

@@ -1,4 +1,6 @@
-"""The simulator as a MAVLink peer, driven over UDP by a pymavlink ground station."""
+"""The simulator as a MAVLink peer, driven over UDP by a pymavlink ground station, the way a
+station must drive ArduPilot: ask for the telemetry, wait until it is ready, GUIDED, arm,
+MISSION_START (0, 0)."""
 
 from __future__ import annotations
 
@@ -7,13 +9,19 @@ import math
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim import BatteryConfig, LinkFaults, MissionItem, VehicleConfig
+from gcs.autopilots.ardupilot_storage import stored_item
+from sim import BatteryConfig, LinkFaults, MissionItem
 from sim.link import signing_key_from
 from sim.mission_client import MissionClient, MissionTransferError
 
-from tests.sim.helpers import HOME, distance_m, home_placeholder, offset, waypoint
+from tests.sim.helpers import HOME, distance_m, fast, home_placeholder, offset, waypoint
 
 COPTER_GUIDED, COPTER_AUTO, COPTER_RTL, COPTER_LAND = 4, 3, 6, 9
+
+
+def kept(items: list[MissionItem]) -> list[MissionItem]:
+    """What ArduPilot reads back for `items` as sent (the home item aside)."""
+    return [stored_item(it, fixed_wing=False) for it in items]
 
 
 def survey(n: int) -> list[MissionItem]:
@@ -32,8 +40,7 @@ def test_heartbeat_identifies_an_ardupilot_copter(make_fleet, make_gcs):
     assert hb.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
     assert not hb.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED
     assert hb.get_srcComponent() == mavlink.MAV_COMP_ID_AUTOPILOT1
-    for kind in ("GLOBAL_POSITION_INT", "ATTITUDE", "VFR_HUD", "SYS_STATUS", "BATTERY_STATUS", "MISSION_CURRENT"):
-        gcs.wait(kind, timeout_s=3)
+    gcs.wait_ready()
     assert gcs.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION) == 0
     version = gcs.wait("AUTOPILOT_VERSION")
     assert version.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT
@@ -52,20 +59,26 @@ def test_message_interval_and_params(make_fleet, make_gcs):
     stamps = [first._timestamp] + [gcs.wait("BATTERY_STATUS")._timestamp for _ in range(10)]
     assert (stamps[-1] - stamps[0]) / 10 == pytest.approx(0.05, abs=0.02)  # 20 Hz, was 1 Hz
     gcs.mav.param_request_list_send(*gcs.target)
-    names = {gcs.wait("PARAM_VALUE").param_id for _ in range(3)}
-    assert "SYSID_THISMAV" in names or len(names) == 3
+    first = gcs.wait("PARAM_VALUE")
+    names = {first.param_id} | {gcs.wait("PARAM_VALUE").param_id for _ in range(first.param_count - 1)}
+    assert "MAV_SYSID" in names and "SYSID_THISMAV" not in names  # ArduPilot 4.7 renamed it
+    gcs.mav.param_request_read_send(*gcs.target, b"SYSID_THISMAV", -1)
+    assert gcs.wait("PARAM_VALUE", timeout_s=0.5, check=False) is None  # an unknown name gets no answer
 
 
-def test_200_item_mission_uploads_and_downloads_identical(make_fleet, make_gcs):
+def test_200_item_mission_uploads_and_reads_back_as_ardupilot_keeps_it(make_fleet, make_gcs):
     gcs = make_gcs(make_fleet())
     gcs.hello()
+    home = gcs.wait_ready()
     items = survey(200)
     client = MissionClient(gcs.conn, 1)
     client.upload(items)
     back = client.download()
     assert len(back) == 201
-    assert back[1:] == items[1:]
-    assert (back[0].x, back[0].y, back[0].z) == (round(HOME.lat_deg * 1e7), round(HOME.lon_deg * 1e7), HOME.alt_m)
+    assert back[1:] == kept(items)[1:]
+    assert all(b.frame == mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT for b in back[1:])  # 6 comes back as 3
+    assert (back[0].frame, back[0].x, back[0].y, back[0].z) == (
+        mavlink.MAV_FRAME_GLOBAL, home.latitude, home.longitude, home.altitude / 1000)
 
 
 def test_fence_and_rally_are_kept_apart_from_the_mission(make_fleet, make_gcs):
@@ -73,38 +86,40 @@ def test_fence_and_rally_are_kept_apart_from_the_mission(make_fleet, make_gcs):
     gcs.hello()
     client = MissionClient(gcs.conn, 1)
     fence = [MissionItem(seq=i, frame=5, command=mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
-                         param1=4, x=round(HOME.lat_deg * 1e7) + i, y=round(HOME.lon_deg * 1e7), mission_type=1)
-             for i in range(4)]
+                         param1=4, x=round(HOME.lat_deg * 1e7) + i, y=round(HOME.lon_deg * 1e7), z=12.5,
+                         mission_type=1) for i in range(4)]
     client.upload(survey(3))
     client.upload(fence, mission_type=1)
-    assert client.download(mission_type=1) == fence
+    back = client.download(mission_type=1)
+    assert back == kept(fence)
+    assert {(b.frame, b.z) for b in back} == {(mavlink.MAV_FRAME_GLOBAL, 0.0)}
     assert len(client.download()) == 4
     assert client.download(mission_type=2) == []
 
 
 def test_mission_upload_completes_under_20_percent_loss(make_fleet, make_gcs):
-    fleet = make_fleet(faults=LinkFaults(loss=0.2, duplicate=0.05, seed=7),
-                       config=VehicleConfig(mission_timeout_s=0.05))
+    fleet = make_fleet(faults=LinkFaults(loss=0.2, duplicate=0.05, seed=7))
     gcs = make_gcs(fleet)
     gcs.hello(timeout_s=10)
     items = survey(200)
     client = MissionClient(gcs.conn, 1, timeout_s=0.02, deadline_s=40)
-    client.upload(items)
+    client.upload(items)  # ArduPilot re-requests after 1 s of its time: 50 ms at speedup 20
     assert client.resends > 0
-    assert fleet.call(lambda: fleet.vehicle(1).mission.items()[1:]) == items[1:]
-    assert client.download()[1:] == items[1:]
+    assert fleet.call(lambda: fleet.vehicle(1).mission.items()[1:]) == kept(items)[1:]
+    assert client.download()[1:] == kept(items)[1:]
 
 
-def test_bad_sequence_gets_an_error_ack(make_fleet, make_gcs):
+def test_items_are_requested_with_mission_request_and_errors_are_acked(make_fleet, make_gcs):
     gcs = make_gcs(make_fleet())
     gcs.hello()
     gcs.mav.mission_count_send(*gcs.target, 3, 0)
-    assert gcs.wait("MISSION_REQUEST_INT").seq == 0
+    assert gcs.wait(["MISSION_REQUEST", "MISSION_REQUEST_INT"]).get_type() == "MISSION_REQUEST"  # id 40 only
     gcs.mav.send(survey(3)[2].to_msg(gcs.target))
     ack = gcs.wait("MISSION_ACK")
     assert ack.type == mavlink.MAV_MISSION_INVALID_SEQUENCE
     gcs.mav.mission_count_send(*gcs.target, 5000, 0)
     assert gcs.wait("MISSION_ACK").type == mavlink.MAV_MISSION_NO_SPACE
+    assert gcs.wait("STATUSTEXT").text == "Only 650 items are supported"
 
 
 def test_signing_refuses_unsigned_commands_and_uploads(make_fleet, make_gcs):
@@ -123,6 +138,7 @@ def test_signing_refuses_unsigned_commands_and_uploads(make_fleet, make_gcs):
     assert not fleet.vehicle(1).armed
     MissionClient(signed.conn, 1).upload(survey(3))
     assert len(fleet.vehicle(1).mission.items()) == 4
+    signed.wait_ready()
     assert signed.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_ACCEPTED
 
 
@@ -136,6 +152,7 @@ def _fly_square(make_fleet, make_gcs, **fleet_options):
     for i, (e, n) in enumerate(corners):
         items.append(waypoint(i + 2, *offset(HOME, e, n), 15.0, param1=2.0))
     items.append(MissionItem(seq=5, frame=2, command=mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH))
+    gcs.wait_ready()
     MissionClient(gcs.conn, 1).upload(items)
     assert gcs.set_mode(COPTER_GUIDED) == mavlink.MAV_RESULT_ACCEPTED
     assert gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_ACCEPTED
@@ -179,16 +196,17 @@ def test_rtl_command_returns_and_lands_at_home(make_fleet, make_gcs):
     gcs.wait("MISSION_ITEM_REACHED", lambda m: m.seq == 3, timeout_s=20)
     assert gcs.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH) == mavlink.MAV_RESULT_ACCEPTED
     gcs.wait("HEARTBEAT", lambda m: m.custom_mode == COPTER_RTL)
-    gcs.wait("STATUSTEXT", lambda m: "Land complete" in m.text, timeout_s=20)
+    gcs.wait("STATUSTEXT", lambda m: m.text == "Disarming motors", timeout_s=20)
     state = fleet.vehicle(1).state
     assert state.landed and not state.armed and state.mode.value == "RTL"
     assert distance_m(state.lat_deg, state.lon_deg, HOME.lat_deg, HOME.lon_deg) <= 2.0
 
 
 def test_low_battery_failsafe_triggers_rtl(make_fleet, make_gcs):
-    fleet = make_fleet(speedup=20.0, config=VehicleConfig(battery=BatteryConfig(low_pct=90.0)))
+    fleet = make_fleet(speedup=20.0, config=fast(battery=BatteryConfig(low_pct=90.0)))
     gcs = make_gcs(fleet)
     gcs.hello()
+    gcs.wait_ready()
     gcs.set_mode(COPTER_GUIDED)
     assert gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == 0
     assert gcs.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 20) == 0
@@ -198,13 +216,14 @@ def test_low_battery_failsafe_triggers_rtl(make_fleet, make_gcs):
                            round(lat * 1e7), round(lon * 1e7), 20.0) == 0
     gcs.wait("GLOBAL_POSITION_INT", lambda m: distance_m(m.lat / 1e7, m.lon / 1e7, HOME.lat_deg, HOME.lon_deg) > 60)
     gcs.mav.param_set_send(*gcs.target, b"SIM_DRAIN_MULT", 20.0, mavlink.MAV_PARAM_TYPE_REAL32)
-    text = gcs.wait("STATUSTEXT", lambda m: "Battery failsafe" in m.text, timeout_s=20)
-    assert text.severity <= mavlink.MAV_SEVERITY_CRITICAL
+    text = gcs.wait("STATUSTEXT", lambda m: m.text.startswith("Battery 1 is low"), timeout_s=20)
+    assert text.severity == mavlink.MAV_SEVERITY_WARNING and text.text.endswith(" mAh")
+    assert gcs.wait("STATUSTEXT").text == "Battery Failsafe"
     gcs.wait("HEARTBEAT", lambda m: m.custom_mode == COPTER_RTL)
     battery = gcs.wait("BATTERY_STATUS")
     assert battery.battery_remaining <= 90
     assert battery.charge_state == mavlink.MAV_BATTERY_CHARGE_STATE_LOW
-    gcs.wait("STATUSTEXT", lambda m: "Land complete" in m.text, timeout_s=30)
+    gcs.wait("STATUSTEXT", lambda m: m.text == "Disarming motors", timeout_s=30)
     state = fleet.vehicle(1).state
     assert distance_m(state.lat_deg, state.lon_deg, HOME.lat_deg, HOME.lon_deg) <= 2.0
 
@@ -214,8 +233,9 @@ def test_arm_is_denied_with_a_reason_when_the_battery_failed(make_fleet, make_gc
     fleet.call(fleet.vehicle(1).fail_battery)
     gcs = make_gcs(fleet)
     gcs.hello()
-    assert gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_DENIED
-    assert "Battery" in gcs.wait("STATUSTEXT", lambda m: "PreArm" in m.text).text
+    gcs.wait_ready()
+    assert gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_FAILED
+    assert gcs.wait("STATUSTEXT").text == "Arm: Battery 1 critical capacity failsafe"
     assert gcs.wait("BATTERY_STATUS").charge_state == mavlink.MAV_BATTERY_CHARGE_STATE_FAILED
 
 
@@ -224,12 +244,17 @@ def test_detections_are_reported_as_geotagged_captures(make_fleet, make_gcs):
     fleet = make_fleet(targets=(target,))
     gcs = make_gcs(fleet)
     gcs.hello()
+    gcs.wait_ready()
     gcs.set_mode(COPTER_GUIDED)
     gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
     gcs.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 10)
     gcs.wait("GLOBAL_POSITION_INT", lambda m: m.relative_alt > 9_000, timeout_s=20)
     lat, lon = offset(HOME, 0, 100)
-    gcs.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.nan, lat, lon, 10)
+    # ArduPilot takes DO_REPOSITION only as COMMAND_INT
+    assert gcs.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.nan, lat, lon, 10) \
+        == mavlink.MAV_RESULT_UNSUPPORTED
+    assert gcs.command_int(mavlink.MAV_CMD_DO_REPOSITION, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                           (-1, 0, 0, math.nan), round(lat * 1e7), round(lon * 1e7), 10) == mavlink.MAV_RESULT_ACCEPTED
     captures = []
     while not captures or distance_m(captures[-1].lat / 1e7, captures[-1].lon / 1e7, lat, lon) > 20:
         captures.append(gcs.wait("CAMERA_IMAGE_CAPTURED", timeout_s=20))

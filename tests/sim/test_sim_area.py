@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
 from gcs.area_file import read_area_file
 from tests.sim.helpers import Gcs, distance_m
 
@@ -44,7 +46,8 @@ def test_vehicles_start_at_the_area_airports():
         for i, airport in enumerate(airports):
             link = Gcs(("127.0.0.1", base + i), i + 1)
             assert link.hello().get_srcSystem() == i + 1
-            pos = link.wait("GLOBAL_POSITION_INT")
+            link.request_streams({mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 4.0})  # ArduCopter sends none unasked
+            pos = link.wait("GLOBAL_POSITION_INT", lambda m: (m.lat, m.lon) != (0, 0))  # after its GPS fix
             assert distance_m(pos.lat / 1e7, pos.lon / 1e7, airport.lat_deg, airport.lon_deg) < 1.0
             assert abs(((pos.hdg / 100.0) - airport.heading * 45.0 + 180) % 360 - 180) < 1.0
             link.close()
