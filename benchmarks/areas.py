@@ -30,8 +30,8 @@ from planner.area_grid import (  # noqa: E402
 )
 from planner.environment import Sensor  # noqa: E402
 from planner.georef import LocalFrame  # noqa: E402
-from planner.return_exact import return_table  # noqa: E402
 from planner.motion import OC3  # noqa: E402
+from planner.return_exact import return_table  # noqa: E402
 from planner.scenario import Scenario, UavSpec  # noqa: E402
 
 CELL_M = 25.0

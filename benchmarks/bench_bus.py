@@ -7,8 +7,9 @@ A FleetBus is fed a fresh sample for every UAV at --feed-hz, sends at --hz per U
 second); a plain aiomqtt subscriber on the same machine measures messages per second received and
 end-to-end latency: event = raised -> received (QoS 1 path), telemetry = age of the sample when
 received (includes the time it waited for the bus's next send tick, up to 1/feed-hz, since the
-bus sends the newest sample). The broker runs with `set_tcp_nodelay true` (see docs/bus.md). Then a saturation run: how many
-telemetry messages per second one FleetBus pushes through the broker when asked for far more."""
+bus sends the newest sample). The broker runs with `set_tcp_nodelay true` (see docs/bus.md). Then
+a saturation run: how many telemetry messages per second one FleetBus pushes through the broker
+when asked for far more."""
 
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from gcs.bus import FleetBus, Telemetry, parse_broker_url  # noqa: E402
+from gcs.bus import FleetBus, Telemetry, parse_broker_url
 
 
 def start_mosquitto(folder: Path) -> tuple[subprocess.Popen, int]:
@@ -114,8 +115,9 @@ async def run_load(url: str, uavs: int, feed_hz: float, seconds: float, bus_hz: 
 def report(title: str, r: dict) -> None:
     c, e = r["counts"], r["elapsed"]
     total = sum(c.values())
-    print(f"{title}: {total / e:,.0f} msg/s received ({c['telemetry'] / e:,.0f} telemetry, {c['event'] / e:,.0f} events, "
-          f"{c['state'] / e:,.0f} states) over {e:.1f} s; dropped events {r['stats'].events_dropped}")
+    print(f"{title}: {total / e:,.0f} msg/s received ({c['telemetry'] / e:,.0f} telemetry, "
+          f"{c['event'] / e:,.0f} events, {c['state'] / e:,.0f} states) over {e:.1f} s; "
+          f"dropped events {r['stats'].events_dropped}")
     for name, lat in (("event latency (raised -> received)", r["ev_lat"]),
                       ("telemetry sample age at receipt", r["tel_lat"])):
         if len(lat):
@@ -127,7 +129,8 @@ async def main_async(args: argparse.Namespace, url: str) -> None:
     r = await run_load(url, args.uavs, args.feed_hz, args.seconds, args.hz, events=True)
     report(f"{args.uavs} UAVs at {args.hz:g} Hz telemetry (fed at {args.feed_hz:g} Hz) + 1 event/s each", r)
     expected = args.uavs * args.hz
-    print(f"  telemetry delivered {r['counts']['telemetry'] / r['elapsed'] / expected:.1%} of the offered {expected:,.0f}/s")
+    delivered = r["counts"]["telemetry"] / r["elapsed"] / expected
+    print(f"  telemetry delivered {delivered:.1%} of the offered {expected:,.0f}/s")
     sat = await run_load(url, args.uavs, 200.0, min(args.seconds, 5.0), 200.0, events=False)
     offered = args.uavs * 200.0
     report(f"saturation: {args.uavs} UAVs fed and sent at 200 Hz ({offered:,.0f} telemetry/s offered)", sat)

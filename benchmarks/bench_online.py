@@ -26,7 +26,8 @@ def targets_found(seed: int, speedup: float, online: bool, extra: list[str]) -> 
     with tempfile.TemporaryDirectory() as out:
         cmd = [sys.executable, "-m", "gcs.cli", "fly", "--area", str(ROOT / "missions" / "paper.geojson"), "--sim",
                "--speedup", str(speedup), "--seed", str(seed), "--no-rrd", "--out", out]
-        run = subprocess.run(cmd + extra + (["--online"] if online else []), capture_output=True, text=True, timeout=600)
+        run = subprocess.run(cmd + extra + (["--online"] if online else []), capture_output=True, text=True,
+                             timeout=600)
         found = FOUND.findall(run.stdout)  # the planning summary comes first, the flight's last
         if run.returncode != 0 or not found:
             raise RuntimeError(f"seed {seed} online={online} failed: {run.stderr[-500:]}")

@@ -24,7 +24,7 @@ from planner.dtscs import ClosedSearch, MissionConfig, fly
 from planner.motion import OC3
 from planner.scenario import paper_scenario
 from planner.search import make_strategy
-from planner.search.cpio import fixed_others
+from planner.search.competition import fixed_others
 from planner.search.exhaustive import ExhaustiveStrategy, all_choices
 from planner.search.flock import path_cells
 from planner.search.problem import PathScorer
@@ -114,13 +114,15 @@ def main() -> None:
     for name in (*OPTIMISERS, "exhaustive"):
         found = [fly(paper_scenario(seed, 130), MissionConfig(strategy=name), seed=seed).targets_found
                  for seed in range(args.target_runs)]
-        print(f"{name:>10} {np.mean(found):5.2f} ± {np.std(found):4.2f}  (se {np.std(found) / np.sqrt(len(found)):.2f})")
+        se = np.std(found) / np.sqrt(len(found))
+        print(f"{name:>10} {np.mean(found):5.2f} ± {np.std(found):4.2f}  (se {se:.2f})")
 
     print("\n5. same seed, same plan")
     for name in OPTIMISERS:
         a = fly(paper_scenario(5, 130), MissionConfig(strategy=name), seed=5)
         b = fly(paper_scenario(5, 130), MissionConfig(strategy=name), seed=5)
-        print(f"{name:>10} {'identical' if [u.trajectory for u in a.uavs] == [u.trajectory for u in b.uavs] else 'DIFFERENT'}")
+        same = [u.trajectory for u in a.uavs] == [u.trajectory for u in b.uavs]
+        print(f"{name:>10} {'identical' if same else 'DIFFERENT'}")
 
 
 if __name__ == "__main__":

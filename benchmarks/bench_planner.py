@@ -36,8 +36,8 @@ def mission(np_steps: int, seed: int = 7) -> tuple[float, int]:
 
 def kernel_ns_per_cell(np_steps: int, repeat: int) -> float:
     """Time of the J1 kernel alone per scored candidate cell (all 3^Np paths of one UAV)."""
-    from planner.search.exhaustive import all_choices
     from planner.reward import airport_reward_map, score_paths
+    from planner.search.exhaustive import all_choices
 
     sc = paper_scenario(7, 130)
     m = sc.search_map
@@ -81,7 +81,8 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
     mission(5)
-    print("| Np | paths/UAV | mission (ms, median) | candidate cells scored | ns per cell (mission) | ns per cell (kernel) |")
+    print("| Np | paths/UAV | mission (ms, median) | candidate cells scored | ns per cell (mission) "
+          "| ns per cell (kernel) |")
     print("|---:|---:|---:|---:|---:|---:|")
     for np_steps in range(1, 8):
         mission(np_steps)

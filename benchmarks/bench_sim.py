@@ -6,8 +6,9 @@ For each fleet size the simulator runs in this process at speedup 1; a separate 
 (so decoding does not steal the simulator's CPU) says hello to every vehicle from one UDP socket,
 asks each for position, attitude and HUD at --hz and the status messages at 1 Hz
 (MAV_CMD_SET_MESSAGE_INTERVAL: a simulated ArduCopter, like a real one, streams nothing unasked)
-and counts GLOBAL_POSITION_INT datagrams by reading the MAVLink 2 header. Reported: achieved position rate per vehicle, total datagrams
-per second, simulated/real time ratio, and the process CPU share.
+and counts GLOBAL_POSITION_INT datagrams by reading the MAVLink 2 header. Reported: achieved
+position rate per vehicle, total datagrams per second, simulated/real time ratio, and the process
+CPU share.
 """
 
 from __future__ import annotations
@@ -24,10 +25,10 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 os.environ.setdefault("MAVLINK20", "1")
 
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim import FleetOptions, HomePose, MissionItem, SimFleet, VehicleConfig, homes_for  # noqa: E402
-from sim.mission_client import MissionClient  # noqa: E402
+from sim import FleetOptions, HomePose, MissionItem, SimFleet, VehicleConfig, homes_for
+from sim.mission_client import MissionClient
 
 HOME = HomePose(-35.363261, 149.165230, 584.0, 0.0)
 
@@ -128,8 +129,9 @@ def main() -> None:
         print(f"{r['vehicles']:>8} {r['pos_hz_mean']:>11.2f} {r['pos_hz_min']:>10.2f} {r['datagrams_s']:>11.0f} "
               f"{r['sim_over_real']:>8.3f} {r['cpu_share']:>5.0%}", flush=True)
     times = bench_upload()
-    print(f"200-item mission upload over loopback (pymavlink MissionClient): median {statistics.median(times) * 1000:.1f} ms, "
-          f"min {min(times) * 1000:.1f} ms, max {max(times) * 1000:.1f} ms over {len(times)} runs")
+    print("200-item mission upload over loopback (pymavlink MissionClient): "
+          f"median {statistics.median(times) * 1000:.1f} ms, min {min(times) * 1000:.1f} ms, "
+          f"max {max(times) * 1000:.1f} ms over {len(times)} runs")
 
 
 if __name__ == "__main__":

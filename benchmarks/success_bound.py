@@ -145,7 +145,7 @@ def success_bound(scenario: Scenario, block: int | None = None, time_limit_s: fl
         windows = math.ceil(T / b)
         times = [min(w * b, T) for w in range(windows + 1)]
         nodes: list[dict[int, int]] = []      # per time point: block -> occupancy column
-        for w, t in enumerate(times):
+        for t in times:
             ok = np.argwhere((out_min <= t) & (home_min <= T - t))
             nodes.append({bid(i, j): column(0.0, 1.0, False) for i, j in ok})
         if a_block not in nodes[0] or a_block not in nodes[-1]:

@@ -17,12 +17,20 @@ from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 
+from gcs.autopilots import Autopilot
 from gcs.errors import UserError
 from gcs.links import mavlink
-from gcs.autopilots import Autopilot
 from gcs.mission_transfer import MissionType, WireItem
-from gcs.missions.items import (AltitudeReference, LandingApproach, MissionItem, UavMission, Vehicle, landing_items,
-                                mission_items, waypoint_items)
+from gcs.missions.items import (
+    AltitudeReference,
+    LandingApproach,
+    MissionItem,
+    UavMission,
+    Vehicle,
+    landing_items,
+    mission_items,
+    waypoint_items,
+)
 from planner.georef import Grid, LocalFrame
 from planner.motion import OrientationConstraint, constraint_by_name
 from planner.return_exact import UNREACHABLE, return_table
@@ -81,7 +89,8 @@ class UavTask:
         return self._wire(autopilot, waypoint_items(mission, leg) + landing_items(mission))
 
     def _wire(self, autopilot: Autopilot, items: list[MissionItem]) -> list[WireItem]:
-        wire = [WireItem.at(0, it.frame, it.command, it.lat_deg, it.lon_deg, it.alt_m, it.params) for it in items]
+        wire = [autopilot.adapt_item(WireItem.at(0, it.frame, it.command, it.lat_deg, it.lon_deg, it.alt_m, it.params))
+                for it in items]
         if autopilot.home_item(MissionType.MISSION):
             lat, lon = self.airport_lat_lon
             wire.insert(0, WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, lat, lon,
@@ -94,7 +103,8 @@ class UavTask:
         for inclusion, ring in self.fence:
             cmd = (mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION if inclusion
                    else mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION)
-            out += [WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, cmd, lat, lon, 0.0, (len(ring), 0, 0, 0), MissionType.FENCE)
+            out += [WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, cmd, lat, lon, 0.0, (len(ring), 0, 0, 0),
+                                MissionType.FENCE)
                     for lat, lon in ring]
         return out
 
@@ -157,7 +167,8 @@ def load_plan_dir(folder: str | Path) -> FleetPlan:
     """Read a `gcs plan --area` output folder; UserError with one line on anything missing."""
     folder = Path(folder)
     if not folder.is_dir():
-        raise UserError(f"plan folder {folder} does not exist (make one with: gcs plan --area AREA.geojson --out {folder})")
+        raise UserError(f"plan folder {folder} does not exist "
+                        f"(make one with: gcs plan --area AREA.geojson --out {folder})")
     path = folder / "plan.json"
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
@@ -297,6 +308,7 @@ class VehicleStatus:
     odometer_m: float = 0.0
     steps_flown: float = 0.0  # planner steps along the plan, kept up by the flight controller
     unsupported_streams: set = field(default_factory=set)
+    text_chunks: dict = field(default_factory=dict)  # STATUSTEXT id -> {chunk_seq: text}
 
     @property
     def ekf_position_ok(self) -> bool | None:
@@ -309,17 +321,21 @@ class VehicleStatus:
     def waiting_for(self) -> list[str]:
         """What the vehicle still lacks before it can be armed and flown (empty when ready). The
         signals are the ones measured on the autopilots (docs/autopilots.md): a 3-D GPS fix, the
-        estimator's position (ArduPilot's EKF flags) and a home position; a signal the vehicle
-        does not send (it refused that stream) is not waited for."""
+        estimator's position (ArduPilot's EKF flags; PX4's pre-arm bit in SYS_STATUS health, which
+        covers it) and a home position; a signal the vehicle does not send (it refused that
+        stream) is not waited for."""
         missing = []
         if self.gps_fix_type is None:
             if mavlink.MAVLINK_MSG_ID_GPS_RAW_INT not in self.unsupported_streams:
                 missing.append("GPS")
         elif self.gps_fix_type < mavlink.GPS_FIX_TYPE_3D_FIX:
             missing.append("a 3-D GPS fix")
-        if self.autopilot is Autopilot.ARDUPILOT and self.ekf_position_ok is not True \
+        signals = self.autopilot.readiness_signals() if self.autopilot else ()
+        if "ekf" in signals and self.ekf_position_ok is not True \
                 and mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT not in self.unsupported_streams:
             missing.append("the EKF's position estimate")
+        if "prearm" in signals and not self.prearm_ok:
+            missing.append(f"{self.autopilot.value.upper()}'s pre-arm checks")
         if self.home is None and mavlink.MAVLINK_MSG_ID_HOME_POSITION not in self.unsupported_streams:
             missing.append("a home position")
         if not self.has_position:
@@ -379,7 +395,8 @@ class VehicleStatus:
             if msg.battery_remaining >= 0 and self.battery_pct is None:
                 self.battery_pct = float(msg.battery_remaining)
             prearm = mavlink.MAV_SYS_STATUS_PREARM_CHECK
-            if msg.onboard_control_sensors_present & prearm:
+            if (self.autopilot and self.autopilot.prearm_bit_always_reported()) \
+                    or msg.onboard_control_sensors_present & prearm:
                 self.prearm_ok = bool(msg.onboard_control_sensors_health & prearm)
             if msg.voltage_battery not in (0, 65535):
                 self.voltage_v = msg.voltage_battery / 1000.0
@@ -398,11 +415,29 @@ class VehicleStatus:
             self.mission_seq = msg.seq
             self.mission_total = getattr(msg, "total", 0) or 0
         elif kind == "STATUSTEXT":
-            self.last_text = msg.text.rstrip("\x00") if isinstance(msg.text, str) else msg.text.decode(errors="replace")
+            self._status_text(msg)
         elif kind == "CAMERA_IMAGE_CAPTURED":
             self._detection(msg)
         if self.airborne:
             self.airborne_seen = True
+
+    def _status_text(self, msg) -> None:
+        """The autopilot's latest words. A text longer than one message comes in chunks sharing a
+        non-zero `id` (PX4 splits texts over 50 characters); a chunk shorter than 50 is the last.
+        The joined text shows as it grows, so a lost last chunk still leaves the start of it; PX4's
+        trailing tab is dropped."""
+        text = (msg.text if isinstance(msg.text, str) else msg.text.decode(errors="replace")).rstrip("\x00")
+        if not getattr(msg, "id", 0):
+            self.last_text = text.rstrip()
+            return
+        chunks = self.text_chunks.setdefault(msg.id, {})
+        chunks[msg.chunk_seq] = text
+        self.last_text = "".join(chunks[i] for i in sorted(chunks)).rstrip()
+        ends = [seq for seq, part in chunks.items() if len(part) < 50]
+        if ends and len(chunks) == min(ends) + 1:
+            del self.text_chunks[msg.id]
+        while len(self.text_chunks) > 4:  # ids whose last chunk never came
+            del self.text_chunks[next(iter(self.text_chunks))]
 
     def _sample_battery(self) -> None:
         if self.battery_pct is None or not self.airborne:

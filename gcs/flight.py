@@ -22,14 +22,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gcs.autopilots import Autopilot
 from gcs.errors import UserError
 from gcs.fleet import FINAL_STAGES, Detection, FleetPlan, Stage, VehicleStatus
 from gcs.links import CommandError, LinkError, LinkStatus, MavLink, SigningKey, mavlink, open_links
-from gcs.autopilots import Autopilot
+from gcs.links.connection import Connection
 from gcs.mission_transfer import MissionTransferError, MissionType, upload_verified
 from gcs.return_trigger import RangeModel, check_return, estimate_range_steps, landing_seconds
 from gcs.status_table import render_table
 from planner.return_exact import follow_table
+
 
 class FlightAborted(UserError):
     """The controller failed mid-flight; every vehicle in the air was sent home first."""
@@ -82,7 +84,26 @@ class LinkChanged:
         return self.uav_ids[0] if self.uav_ids else None
 
 
-FlightEvent = StageChanged | TookOff | ModeChanged | ReadingReceived | LinkChanged
+@dataclass(frozen=True, slots=True)
+class MissionUploaded:
+    """A mission was verified on board: the plan's search (`kind` "search") or a return leg
+    ("return", its turn points `leg`)."""
+
+    uav_id: int
+    kind: str
+    leg: tuple[tuple[float, float], ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Reattached:
+    """A restarted station took the vehicle over again (`gcs fly --resume`): what it found."""
+
+    uav_id: int
+    stage: Stage
+    found: str
+
+
+FlightEvent = StageChanged | TookOff | ModeChanged | ReadingReceived | LinkChanged | MissionUploaded | Reattached
 FlightListener = Callable[[FlightEvent, float], None]
 
 REFUSED_FOR_NOW = (mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED, mavlink.MAV_RESULT_FAILED)
@@ -126,6 +147,7 @@ class FlightController:
         self.link_of: dict[int, MavLink] = {}
         self.reading_component: dict[int, int] = {}  # a vehicle's readings come from this component
         self.operator_range: dict[int, int] = {}  # ranges (steps from take-off) set by the operator
+        self._range_by_order: dict[int, bool] = {}  # the operator's range, not the battery, binds
         self.model = RangeModel(step_m=plan.cell_size_m * math.sqrt(2.0), speed_m_s=options.speed_m_s,
                                 reserve_pct=options.reserve_pct, descent_m_s=options.descent_m_s)
         self._track_m = {uid: np.array([plan.local_m(p.lat_deg, p.lon_deg) for p in task.trajectory])
@@ -314,24 +336,29 @@ class FlightController:
             return False
         if not self._home_matches(uid):
             return False
-        if st.fixed_wing and st.autopilot is Autopilot.ARDUPILOT and task.approach is not None:
-            # ArduPlane refuses to arm with a DO_LAND_START and RTL_AUTOLAND 0; with 2 its RTL
-            # (the fallback, and its battery failsafe) flies the mission's landing sequence
-            if await self.set_param(uid, "RTL_AUTOLAND", 2.0):
-                self.say(uid, "RTL_AUTOLAND set to 2: RTL lands on the runway through the mission's landing sequence")
+        for name, value in st.autopilot.param_changes_before_arming(st.fixed_wing, task.approach is not None).items():
+            if await self.set_param(uid, name, value):
+                self.say(uid, f"{name} set to {value:g}: RTL lands on the runway through the mission's landing sequence"
+                         if name == "RTL_AUTOLAND" else f"{name} set to {value:g}")
             else:
-                self.say(uid, "warning: RTL_AUTOLAND not confirmed; ArduPlane may refuse to arm")
+                self.say(uid, f"warning: {name} not confirmed; the autopilot may refuse to arm")
         if not mission:
             return True
         self._set_stage(uid, Stage.UPLOADING)
         autopilot = st.autopilot
         try:
-            report = await upload_verified(link, uid, task.mission_wire(autopilot), autopilot,
-                                           timeout_s=opts.transfer_timeout_s, fixed_wing=st.fixed_wing)
+            items = task.mission_wire(autopilot)
+        except ValueError as exc:
+            self._set_stage(uid, Stage.FAILED, f"mission not uploaded: {exc}")
+            return False
+        try:
+            report = await upload_verified(link, uid, items, autopilot, timeout_s=opts.transfer_timeout_s,
+                                           fixed_wing=st.fixed_wing)
         except MissionTransferError as exc:
             self._set_stage(uid, Stage.FAILED, f"mission {exc}")
             return False
         self.upload_reports[uid] = {"mission": report}
+        self._emit(MissionUploaded(uid, "search"))
         extra = []
         if opts.fence:
             for kind, items in ((MissionType.FENCE, task.fence_wire()), (MissionType.RALLY, task.rally_wire())):
@@ -371,8 +398,9 @@ class FlightController:
                 self._set_stage(uid, Stage.PREPARING, f"waiting for {', '.join(missing)}{said}")
                 self.say(uid, f"waiting for {', '.join(missing)}{said}")
             if time.monotonic() > end:
+                autopilot = f" ({st.last_text})" if st.last_text else ""
                 self._set_stage(uid, Stage.FAILED, f"not ready after {self.options.ready_timeout_s:g} s: no "
-                                                   f"{', '.join(missing)}{' (' + st.last_text + ')' if st.last_text else ''}")
+                                                   f"{', '.join(missing)}{autopilot}")
                 return False
             await asyncio.sleep(0.05)
         self.say(uid, "ready: " + ", ".join(part for part in (
@@ -438,7 +466,7 @@ class FlightController:
             return False
         if autopilot.start_after_arming(st.fixed_wing):
             try:
-                await self.command(uid, mavlink.MAV_CMD_MISSION_START, *autopilot.mission_start_params())
+                await self._start_mission(uid)
             except CommandError as exc:
                 disarmed = await self.disarm(uid)
                 self._set_stage(uid, Stage.FAILED, f"cannot start the mission: {exc}{_said(st)}; "
@@ -446,6 +474,20 @@ class FlightController:
                 return False
         self._set_stage(uid, Stage.SEARCH, "mission started")
         return True
+
+    async def _start_mission(self, uid: int, patience_s: float = 3.0) -> None:
+        """MISSION_START(0, 0), asked again for a few seconds while it is refused: PX4 checks a
+        new mission in the background and may refuse a start right after the upload."""
+        autopilot = self.status[uid].autopilot or Autopilot.GENERIC
+        end = time.monotonic() + patience_s
+        while True:
+            try:
+                await self.command(uid, mavlink.MAV_CMD_MISSION_START, *autopilot.mission_start_params())
+                return
+            except CommandError as exc:
+                if exc.result not in REFUSED_FOR_NOW or time.monotonic() > end:
+                    raise
+                await asyncio.sleep(0.5)
 
     def _ordered_home(self, uid: int) -> bool:
         return self._interrupted or uid in self._stay_on_ground or any(o[0] == uid for o in self._orders)
@@ -531,8 +573,10 @@ class FlightController:
             await self.set_mode(uid, autopilot.hold_mode(st.fixed_wing))
             await upload_verified(self.link_of[uid], uid, task.return_wire(autopilot, leg), autopilot,
                                   timeout_s=self.options.transfer_timeout_s, fixed_wing=st.fixed_wing)
-            await self.command(uid, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, autopilot.first_mission_seq())
-            await self.command(uid, mavlink.MAV_CMD_MISSION_START, *autopilot.mission_start_params())
+            self._emit(MissionUploaded(uid, "return", tuple(leg)))
+            if autopilot.restart_needs_current_item():
+                await self.command(uid, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, autopilot.first_mission_seq())
+            await self._start_mission(uid)
             self.return_latency_s[uid] = time.monotonic() - started
             self.say(uid, f"return leg of {len(leg)} waypoints uploaded and started")
         except (LinkError, MissionTransferError, ValueError, KeyError) as exc:
@@ -584,8 +628,9 @@ class FlightController:
         st, task = self.status[uid], self.plan.uavs[uid]
         st.range_left = estimate_range_steps(st.battery_pct, st.time_remaining_s, list(st.battery_samples), self.model,
                                              landing_seconds(task.altitude_m, self.model))
-        if uid in self.operator_range:
-            st.range_left = min(st.range_left, max(0.0, self.operator_range[uid] - st.track_index))
+        ordered = max(0.0, self.operator_range[uid] - st.track_index) if uid in self.operator_range else math.inf
+        self._range_by_order[uid] = ordered < st.range_left
+        st.range_left = min(st.range_left, ordered)
         if st.stage is not Stage.SEARCH or not st.airborne_seen:
             return False
         # the loop sees a vehicle every tick, not every step: look a few steps further ahead
@@ -617,7 +662,8 @@ class FlightController:
             self._set_stage(uid, Stage.LANDED, f"battery {st.battery_pct:.0f}%" if st.battery_pct is not None else "")
         elif st.stage is Stage.SEARCH and st.mode_name in ("RTL", "LAND") and uid not in self._busy:
             st.return_reason = "autopilot"
-            self._set_stage(uid, Stage.RTL, f"autopilot switched to {st.mode_name} ({st.last_text or 'no reason given'})")
+            self._set_stage(uid, Stage.RTL,
+                            f"autopilot switched to {st.mode_name} ({st.last_text or 'no reason given'})")
 
     def finished(self, now: float) -> bool:
         for uid, st in self.status.items():
@@ -647,9 +693,14 @@ class FlightController:
             self._advance_track(uid)
             if self.evaluate(uid):
                 st = self.status[uid]
-                self.say(uid, f"battery {st.battery_pct:.0f}% covers {st.range_left:.1f} steps, the way home needs "
-                              f"{st.range_left - st.margin:.1f}: returning")
-                self._spawn(self.send_home(uid, "battery"))
+                needs = f"the way home needs {st.range_left - st.margin:.1f}: returning"
+                if self._range_by_order.get(uid):
+                    self.say(uid, f"the ordered range of {self.operator_range[uid]} steps leaves {st.range_left:.1f}, "
+                                  + needs)
+                    self._spawn(self.send_home(uid, "range"))
+                else:
+                    self.say(uid, f"battery {st.battery_pct:.0f}% covers {st.range_left:.1f} steps, " + needs)
+                    self._spawn(self.send_home(uid, "battery"))
 
     async def monitor(self) -> None:
         """Run the GCS loop until all vehicles have landed (or failed, or stayed lost)."""
@@ -688,7 +739,7 @@ class FlightController:
         self.say(None, "stopping: every vehicle in the air is sent home (RTL), every armed one on the ground disarmed")
         for task in list(self._tasks):
             task.cancel()
-        for uid, st in self.status.items():
+        for _uid, st in self.status.items():
             if st.stage not in FINAL_STAGES and (st.airborne or st.armed):
                 st.return_reason = st.return_reason or "stop"
         await self.make_safe(rtl_airborne=True)
@@ -702,7 +753,8 @@ class FlightController:
                 return
             if st.armed and not st.airborne and st.stage is not Stage.SEARCH:
                 ok = await self.disarm(uid)
-                self.say(uid, "on the ground, disarmed" if ok else "ARMED ON THE GROUND: disarm did not confirm, check it")
+                self.say(uid, "on the ground, disarmed" if ok
+                         else "ARMED ON THE GROUND: disarm did not confirm, check it")
             elif rtl_airborne and st.airborne and st.stage not in (Stage.RETURN, Stage.RTL, Stage.LANDED):
                 if not await self.rtl(uid):
                     self.say(uid, "in the air and did not confirm RTL: check it yourself")
@@ -728,19 +780,24 @@ def _distance_m(plan: FleetPlan, a: tuple[float, float], b: tuple[float, float])
     return math.hypot(ea - eb, na - nb)
 
 
-async def fly_async(plan: FleetPlan, connections: Sequence[str], options: FlyOptions,
+async def fly_async(plan: FleetPlan, connections: Sequence[str | Connection], options: FlyOptions,
                     stdin_orders: bool = False, online=None, recorder=None, bus: dict | None = None,
                     listeners: Sequence[FlightListener] = (), signing: SigningKey | None = None,
-                    watchers: Sequence = ()) -> FlightController:
+                    watchers: Sequence = (), resume=None) -> FlightController:
     """Fly the plan (or, with `online` an observed search, search with the planner in the loop);
     `recorder` (a `gcs.flight_recording.FlightRecorder`) records it; `bus` (keywords of
     `gcs.bus.flight.attach_bus`) shares it over MQTT; `listeners` get every `FlightEvent`;
     `watchers` (e.g. `gcs.sortie.SortieLog`) are held, as the recorder is, by their
     `attach(controller)` for the whole flight and see how it ends;
-    with `signing` every link signs what it sends and refuses unsigned traffic."""
+    with `signing` every link signs what it sends and refuses unsigned traffic;
+    `resume` (a `gcs.resume.Resumption`) takes over a flight whose station died: its
+    `restore(controller)` runs before anything listens, its `run(controller)` instead of
+    `controller.run()`."""
     async with AsyncExitStack() as stack:
         links = await stack.enter_async_context(open_links(connections, signing=signing))
         controller = FlightController(plan, links, options)
+        if resume is not None:
+            resume.restore(controller)
         for listener in listeners:
             controller.subscribe(listener)
         if bus is not None:
@@ -763,6 +820,8 @@ async def fly_async(plan: FleetPlan, connections: Sequence[str], options: FlyOpt
                 from gcs.online import OnlineFlight
 
                 await OnlineFlight(controller, online).run()
+            elif resume is not None:
+                await resume.run(controller)
             else:
                 await controller.run()
         except Exception as exc:  # a bug in the loop must not leave vehicles flying unwatched

@@ -14,7 +14,12 @@ logged on the `flight_time` timeline (seconds since the GCS loop started, its ow
   `uav/<id>/range/margin` the return trigger's inputs (steps, when known), `uav/<id>/state`
   stage, flight mode, mission item, altitude, ground speed (values);
 - `events`: take-off, stage changes (return triggered and why, RTL, landed, lost link, link back,
-  failures), the start of the plan's own return, flight-mode changes, positive readings.
+  failures), the start of the plan's own return, flight-mode changes, positive readings (the
+  text of `gcs.flight_watch.event_lines`, which the flight journal keeps too).
+
+A flight taken over by a restarted station (`gcs fly --resume`) goes on in a further file,
+`flight.resume1.rrd`, ... (`segment_path`), with the same recording id: Rerun shows the files as
+one recording.
 
 `record_figures` logs matplotlib figures' series (`gcs experiment`) as scalar plots."""
 
@@ -25,24 +30,29 @@ import contextlib
 import math
 import re
 import time
+import uuid
+import warnings
 from collections.abc import AsyncIterator, Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+import pyarrow as pa
 import rerun as rr
 import rerun.blueprint as rrb
 
-from gcs.flight import FlightEvent, LinkChanged, ModeChanged, ReadingReceived, StageChanged, TookOff
-from gcs.flight_watch import watching
+from gcs.flight import FlightEvent, ReadingReceived
+from gcs.flight_watch import EventLine, event_lines, watching
 from gcs.overview import uav_colour
 from gcs.recording import APPLICATION_ID, FLUSH_TIMEOUT_S, GEO_STRING, _lighter, _Rows, open_stream
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from gcs.flight import FlightController
     from gcs.fleet import FleetPlan
+    from gcs.flight import FlightController
+    from gcs.flight_journal import JournalState
 
 FLIGHT_TIME = "flight_time"
 WALL_TIME = "wall_time"
@@ -70,11 +80,15 @@ class FlightRecorder:
 
     `sample_hz` bounds the telemetry rows per UAV, sampled every `poll_s`; events (stages,
     take-off, modes, readings) are logged the moment the controller raises them. Rows are sent
-    every `flush_interval_s` (default 1 s with a viewer, else 5 s) and when the block ends."""
+    every `flush_interval_s` (default 1 s with a viewer, else 5 s) and when the block ends.
+
+    `resumed` continues the recording of a flight whose station died (`gcs fly --resume`): this
+    recorder writes its own file, a segment of the same recording (Rerun joins files that share
+    a recording id), and first logs the event-log lines the earlier segments missed."""
 
     def __init__(self, rrd_path: str | Path | None, connect: str | None, plan: FleetPlan, *, name: str = "flight",
                  sample_hz: float = DEFAULT_SAMPLE_HZ, poll_s: float = 0.05,
-                 flush_interval_s: float | None = None) -> None:
+                 flush_interval_s: float | None = None, resumed: ResumedRecording | None = None) -> None:
         if sample_hz <= 0:
             raise ValueError("sample_hz must be positive")
         self.rrd_path = Path(rrd_path) if rrd_path is not None else None
@@ -94,19 +108,50 @@ class FlightRecorder:
         self._controller: FlightController | None = None
         self._last_flush = 0.0
         self._sink_failed = False
+        self.resumed = resumed
+        if resumed is not None:
+            self._planned_return |= set(resumed.planned_return)
 
     @property
     def enabled(self) -> bool:
         return self.rrd_path is not None or self.connect is not None
+
+    @property
+    def recording_id(self) -> str | None:
+        """The Rerun recording id (once open): every segment of one flight shares it."""
+        return None if self.rec is None else str(self.rec.get_recording_id())
 
     # -- life cycle ---------------------------------------------------------------------------
 
     def open(self) -> None:
         if not self.enabled or self.rec is not None:
             return
-        self.rec = open_stream(self.rrd_path, self.connect, self.name, flight_blueprint(sorted(self.plan.uavs)))
+        blueprint = flight_blueprint(sorted(self.plan.uavs))
+        self.rec = open_stream(self.rrd_path, self.connect, self.name, blueprint,
+                               self.resumed.recording_id if self.resumed is not None else None)
         self._log_static()
+        if self.resumed is not None:
+            self._log_backlog(self.resumed)
         self._last_flush = time.monotonic()
+
+    def _log_backlog(self, resumed: ResumedRecording) -> None:
+        """What the journal kept and the earlier segments lack, at the flight seconds it happened."""
+        def when(t: float) -> tuple[float, float]:
+            return t, resumed.wall_s0 + t
+
+        for t, line in resumed.events:
+            self._row("events", rr.TextLog.columns).add(when(t), 1, text=[line.line], level=[line.level])
+        for uid, points in resumed.positions.items():
+            colour = uav_colour(sorted(self.plan.uavs).index(uid))
+            for i, (t, lat, lon) in enumerate(points):
+                self._row(f"geo/uav/{uid}", rr.GeoPoints.columns).add(when(t), 1, positions=[(lat, lon)])
+                if i:
+                    segment = np.array((points[i - 1][1:], (lat, lon)))
+                    self._row(f"geo/uav/{uid}/trail", rr.GeoLineStrings.columns, line_strings=GEO_STRING).add(
+                        when(t), 1, line_strings=[segment], colors=[colour])
+        for uid, samples in resumed.battery.items():
+            for t, pct in samples:
+                self._row(f"uav/{uid}/battery", rr.Scalars.columns).add(when(t), 1, scalars=[pct])
 
     def close(self) -> None:
         if self.rec is None:
@@ -124,6 +169,9 @@ class FlightRecorder:
         self.t0 = controller.t0
         self._controller = controller
         self.open()
+        if self.resumed is not None:
+            self._event(time.monotonic(), None, f"station restarted: flight resumed after {self.resumed.away_s:.0f} s "
+                                                "without it", "WARN")
         try:
             async with watching(controller, self.on_event,
                                 lambda last: self.sample(controller, time.monotonic(), force=last), self.poll_s,
@@ -183,7 +231,8 @@ class FlightRecorder:
                                                                                colors=[colour]), static=True)
             self.rec.log(f"uav/{uid}/battery", rr.SeriesLines(names="battery %", colors=colour), static=True)
             self.rec.log(f"uav/{uid}/mission", rr.SeriesLines(names="mission item", colors=colour), static=True)
-            self.rec.log(f"uav/{uid}/range/left", rr.SeriesLines(names="range left (steps)", colors=colour), static=True)
+            self.rec.log(f"uav/{uid}/range/left", rr.SeriesLines(names="range left (steps)", colors=colour),
+                         static=True)
             self.rec.log(f"uav/{uid}/range/margin", rr.SeriesLines(names="return margin (steps)",
                                                                    colors=(220, 50, 50)), static=True)
 
@@ -230,49 +279,11 @@ class FlightRecorder:
         """Log one controller event as it happens."""
         if self.rec is None:
             return
-        if isinstance(event, LinkChanged):
-            for uid in event.uav_ids or (None,):
-                self._event(now, uid, str(event.status), "WARN")
-            return
-        uid = event.uav_id
-        st = self._controller.status[uid]
-        if isinstance(event, TookOff):
-            self._event(now, uid, f"take-off: airborne, {event.alt_m:.0f} m, mode {event.mode}")
-        elif isinstance(event, ModeChanged):
-            if event.after != "-":
-                self._event(now, uid, f"flight mode {event.before} -> {event.after}", "DEBUG")
-        elif isinstance(event, ReadingReceived):
+        for line in event_lines(event, self._controller.status, self.plan):
+            self._event(now, line.uav_id, line.text, line.level)
+        if isinstance(event, ReadingReceived) and event.detection.hit:
             d = event.detection
-            if d.hit:
-                cell = self.plan.cell_of(d.lat_deg, d.lon_deg)
-                where = f"cell ({cell[0] + 1}, {cell[1] + 1})" if cell is not None else f"({d.lat_deg:.6f}, {d.lon_deg:.6f})"
-                self._event(now, uid, f"detection: positive reading at {where}")
-                self._add("geo/detections", rr.GeoPoints.columns, now, 1, positions=[(d.lat_deg, d.lon_deg)])
-        elif isinstance(event, StageChanged):
-            self._event(now, uid, *self._stage_text(event, st))
-
-    @staticmethod
-    def _stage_text(event: StageChanged, st) -> tuple[str, str]:
-        stage, before = event.after.value, event.before.value
-        note = f" - {event.note}" if event.note else ""
-        if stage in _RETURN_STAGES:
-            why = f" (reason: {st.return_reason})" if st.return_reason else ""
-            trigger = ""
-            if _finite(st.range_left):
-                trigger = f"; range left {st.range_left:.1f} steps"
-                if _finite(st.margin):
-                    trigger += f", margin {st.margin:.1f}"
-            battery = f", battery {st.battery_pct:.0f}%" if st.battery_pct is not None else ""
-            return f"return triggered{why}: {stage}{note}{trigger}{battery}", "WARN"
-        if stage == "landed":
-            return f"landed{note}", "INFO"
-        if stage == "lost":
-            return f"lost link{note}", "WARN"
-        if stage == "failed":
-            return f"failed{note}", "ERROR"
-        if before == "lost":
-            return f"link back: {stage}{note}", "INFO"
-        return f"{stage}{note}", "INFO"
+            self._add("geo/detections", rr.GeoPoints.columns, now, 1, positions=[(d.lat_deg, d.lon_deg)])
 
     def _planned_return_begins(self, uid: int, st, now: float) -> None:
         trajectory = self.plan.uavs[uid].trajectory if uid in self.plan.uavs else []
@@ -314,6 +325,77 @@ def flight_blueprint(uav_ids: list[int]) -> rrb.Blueprint:
     return rrb.Blueprint(rrb.Horizontal(map_view, right, column_shares=[3, 2]),
                          rrb.BlueprintPanel(state="collapsed"), rrb.SelectionPanel(state="collapsed"),
                          rrb.TimePanel(state="collapsed"))
+
+
+@dataclass(frozen=True)
+class ResumedRecording:
+    """What a resumed flight's recorder continues: the recording id; what the journal kept that
+    the earlier segments lack (the killed station had not flushed it yet), in flight seconds:
+    event-log lines, positions and battery per UAV; the wall-clock time of flight second 0;
+    the UAVs whose planned return had begun; how long the station was away."""
+
+    recording_id: str
+    events: tuple[tuple[float, EventLine], ...] = ()
+    positions: dict[int, list[tuple[float, float, float]]] = field(default_factory=dict)
+    battery: dict[int, list[tuple[float, float]]] = field(default_factory=dict)
+    wall_s0: float = 0.0
+    planned_return: frozenset[int] = frozenset()
+    away_s: float = 0.0
+
+
+def resumed_recording(state: JournalState, plan: FleetPlan, earlier: list[Path], away_s: float) -> ResumedRecording:
+    """The `ResumedRecording` of a journal, given the recording files written so far."""
+    until = recorded_until(earlier)
+
+    def after(entity: str, t: float) -> bool:
+        return entity not in until or t > until[entity] + 2e-6  # the journal keeps microseconds
+
+    events = tuple((t, line) for t, line in state.events if after("events", t))
+    positions, battery = {}, {}
+    for uid, v in state.vehicles.items():
+        if uid not in plan.uavs:
+            continue
+        positions[uid] = [(t, *p) for t, p in zip(v.track_t, v.track) if after(f"geo/uav/{uid}", t)]
+        battery[uid] = [(t, b[1]) for t, b in zip(v.battery_t, v.battery_samples) if after(f"uav/{uid}/battery", t)]
+    planned_return = frozenset(uid for uid, v in state.vehicles.items() if uid in plan.uavs
+                               and 0 < v.track_index < len(plan.uavs[uid].trajectory)
+                               and plan.uavs[uid].trajectory[v.track_index].stage != "search")
+    return ResumedRecording(state.start.recording_id or str(uuid.uuid4()), events, positions, battery,
+                            state.start.wall_s, planned_return, away_s)
+
+
+def segment_path(first: Path, k: int) -> Path:
+    """The file of a flight recording's segment `k` (0: the first, `flight.rrd`; then
+    `flight.resume1.rrd`, ...)."""
+    return first if k == 0 else first.with_name(f"{first.stem}.resume{k}{first.suffix}")
+
+
+def recorded_until(paths: list[Path]) -> dict[str, float]:
+    """The latest flight second of each entity's rows in these recording files (a file cut short
+    by a killed process is read as far as it goes)."""
+    from rerun.chunk import RrdReader
+
+    latest: dict[str, float] = {}
+    for path in paths:
+        if not path.exists():
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a killed writer leaves no footer
+            try:
+                chunks = list(RrdReader(str(path)).stream())
+            except Exception:
+                continue
+        for chunk in chunks:
+            if chunk.is_static:
+                continue
+            batch = chunk.to_record_batch()
+            if FLIGHT_TIME not in batch.schema.names:
+                continue
+            times = batch.column(FLIGHT_TIME).cast(pa.int64()).to_pylist()
+            if times:
+                entity = chunk.entity_path.lstrip("/")
+                latest[entity] = max(latest.get(entity, -math.inf), max(times) / 1e9)
+    return latest
 
 
 # -- experiments ------------------------------------------------------------------------------------
@@ -387,7 +469,7 @@ def _write_figures(rrd_path: Path, figures: list[tuple[str, Figure]], name: str)
         for axes_index, ax in enumerate(figure.axes):
             entities_by_axes[f"{figure_name}/{_slug(ax.get_title(), f'axes{axes_index + 1}')}"] = [ax.get_xlabel(),
                                                                                                   ax.get_ylabel()]
-    for origin, (xlabel, ylabel) in entities_by_axes.items():
+    for origin, (_xlabel, ylabel) in entities_by_axes.items():
         views.append(rrb.TimeSeriesView(name=f"{origin}: {ylabel}", origin=f"/{origin}"))
     blueprint = rrb.Blueprint(rrb.Grid(*views) if views else rrb.Vertical(), rrb.TimePanel(state="collapsed"))
     rec.set_sinks(rr.FileSink(str(rrd_path)), default_blueprint=blueprint)

@@ -82,7 +82,8 @@ def render_vehicles(watcher: LinkWatcher, now: float | None = None) -> str:
                     f"{'yes' if st.armed else 'no':<5} {_num(st.lat_deg if position else None, '.6f'):>11} "
                     f"{_num(st.lon_deg if position else None, '.6f'):>12} {st.rel_alt_m:>6.1f} "
                     f"{_num(st.battery_pct, '.0f'):>6} {_num(st.gps_fix_type, 'd'):>4} {_num(heard, '.1f'):>7}  "
-                    + ("waiting for " + ", ".join(missing) if missing else "ready") + (f"; {st.last_text}" if st.last_text else ""))
+                    + ("waiting for " + ", ".join(missing) if missing else "ready")
+                    + (f"; {st.last_text}" if st.last_text else ""))
     if len(rows) == 1:
         rows.append("(no vehicle heard yet)")
     return "\n".join(rows + watcher.notes[-5:])

@@ -318,7 +318,8 @@ async def transfer(link: MavLink, machine: Upload | Download) -> None:
 
 def _text(msg: MAVMessage) -> str:
     text = msg.text
-    return (text.decode(errors="replace") if isinstance(text, bytes) else text).rstrip("\x00")
+    # the last rstrip(): PX4 ends with a tab
+    return (text.decode(errors="replace") if isinstance(text, bytes) else text).rstrip("\x00").rstrip()
 
 
 async def download(link: MavLink, sysid: int, mission_type: int = MissionType.MISSION, *,
@@ -373,7 +374,7 @@ async def upload_verified(link: MavLink, sysid: int, items: list[WireItem], auto
             back = await download(link, sysid, mission_type, timeout_s=timeout_s)
         except MissionTransferError as exc:
             resends += up.resends
-            if exc.result is not None and up.requested and not up.done and autopilot is Autopilot.ARDUPILOT:
+            if exc.result is not None and up.requested and not up.done and autopilot.replaces_items_as_they_arrive():
                 cleared = await clear(link, sysid, mission_type, timeout_s=timeout_s)
                 raise MissionTransferError(exc.operation, exc.result, exc.detail + (
                     "; the partly replaced list was cleared" if cleared else

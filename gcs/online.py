@@ -7,8 +7,9 @@ steered in GUIDED with SET_POSITION_TARGET_GLOBAL_INT (ArduCopter) or DO_REPOSIT
 Steps are flown in lock step: every flying vehicle gets its next cell, and the next decision is
 taken when every one of them has reported that cell (a reading comes as a vehicle passes within
 half a cell of the centre, so vehicles fly on without stopping; a vehicle that arrived without
-reporting is waited for `reading_timeout_s`), so the map a decision sees is the one the planner would have after the same
-steps. A vehicle whose last step reached its airport cell lands from there. The return decision
+reporting is waited for `reading_timeout_s`), so the map a decision sees is the one the planner
+would have after the same steps. A vehicle whose last step reached its airport cell lands from
+there. The return decision
 is the planner's (eq. 23-24, its exact table, the joint conflict-free ways home); battery state
 enters it as a range change (`set_range`), operator orders as `order_return`.
 
@@ -22,11 +23,9 @@ import contextlib
 import math
 import time
 
-
-from gcs.flight import ReadingReceived
 from gcs.fleet import FINAL_STAGES, Stage
+from gcs.flight import ReadingReceived
 from gcs.links import CommandError, LinkError, mavlink
-from gcs.autopilots import Autopilot
 from gcs.return_trigger import estimate_range_steps, landing_seconds
 from planner.dtscs import ClosedSearch
 from planner.plan import Stage as PlanStage
@@ -59,7 +58,7 @@ class OnlineFlight:
         self._range_cap: dict[int, int] = {}
         self._range_set: dict[int, int] = {}
         self.targets: dict[int, tuple[float, float]] = {}
-        self.seen: dict[int, int] = {uid: 0 for uid in self.plan.uavs}
+        self.seen: dict[int, int] = dict.fromkeys(self.plan.uavs, 0)
         self.landing: set[int] = set()
 
     # ---- readings ----------------------------------------------------------------------
@@ -112,7 +111,8 @@ class OnlineFlight:
                         raise
                     c.say(uid, f"arming refused ({st.last_text or exc}); retrying")
                     await asyncio.sleep(1.0)
-            await c.command(uid, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, task.altitude_m)
+            _, takeoff_alt = st.autopilot.command_altitude(task.altitude_m, st.home[2] if st.home else 0.0)
+            await c.command(uid, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, takeoff_alt)
         except LinkError as exc:
             c._set_stage(uid, Stage.FAILED, f"take-off: {exc}")
             return False
@@ -132,10 +132,11 @@ class OnlineFlight:
             return
         lat, lon = self.targets[uid]
         alt = self.plan.uavs[uid].altitude_m
-        if st.autopilot is Autopilot.PX4 or st.fixed_wing:  # ArduPlane ignores position targets
+        if st.autopilot.steers_by_reposition(st.fixed_wing):
+            frame, z = st.autopilot.command_altitude(alt, st.home[2] if st.home else 0.0)
             link.send(mavlink.MAVLink_command_int_message(
-                uid, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_DO_REPOSITION, 0, 0, -1,
-                mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0, math.nan, round(lat * 1e7), round(lon * 1e7), alt))
+                uid, 1, frame, mavlink.MAV_CMD_DO_REPOSITION, 0, 0, -1, mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0,
+                math.nan, round(lat * 1e7), round(lon * 1e7), z))
         else:
             link.send(mavlink.MAVLink_set_position_target_global_int_message(
                 0, uid, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, POSITION_ONLY_MASK, round(lat * 1e7),

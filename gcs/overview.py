@@ -135,13 +135,33 @@ def settings_text(settings: dict) -> str:
     return ", ".join(out)
 
 
+def warm_up() -> None:
+    """Import matplotlib and render a little text and a line: the first picture of a process
+    then draws at full speed (fonts loaded, caches filled)."""
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    fig = Figure(figsize=(2, 1), dpi=50)
+    ax = fig.add_axes((0.2, 0.2, 0.6, 0.6))
+    ax.plot([0, 1], [0, 1], "--", marker="o")
+    ax.set_title("warm-up", fontsize=12)
+    ax.annotate("A", (0, 0), fontweight="bold")
+    fig.legend(handles=[Line2D([], [], label="warm-up")])
+    fig.savefig(io.BytesIO(), format="png")
+
+
 def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
     """Write the overview PNG of `plan` (flown over `scenario`) to `path` (WIDTH_PX x HEIGHT_PX)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
-    from matplotlib.figure import Figure
     from matplotlib.collections import LineCollection
+    from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -178,7 +198,7 @@ def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
         inward = np.sign([(nx + 1) / 2 - (u.airport[0] + 1), (ny + 1) / 2 - (u.airport[1] + 1)])
         ax.annotate(f"A{u.uav_id}", (u.airport[0] + 1, u.airport[1] + 1), textcoords="offset points",
                     xytext=tuple(14 * inward + (0, -5)), ha="center", fontsize=11, fontweight="bold", color=colour,
-                    zorder=6, bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+                    zorder=6, bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})
 
     found = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is not None], dtype=float).reshape(-1, 2)
     missed = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is None], dtype=float).reshape(-1, 2)
@@ -197,14 +217,16 @@ def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
     cbar.set_label("prior TEP" if scenario.looks_before is None else "belief TEP before this sortie")
     cbar.ax.set_ylim(0, 1)
 
-    handles = [Line2D([], [], color=_rgb(uav_colour(i)), lw=2.5, label=uav_label(plan, u)) for i, u in enumerate(plan.uavs)]
+    handles = [Line2D([], [], color=_rgb(uav_colour(i)), lw=2.5, label=uav_label(plan, u))
+               for i, u in enumerate(plan.uavs)]
     handles += [
         Line2D([], [], color="black", lw=1.8, label="search leg"),
         Line2D([], [], color="black", lw=2.2, ls="--", dashes=(3, 1.5), label="return leg"),
         Line2D([], [], marker="o", ls="none", ms=7, mfc="white", mec="black", mew=2, label="switch to return"),
         Line2D([], [], marker="^", ls="none", ms=12, color="grey", mec="black", label="airport"),
         Line2D([], [], marker="*", ls="none", ms=15, color="gold", mec="black", label=f"target found ({len(found)})"),
-        Line2D([], [], marker="X", ls="none", ms=10, color="crimson", mec="black", label=f"target missed ({len(missed)})"),
+        Line2D([], [], marker="X", ls="none", ms=10, color="crimson", mec="black",
+               label=f"target missed ({len(missed)})"),
         Patch(color=(0.8, 0.1, 0.1, 0.55), label="no-fly"),
         Patch(facecolor="none", edgecolor=REGION_COLOURS["known"], lw=2, label="known region"),
         Patch(facecolor="none", edgecolor=REGION_COLOURS["key"], lw=2, label="key region"),

@@ -25,15 +25,14 @@ cut short is readable up to the last flushed step."""
 
 from __future__ import annotations
 
-import math
 import socket
 import sys
 import time
 import warnings
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 from urllib.parse import urlparse
 
 import numpy as np
@@ -44,6 +43,7 @@ import rerun.blueprint as rrb
 
 from gcs.errors import UserError
 from gcs.overview import mask_outline, region_masks, title_outcome, uav_colour
+from gcs.plan_recording import interruption, map_interval
 from planner.dtscs import StepRecord
 from planner.motion import HEADING_DX, HEADING_DY
 from planner.plan import Plan, ReturnReason, Stage
@@ -53,9 +53,6 @@ TIMELINE = "step"
 DEFAULT_CONNECT = "rerun+http://127.0.0.1:9876/proxy"
 APPLICATION_ID = "gcs"
 FLUSH_TIMEOUT_S = 10.0
-#: Grids up to this many cells log their maps every step; bigger ones every ceil(cells / this)
-#: steps, so a 1000 x 1000 area logs 2 x 3 MB of images every 100 steps, not every step.
-MAP_CELLS_EVERY_STEP = 10_000
 
 CellsToLatLon = Callable[[np.ndarray], np.ndarray]
 """Maps (n, 2) cells, 0-based (x, y), to (n, 2) rows of (latitude, longitude) in degrees of their
@@ -222,13 +219,12 @@ class PlanRecorder:
 
     `cells_to_lat_lon` adds the geographic entities and the map view. `map_every` logs the TEP
     and EU images every that many steps (always at step 0 and the last step); by default every
-    step on grids up to MAP_CELLS_EVERY_STEP cells, less often on bigger ones."""
+    step on grids up to `gcs.plan_recording.MAP_CELLS_EVERY_STEP` cells, less often on bigger ones."""
 
     def __init__(self, rrd_path: str | Path | None, connect: str | None, scenario: Scenario, *,
                  cells_to_lat_lon: CellsToLatLon | None = None, name: str | None = None,
                  map_every: int | None = None, flush_interval_s: float = 0.5) -> None:
-        cells = scenario.search_map.tep.size
-        map_every = map_every if map_every is not None else max(1, math.ceil(cells / MAP_CELLS_EVERY_STEP))
+        map_every = map_every if map_every is not None else map_interval(scenario.search_map.tep.size)
         if map_every < 1:
             raise ValueError("map_every must be at least 1")
         self.rrd_path = Path(rrd_path) if rrd_path is not None else None
@@ -258,16 +254,21 @@ class PlanRecorder:
 
     # -- life cycle ---------------------------------------------------------------------------
 
-    def __enter__(self) -> "PlanRecorder":
+    def __enter__(self) -> PlanRecorder:
         self.open()
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is not None and self.rec is not None:
-            step = self._last_record.step if self._last_record else 0
-            what = "Ctrl-C" if issubclass(exc_type, KeyboardInterrupt) else f"{exc_type.__name__}: {exc}"
-            self._event(step, f"run interrupted after step {step} ({what})", "ERROR")
+        if exc_type is not None:
+            self.log_interruption(interruption(exc_type, exc))
         self.close()
+
+    def log_interruption(self, what: str) -> None:
+        """The run stopped early, by `what` (Ctrl-C or an error): an ERROR event at its last step."""
+        if self.rec is None:
+            return
+        step = self._last_record.step if self._last_record else 0
+        self._event(step, f"run interrupted after step {step} ({what})", "ERROR")
 
     def open(self) -> None:
         if not self.enabled or self.rec is not None:
@@ -283,7 +284,7 @@ class PlanRecorder:
         if self.rec is None:
             return
         last = self._last_record
-        if last is not None and self._last_map_step < last.step:
+        if last is not None and self._last_map_step < last.step and last.tep is not None:
             self._add_maps(last.step, last.tep, last.eu)
         self._flush()
         try:
@@ -327,13 +328,15 @@ class PlanRecorder:
         image_format = rr.components.ImageFormat(width=self.nx, height=ny, color_model="RGB", channel_datatype="U8")
         for path in ("maps/tep", "maps/eu"):
             self._static(path, rr.Image.from_fields(format=image_format, draw_order=-10.0))
-        self._static("world/no_fly", rr.AnnotationContext([(0, "free", (0, 0, 0, 0)), (1, "no-fly", (200, 30, 30, 190))]))
+        self._static("world/no_fly",
+                     rr.AnnotationContext([(0, "free", (0, 0, 0, 0)), (1, "no-fly", (200, 30, 30, 190))]))
         self._static("world/no_fly", rr.SegmentationImage(no_fly.T[::-1].astype(np.uint8), draw_order=-5.0))
         region_colours = {"known": (255, 255, 255), "key": (255, 140, 0)}
         for region, mask in region_masks(s).items():
             if mask.any():
+                outline = mask_outline(mask)
                 self._static(f"world/regions/{region}",
-                             rr.LineStrips2D(mask_outline(mask), colors=region_colours[region], radii=0.08, draw_order=-4.0))
+                             rr.LineStrips2D(outline, colors=region_colours[region], radii=0.08, draw_order=-4.0))
         airports = np.array([u.airport for u in s.uavs], dtype=np.float64).reshape(-1, 2)
         self._static("world/airports", rr.Points2D(cell_to_view(airports[:, 0], airports[:, 1], ny), radii=0.6,
                                                    colors=[uav_colour(i) for i in range(len(s.uavs))],
@@ -343,7 +346,8 @@ class PlanRecorder:
                                                       colors=(120, 0, 0), draw_order=2.0))
         self._static("world/found", rr.Points2D.from_fields(radii=[0.55], colors=[(0, 230, 0)], draw_order=2.5))
         self._static("world/detections", rr.Points2D.from_fields(radii=[0.3], colors=[(120, 255, 120)], draw_order=2.2))
-        self._static("world/false_alarms", rr.Points2D.from_fields(radii=[0.3], colors=[(255, 60, 200)], draw_order=2.2))
+        self._static("world/false_alarms",
+                     rr.Points2D.from_fields(radii=[0.3], colors=[(255, 60, 200)], draw_order=2.2))
         for i, u in enumerate(s.uavs):
             colour = uav_colour(i)
             base = f"world/uav/{u.uav_id}"
@@ -374,8 +378,10 @@ class PlanRecorder:
                                                          colors=(120, 0, 0)))
             self._static("geo/found", rr.GeoPoints.from_fields(radii=[rr.Radius.ui_points(6.0)], colors=[(0, 230, 0)]))
             for i, u in enumerate(s.uavs):
-                self._static(f"geo/uav/{u.uav_id}", rr.GeoPoints.from_fields(radii=[rr.Radius.ui_points(7.0)], colors=[uav_colour(i)]))
-                self._static(f"geo/uav/{u.uav_id}/trail", rr.GeoLineStrings.from_fields(radii=[rr.Radius.ui_points(2.0)]))
+                self._static(f"geo/uav/{u.uav_id}",
+                             rr.GeoPoints.from_fields(radii=[rr.Radius.ui_points(7.0)], colors=[uav_colour(i)]))
+                self._static(f"geo/uav/{u.uav_id}/trail",
+                             rr.GeoLineStrings.from_fields(radii=[rr.Radius.ui_points(2.0)]))
 
     def _start(self) -> None:
         """Step 0: every UAV on its airport, the prior maps."""
@@ -383,6 +389,12 @@ class PlanRecorder:
             self._add_pose(0, self._tracks[u.uav_id], u.airport[0], u.airport[1], u.heading, Stage.SEARCH, None)
         m = self.scenario.search_map
         self._add_maps(0, m.tep, m.eu)
+
+    def log_maps(self, step: int, tep: np.ndarray, eu: np.ndarray) -> None:
+        """The TEP and EU maps at `step` (`log_step` logs them every `map_every` steps, `close`
+        the last step's from its record)."""
+        if self.rec is not None:
+            self._add_maps(step, tep, eu)
 
     def _add_maps(self, step: int, tep: np.ndarray, eu: np.ndarray) -> None:
         for path, values in (("maps/tep", tep), ("maps/eu", eu)):
@@ -460,11 +472,11 @@ class PlanRecorder:
             return
         k = record.step
         for event in record.returns:
+            conflict = (", no conflict-free way home: following the return table"
+                        if getattr(event, "conflict", False) else "")
             self._event(event.step, f"UAV {event.uav_id} returns at step {event.step}: "
-                           f"{RETURN_REASON_TEXT.get(event.reason, event.reason.value)} "
-                           f"[{event.reason.value}], {event.return_steps} steps home"
-                           + (", no conflict-free way home: following the return table" if getattr(event, "conflict", False) else ""),
-                        "WARN")
+                                    f"{RETURN_REASON_TEXT.get(event.reason, event.reason.value)} "
+                                    f"[{event.reason.value}], {event.return_steps} steps home{conflict}", "WARN")
         started_home = {e.uav_id for e in record.returns if e.return_steps == 0}
         for uid, (x, y, heading, stage) in record.poses.items():
             track = self._tracks[uid]
@@ -503,7 +515,8 @@ class PlanRecorder:
                 self._row("geo/found", rr.GeoPoints.columns).add(
                     k, len(cells), positions=self._geo((x, y) for x, y, _ in self._found))
         reports = record.reports
-        for path, kept, present in (("world/detections", self._detections, 1), ("world/false_alarms", self._false_alarms, 0)):
+        for path, kept, present in (("world/detections", self._detections, 1),
+                                    ("world/false_alarms", self._false_alarms, 0)):
             new = reports[(reports[:, 2] == 1) & (reports[:, 3] == present)] if len(reports) else reports
             if len(new):
                 kept.extend((int(x), int(y)) for x, y in new[:, :2])
@@ -551,11 +564,13 @@ class PlanRecorder:
         self._last_flush = time.monotonic()
 
 
-def open_stream(rrd_path: Path | None, connect: str | None, name: str, blueprint) -> rr.RecordingStream:
-    """A recording stream to a .rrd file, a running viewer (checked first), or both."""
+def open_stream(rrd_path: Path | None, connect: str | None, name: str, blueprint,
+                recording_id: str | None = None) -> rr.RecordingStream:
+    """A recording stream to a .rrd file, a running viewer (checked first), or both; with
+    `recording_id`, a further segment of that recording (a resumed flight's)."""
     if connect is not None:
         check_viewer(connect)
-    rec = rr.RecordingStream(APPLICATION_ID)
+    rec = rr.RecordingStream(APPLICATION_ID, recording_id=recording_id)
     sinks = []
     if rrd_path is not None:
         rrd_path.parent.mkdir(parents=True, exist_ok=True)
@@ -588,8 +603,8 @@ def default_blueprint(scenario: Scenario, geo: bool) -> rrb.Blueprint:
                              contents=["/maps/tep", "/world/**"], overrides=trails)
     eu = rrb.Spatial2DView(name="EU", origin="/", contents=["/maps/eu", "/world/no_fly", "/world/uav/**",
                                                             "- /world/uav/*/plan"], overrides=trails)
-    outcome = rrb.Spatial2DView(name="closed plan", origin="/", contents=["/maps/tep", "/world/no_fly",
-                                                                          "/world/airports", "/world/found", "/plan/**"])
+    outcome = rrb.Spatial2DView(name="closed plan", origin="/",
+                                contents=["/maps/tep", "/world/no_fly", "/world/airports", "/world/found", "/plan/**"])
     left = [rrb.Tabs(grid, eu, outcome)]
     if geo:
         left.insert(0, rrb.MapView(name="map", origin="/geo", overrides={
@@ -643,7 +658,8 @@ def read_recording(path: str | Path, timeline: str = TIMELINE) -> RecordingTable
         for chunk in reader.stream():
             batch = chunk.to_record_batch()
             keep = [n for n in batch.schema.names if not n.startswith("rerun.controls")]
-            batches[(chunk.entity_path.lstrip("/"), chunk.is_static)].append(pa.Table.from_batches([batch]).select(keep))
+            table = pa.Table.from_batches([batch]).select(keep)
+            batches[(chunk.entity_path.lstrip("/"), chunk.is_static)].append(table)
     temporal, static = {}, {}
     for (entity, is_static), tables in batches.items():
         table = pa.concat_tables(tables, promote_options="permissive")

@@ -17,15 +17,18 @@ The descent at the airport is charged by time at the observed drain. Then
 
 A battery that drains faster than planned shortens the range as soon as it shows.
 
-The decision (eq. 23 at step k+1, Algorithm 3): keep searching while, after one more step, the
-lowest-cost return from the next pose (the exact table under the OC) is still covered by the
-range left; otherwise return now."""
+The decision is the planner's own range check (`planner.range_check.check_return`, eq. 23 at
+step k+1, Algorithm 3): keep searching while, after one more step, the lowest-cost return from
+the next pose (the exact table under the OC) and the descent are still covered by the range left;
+otherwise return now."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+
+from planner.range_check import ReturnCheck, check_return
 
 __all__ = ["RangeModel", "ReturnCheck", "battery_drain_pct_s", "check_return", "consumption_pct_per_step",
            "drain_rate_pct_s", "estimate_range_steps", "landing_seconds", "range_left_steps"]
@@ -131,24 +134,3 @@ def landing_seconds(altitude_m: float, model: RangeModel) -> float:
     alt = max(0.0, altitude_m)
     final = min(alt, model.final_descent_m)
     return (alt - final) / model.descent_m_s + final / model.final_descent_m_s
-
-
-@dataclass(frozen=True, slots=True)
-class ReturnCheck:
-    """`cost` = 1 step + the return from the next pose + the descent + the reserve steps;
-    `margin` = range_left - cost (steps); `must_return` when the margin is negative."""
-
-    range_left: float
-    cost: float
-    margin: float
-    must_return: bool
-
-
-def check_return(range_left: float, return_steps_after_step: float, descent_steps: float = 0.0,
-                 reserve_steps: float = 0.0) -> ReturnCheck:
-    """Eq. (23) at k+1: return now unless one more step and the way home after it still fit."""
-    if math.isnan(range_left) or math.isnan(return_steps_after_step):
-        return ReturnCheck(range_left, math.inf, -math.inf, True)
-    cost = 1.0 + return_steps_after_step + descent_steps + reserve_steps
-    margin = range_left - cost
-    return ReturnCheck(range_left, cost, margin, margin < 0)

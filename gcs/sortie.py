@@ -15,6 +15,9 @@ track. When the flight ends, however it ends, three files are published together
 - `tracks.geojson`: one LineString per vehicle, the positions it reported from take-off on;
 - `detections.geojson`: one Point per positive reading.
 
+A flight taken over by a restarted station (`gcs fly --resume`) is one sortie: `restore` folds
+in the readings and tracks its journal kept before the station died.
+
 A vehicle without a detector sends no readings: its track is still written and the posterior is
 the prior (`observed` false: nothing was observed).
 
@@ -28,10 +31,9 @@ import contextlib
 import hashlib
 import json
 import math
-import time
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -41,14 +43,13 @@ import jsonschema
 import numpy as np
 
 from gcs.atomic import staged_outputs
-from gcs.fleet import FINAL_STAGES, FleetPlan
-from gcs.flight import FlightEvent, ReadingReceived
-from gcs.flight_watch import watching
 from planner.campaign import Belief
 from planner.environment import SearchMap
 
-if TYPE_CHECKING:
-    from gcs.flight import FlightController
+if TYPE_CHECKING:  # the flight modules load pymavlink: `gcs plan --continue` needs none of them
+    from gcs.fleet import Detection, FleetPlan
+    from gcs.flight import FlightController, FlightEvent
+    from gcs.flight_journal import JournalState
 
 __all__ = ["BELIEF_FILE", "DETECTIONS_FILE", "SORTIE_FILE", "TRACKS_FILE", "SortieLog", "belief_from_dict",
            "belief_to_dict", "file_sha256", "validate_belief_dict", "validate_sortie_dict"]
@@ -140,7 +141,7 @@ class SortieLog:
                                                              self.start.looks_before, self.start.sortie)
         self.readings: list[_Reading] = []
         self.tracks: dict[int, list[tuple[float, float]]] = {uid: [] for uid in plan.uavs}
-        self.started_utc = datetime.now(timezone.utc)
+        self.started_utc = datetime.now(UTC)
         self.finished: bool | None = None
         self.reason: str | None = None
         self.written: list[Path] = []
@@ -164,13 +165,26 @@ class SortieLog:
 
     def on_event(self, event: FlightEvent, now: float) -> None:
         """A `FlightListener`: every reading is folded into the belief as it arrives."""
-        if not isinstance(event, ReadingReceived):
-            return
-        d = event.detection
+        from gcs.flight import ReadingReceived
+
+        if isinstance(event, ReadingReceived):
+            self._fold(event.uav_id, event.detection)
+
+    def _fold(self, uav_id: int, d: Detection) -> None:
         cell = self.plan.cell_of(d.lat_deg, d.lon_deg)
-        self.readings.append(_Reading(event.uav_id, d.index, cell, d.hit, d.time_s, d.lat_deg, d.lon_deg))
+        self.readings.append(_Reading(uav_id, d.index, cell, d.hit, d.time_s, d.lat_deg, d.lon_deg))
         if cell is not None and self.belief is not None:
             self.belief.search_map.observe(*cell, d.hit, self.pc, self.pf)
+
+    def restore(self, state: JournalState) -> None:
+        """Continue the record of a flight a restarted station took over (`gcs fly --resume`):
+        its start, the readings the journal kept (folded into the belief again) and the tracks."""
+        self.started_utc = datetime.fromisoformat(state.start.utc)
+        for uav_id, d in state.readings:
+            self._fold(uav_id, d)
+        for uid, v in state.vehicles.items():
+            if uid in self.tracks:
+                self.tracks[uid] = list(v.track)
 
     def sample(self, controller: FlightController) -> None:
         """Add each vehicle's position to its track once it has taken off and moved `min_move_m`."""
@@ -186,6 +200,8 @@ class SortieLog:
     @contextlib.asynccontextmanager
     async def attach(self, controller: FlightController) -> AsyncIterator[SortieLog]:
         """Listen and sample while the block runs; write the record when it ends, however."""
+        from gcs.flight_watch import watching
+
         failure: BaseException | None = None
         try:
             async with watching(controller, self.on_event, lambda last: self.sample(controller), self.poll_s,
@@ -224,6 +240,8 @@ class SortieLog:
             return False, f"the flight ended with an error ({type(failure).__name__}: {failure})"
         if controller._interrupted:
             return False, "the flight was stopped by the operator (Ctrl-C): every vehicle was sent home"
+        from gcs.fleet import FINAL_STAGES
+
         open_ends = [f"UAV {uid} ended {st.stage.value}" for uid, st in sorted(controller.status.items())
                      if st.stage not in FINAL_STAGES]
         if open_ends:
@@ -236,7 +254,7 @@ class SortieLog:
 
     def record(self, controller: FlightController) -> dict:
         """The `sortie.json` document."""
-        ended = datetime.now(timezone.utc)
+        ended = datetime.now(UTC)
         vehicles = []
         for uid, st in sorted(controller.status.items()):
             mine = [r for r in self.readings if r.uav_id == uid]
@@ -266,7 +284,8 @@ class SortieLog:
         if self.belief is not None:
             before, after = self.start.expected(self.pc), self.belief.expected(self.pc)
             available = self.belief.available()
-            data["belief"] = belief_to_dict(self.belief, "flight") | {"sortie_looks": self.belief.search_map.visits.tolist()}
+            data["belief"] = belief_to_dict(self.belief, "flight") | {
+                "sortie_looks": self.belief.search_map.visits.tolist()}
             data["campaign"] = {"expected_targets_in_area": available, "expected_before": before,
                                 "expected_after": after, "expected_targets_found": after - before,
                                 "pos_before": before / available if available > 0 else 0.0,

@@ -7,8 +7,8 @@ import math
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from gcs.flight import FlightController
     from gcs.fleet import FleetPlan, VehicleStatus
+    from gcs.flight import FlightController
 
 __all__ = ["render_summary", "render_table", "targets_found"]
 

@@ -73,7 +73,7 @@ class Belief:
             raise ValueError(f"sorties count from 1, got {self.sortie}")
 
     @classmethod
-    def prior(cls, search_map: SearchMap) -> "Belief":
+    def prior(cls, search_map: SearchMap) -> Belief:
         """The first sortie's belief: the prior map, nothing read."""
         return cls(search_map.copy(), search_map.tep.copy(), np.zeros(search_map.shape, dtype=np.int64))
 
@@ -94,7 +94,7 @@ class Belief:
         """The campaign's expected targets found by every reading so far."""
         return expected_finds(self.p0, self.searchable, pc, self.looks)
 
-    def next_sortie(self) -> "Belief":
+    def next_sortie(self) -> Belief:
         """The belief the next sortie starts from: this map, every reading so far counted before it."""
         m = self.search_map
         return Belief(SearchMap(m.tep.copy(), m.eu.copy(), m.no_fly.copy()), self.p0.copy(), self.looks.copy(),

@@ -1,10 +1,17 @@
 """Compilation flags shared by every numba kernel (one place, never per kernel)."""
 
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
+
 import numba
 
-JIT = dict(cache=True, nogil=True)
+CACHE = True  # compiled code kept on disk: a second process loads it instead of compiling
+NOGIL = True
+
+Kernel = TypeVar("Kernel", bound=Callable[..., Any])
 
 
-def njit(func):
-    """Compile `func` with the project's flags (cached on disk so a second process does not recompile)."""
-    return numba.njit(**JIT)(func)
+def njit(func: Kernel) -> Kernel:
+    """Compile `func` with the project's flags. Typed as `func`: called from Python the
+    dispatcher takes and returns what `func` does (and is `func` under NUMBA_DISABLE_JIT)."""
+    return cast(Kernel, numba.njit(cache=CACHE, nogil=NOGIL)(func))

@@ -10,6 +10,7 @@ loggers and live front-ends read; `run()` flies to the end and returns the `Plan
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,6 +19,7 @@ from planner.environment import footprint_cells, sense
 from planner.horizon import Flyer, HorizonValue, block_size, horizon_window, team_fields, visit_reward
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
 from planner.plan import Plan, ReturnReason, Stage, TargetOutcome, TrajectoryPoint, UavPlan
+from planner.range_check import check_return
 from planner.return_exact import follow_table, return_table, space_time_return
 from planner.return_st import st_return
 from planner.reward import RewardWeights, airport_reward_map
@@ -92,7 +94,7 @@ class StepRecord:
     decisions: dict[int, Decision]
     returns: list[ReturnEvent]
     reports: np.ndarray
-    found: list[tuple[int, int]]
+    found: list[tuple[int, int | None]]
     ranges: dict[int, RangeStatus]
     tep: np.ndarray
     eu: np.ndarray
@@ -112,7 +114,7 @@ class _Uav:
     return_steps: int = 0
     return_reason: ReturnReason | None = None
     return_step: int | None = None
-    return_plan: deque = field(default_factory=deque)
+    return_plan: deque[tuple[int, int, int]] = field(default_factory=deque)
     predicted: np.ndarray | None = None
     tracking_efficiency: float | None = None
     home_path: list[tuple[int, int, int]] = field(default_factory=list)
@@ -138,7 +140,7 @@ def first_step_feasible(table: np.ndarray, successors: np.ndarray, blocked: np.n
             break
         qx, qy = x + HEADING_DX[g], y + HEADING_DY[g]
         if 0 <= qx < nx and 0 <= qy < ny and not blocked[qx, qy]:
-            if steps_flown + 1 + table[g, qx, qy] <= range_steps:
+            if not check_return(range_steps - steps_flown, int(table[g, qx, qy])).must_return:
                 return True
     return False
 
@@ -148,9 +150,10 @@ class ClosedSearch:
 
     With `simulate_sensing` (the default) every cell flown, and each airport as its UAV climbs out
     of it (step 0), is observed by the scenario's sensor against its targets; each reading's noise
-    is `reading_draw(seed, UAV, cell, visit)`, the same world the simulated vehicles fly in. Without it the map changes only through `observe()`, the readings real
-    vehicles report, and `set_position()` moves a searching UAV to the cell it was seen in: the
-    planner in the loop of a live flight."""
+    is `reading_draw(seed, UAV, cell, visit)`, the same world the simulated vehicles fly in.
+    Without it the map changes only through `observe()`, the readings real vehicles report, and
+    `set_position()` moves a searching UAV to the cell it was seen in: the planner in the loop of
+    a live flight."""
 
     def __init__(self, scenario: Scenario, config: MissionConfig | None = None, seed: int = 0,
                  strategy: SearchStrategy | None = None, simulate_sensing: bool = True) -> None:
@@ -313,7 +316,8 @@ class ClosedSearch:
                     turning = (u, ReturnReason.BOXED_IN if feasible else ReturnReason.RANGE)
                     break
                 x, y, h = d.first_step()
-                if int(u.table[h, x, y]) > budget:
+                if check_return(u.range_steps - u.steps_flown, int(u.table[h, x, y]),
+                                reserve_steps=self.config.reserve_steps).must_return:
                     turning = (u, ReturnReason.RANGE)
                     break
                 path = self._plan_home(u, (x, y, h), k + 1, budget, reserved)
@@ -424,7 +428,7 @@ class ClosedSearch:
                 self.tally.look(uid, *cell)
 
     def _simulate_sensing(self, looks: list[tuple[int, int, int]], k: int
-                          ) -> tuple[np.ndarray, list[tuple[int, int]]]:
+                          ) -> tuple[np.ndarray, list[tuple[int, int | None]]]:
         """The scenario's sensor reads under every (UAV, x, y) of `looks` (eq. 2-4); the reports
         and the first finds. Nothing happens without `simulate_sensing`."""
         if not (looks and self.simulate_sensing):
@@ -439,7 +443,7 @@ class ClosedSearch:
         reports = sense(self.map, self.target_grid, cells, self.scenario.sensor, np.array(draws))
         return reports, self._score_reports(reports, k)
 
-    def _score_reports(self, reports: np.ndarray, k: int) -> list[tuple[int, int]]:
+    def _score_reports(self, reports: np.ndarray, k: int) -> list[tuple[int, int | None]]:
         """Count false alarms and first finds; returns (target index, uav id) of new finds."""
         positions = {(u.x, u.y): uid for uid, u in self.uavs.items() if u.trajectory[-1].step == k}
         radius = self.scenario.sensor.footprint_radius
@@ -464,7 +468,7 @@ class ClosedSearch:
                 return uid
         return None
 
-    def run(self, max_steps: int | None = None):
+    def run(self, max_steps: int | None = None) -> Iterator[StepRecord]:
         """Yield every step's record until all UAVs have landed."""
         limit = max_steps or (max(u.range_steps for u in self.uavs.values()) + 1)
         while not self.done:
@@ -475,7 +479,8 @@ class ClosedSearch:
     def plan(self) -> Plan:
         """The closed trajectories and outcomes so far."""
         uavs = [UavPlan(u.spec.uav_id, u.spec.airport, u.spec.heading, u.range_steps, list(u.trajectory),
-                        u.search_steps, u.return_steps, u.return_reason, u.return_step, u.tracking_efficiency) for u in self.uavs.values()]
+                        u.search_steps, u.return_steps, u.return_reason, u.return_step, u.tracking_efficiency)
+                for u in self.uavs.values()]
         targets = [TargetOutcome(int(x), int(y), self.found_step[i], self.found_by[i])
                    for i, (x, y) in enumerate(self.scenario.targets)]
         settings = {"np": self.config.np_steps, "oc": self.config.oc.name, "strategy": self.strategy.name,

@@ -50,9 +50,10 @@ class SearchMap:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.tep.shape  # type: ignore[return-value]
+        nx, ny = self.tep.shape
+        return nx, ny
 
-    def copy(self) -> "SearchMap":
+    def copy(self) -> SearchMap:
         out = SearchMap(self.tep.copy(), self.eu.copy(), self.no_fly.copy())
         out.visits = self.visits.copy()
         return out
@@ -74,25 +75,26 @@ class SearchMap:
 
 
 @njit
-def tep_after_report(p, pc, pf):
+def tep_after_report(p: float, pc: float, pf: float) -> float:
     """Eq. (2): TEP after the sensor reported a target."""
     return p * pc / ((pc - pf) * p + pf)
 
 
 @njit
-def tep_after_no_report(p, pc, pf):
+def tep_after_no_report(p: float, pc: float, pf: float) -> float:
     """Eq. (3): TEP after the sensor reported nothing."""
     return p * (1.0 - pc) / ((pf - pc) * p + 1.0 - pf)
 
 
 @njit
-def eu_after_visit(chi):
+def eu_after_visit(chi: float) -> float:
     """Eq. (4) for one visit: each visit halves the EU, so after Nf visits chi = chi0 / 2^Nf."""
     return 0.5 * chi
 
 
 @njit
-def _sense(tep, eu, visits, target_grid, cells, draws, radius, pc, pf, reports):
+def _sense(tep: np.ndarray, eu: np.ndarray, visits: np.ndarray, target_grid: np.ndarray, cells: np.ndarray,
+           draws: np.ndarray, radius: int, pc: float, pf: float, reports: np.ndarray) -> int:
     """Update the map for every observed cell of `cells` (k x 2) and record its report.
 
     `draws` holds one uniform number per observed cell, in the same order, so a caller and a

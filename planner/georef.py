@@ -18,6 +18,7 @@ from functools import cached_property
 
 import numpy as np
 import pyproj
+from numpy.typing import ArrayLike
 
 #: Grid extents are rounded down by this fraction of a cell before taking the ceiling, so an area
 #: drawn exactly n cells wide (up to projection noise) gets n cells, not n + 1.
@@ -47,12 +48,12 @@ class LocalFrame:
     def _inverse(self) -> pyproj.Transformer:
         return pyproj.Transformer.from_crs(pyproj.CRS.from_proj4(self.proj_string), "EPSG:4326", always_xy=True)
 
-    def geodetic2local(self, lat_deg, lon_deg) -> tuple[np.ndarray, np.ndarray]:
+    def geodetic2local(self, lat_deg: ArrayLike, lon_deg: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(east_m, north_m) of WGS84 points."""
         east, north = self._forward.transform(np.asarray(lon_deg, dtype=float), np.asarray(lat_deg, dtype=float))
         return np.asarray(east), np.asarray(north)
 
-    def local2geodetic(self, east_m, north_m) -> tuple[np.ndarray, np.ndarray]:
+    def local2geodetic(self, east_m: ArrayLike, north_m: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(lat_deg, lon_deg) of local points."""
         lon, lat = self._inverse.transform(np.asarray(east_m, dtype=float), np.asarray(north_m, dtype=float))
         return np.asarray(lat), np.asarray(lon)
@@ -78,7 +79,7 @@ class Grid:
     ny: int
 
     @classmethod
-    def covering(cls, bounds: tuple[float, float, float, float], cell_size_m: float) -> "Grid":
+    def covering(cls, bounds: tuple[float, float, float, float], cell_size_m: float) -> Grid:
         """The smallest grid of `cell_size_m` cells covering `bounds` (min_e, min_n, max_e, max_n),
         centred on them."""
         if not (cell_size_m > 0 and math.isfinite(cell_size_m)):
@@ -98,7 +99,7 @@ class Grid:
     def cells(self) -> int:
         return self.nx * self.ny
 
-    def centre_m(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+    def centre_m(self, x: ArrayLike, y: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(east_m, north_m) of cell centres (x, y may be arrays)."""
         return (self.east0_m + (np.asarray(x) + 0.5) * self.cell_size_m,
                 self.north0_m + (np.asarray(y) + 0.5) * self.cell_size_m)

@@ -46,6 +46,7 @@ Defaults (weight 1, length 1, radius Np) were chosen on random areas 100-115 and
 200-205 (`benchmarks/bench_success.py` reports on other ones)."""
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,7 +88,7 @@ class HorizonValue:
             return self.every
         return max(1, math.ceil(shape[0] * shape[1] / FIELD_CELLS))
 
-    def as_dict(self, np_steps: int, shape: tuple[int, int]) -> dict:
+    def as_dict(self, np_steps: int, shape: tuple[int, int]) -> dict[str, float | int]:
         return {"weight": self.weight, "length": self.length,
                 "radius": np_steps if self.radius is None else self.radius, "every": self.period(shape)}
 
@@ -98,7 +99,7 @@ def visit_reward(tep: np.ndarray, eu: np.ndarray, weights: np.ndarray, blocked: 
 
 
 @njit
-def _spread(blocked, sources, source_costs, best):
+def _spread(blocked: np.ndarray, sources: np.ndarray, source_costs: np.ndarray, best: np.ndarray) -> int:
     """best[s] = min over sources i of source_costs[i] + steps(s, sources[i]) (8-connected steps
     around blocked cells; inf where none reaches), sources (flat cell indices) sorted by cost.
     The sources are merged with a FIFO queue whose costs rise by one step per ring, so every
@@ -153,7 +154,7 @@ def steps_from(blocked: np.ndarray, cell: tuple[int, int]) -> np.ndarray:
 
 
 @njit
-def _box_sums(values, radius, out):
+def _box_sums(values: np.ndarray, radius: int, out: np.ndarray) -> int:
     """out[x, y] = sum of values over the (2 radius + 1)^2 cells centred on (x, y), in the grid."""
     nx, ny = values.shape
     sums = np.zeros((nx + 1, ny + 1))
@@ -178,7 +179,7 @@ def box_mean(values: np.ndarray, radius: int) -> np.ndarray:
 
 
 @njit
-def _discounted_max(mass, blocked, length, best):
+def _discounted_max(mass: np.ndarray, blocked: np.ndarray, length: float, best: np.ndarray) -> int:
     """best[s] = min over sources c (free, mass > 0) of -length ln mass(c) + steps(s, c)."""
     nx, ny = mass.shape
     costs = np.empty(nx * ny)
@@ -211,13 +212,13 @@ def block_size(shape: tuple[int, int]) -> int:
     return max(1, math.ceil(math.sqrt(shape[0] * shape[1] / FIELD_CELLS)))
 
 
-def _pooled(values: np.ndarray, b: int, fill, reduce) -> np.ndarray:
+def _pooled(values: np.ndarray, b: int, fill: float, reduce: Callable[..., np.ndarray]) -> np.ndarray:
     """`reduce` over b x b blocks (axis (1, 3)), the grid padded with `fill` to whole blocks."""
     nx, ny = values.shape
     bx, by = -(-nx // b), -(-ny // b)
     padded = np.full((bx * b, by * b), fill, dtype=values.dtype)
     padded[:nx, :ny] = values
-    return reduce(padded.reshape(bx, b, by, b), axis=(1, 3))
+    return np.asarray(reduce(padded.reshape(bx, b, by, b), axis=(1, 3)))
 
 
 def discount_length(length: float, range_left: int, home_steps_now: int) -> float:
@@ -228,7 +229,7 @@ def discount_length(length: float, range_left: int, home_steps_now: int) -> floa
 def reachable_cells(steps: np.ndarray, home_steps: np.ndarray, range_left: int, step: int = 1) -> np.ndarray:
     """Cells a UAV `steps` away (from `steps_from`, in units of `step` steps) can fly to and still
     get home from within `range_left` steps."""
-    return (steps >= 0) & (steps * step + home_steps <= range_left)
+    return np.asarray((steps >= 0) & (steps * step + home_steps <= range_left))
 
 
 def team_shares(steps: list[np.ndarray], reachable: list[np.ndarray], lengths: list[float]) -> list[np.ndarray]:

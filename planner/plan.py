@@ -76,7 +76,7 @@ class Plan:
     uavs: list[UavPlan]
     targets: list[TargetOutcome]
     false_alarms: int
-    settings: dict = field(default_factory=dict)
+    settings: dict[str, object] = field(default_factory=dict)
     success: Success | None = None
 
     @property

@@ -83,7 +83,7 @@ def block_unsafe_moves(free: np.ndarray, safe: BaseGeometry, grid: Grid) -> tupl
         if not (free[x1, y1] and free[x2, y2]):
             continue
         e, n = grid.centre_m(np.array([x1, x2]), np.array([y1, y2]))
-        d = shapely.distance(boundary, shapely.points(e, n))
+        d = np.asarray(shapely.distance(boundary, shapely.points(e, n)))
         x, y = (x1, y1) if d[0] <= d[1] else (x2, y2)
         free[x, y] = False
         blocked += 1

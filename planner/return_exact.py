@@ -28,7 +28,8 @@ def predecessors_of(successors: np.ndarray) -> np.ndarray:
 
 
 @njit
-def _return_table(blocked, goal_x, goal_y, predecessors, dx, dy):
+def _return_table(blocked: np.ndarray, goal_x: int, goal_y: int, predecessors: np.ndarray, dx: np.ndarray,
+                  dy: np.ndarray) -> np.ndarray:
     """Reverse BFS: table[h, x, y] = fewest steps from pose (x, y, h) to the goal cell."""
     nx, ny = blocked.shape
     table = np.full((8, nx, ny), 2**30, dtype=np.int32)
@@ -71,7 +72,8 @@ def return_table(blocked: np.ndarray, goal: tuple[int, int], oc: OrientationCons
 
 
 @njit
-def _follow_table(table, x, y, h, successors, blocked, dx, dy):
+def _follow_table(table: np.ndarray, x: int, y: int, h: int, successors: np.ndarray, blocked: np.ndarray,
+                  dx: np.ndarray, dy: np.ndarray) -> np.ndarray:
     """Descend the table from pose (x, y, h): rows (x, y, heading) of the poses after it."""
     nx, ny = blocked.shape
     remaining = table[h, x, y]
@@ -123,9 +125,10 @@ def space_time_return(table: np.ndarray, pose: tuple[int, int, int], start_step:
         x, y, h, t = state
         if table[h, x, y] == 0:
             path = []
-            while parents[state] is not None:
+            parent = parents[state]
+            while parent is not None:
                 path.append(state[:3])
-                state = parents[state]
+                state, parent = parent, parents[parent]
             return path[::-1]
         for g in successors[h]:
             if g < 0:

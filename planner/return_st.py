@@ -13,15 +13,14 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from planner.motion import HEADING_DX, HEADING_DY
 from planner.return_exact import UNREACHABLE
-from planner.search.competition import others_for
-from planner.search.problem import Decision, Searcher, StepProblem
+from planner.search.competition import BestPath, others_for
+from planner.search.problem import Searcher, StepProblem
 
 KEY_CELL_VALUE = 0.2
 GOAL_VALUE = 1.0
@@ -95,9 +94,6 @@ def key_cell_map(shape: tuple[int, int], cells: list[tuple[int, int]]) -> np.nda
         key[c] = KEY_CELL_VALUE
     key[cells[-1]] = GOAL_VALUE
     return key
-
-
-BestPath = Callable[[StepProblem, Searcher, np.ndarray, np.ndarray], "Decision | None"]
 
 
 def st_return(blocked: np.ndarray, pose: tuple[int, int, int], goal: tuple[int, int], successors: np.ndarray,

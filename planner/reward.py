@@ -43,23 +43,26 @@ def airport_reward_map(shape: tuple[int, int], airports: np.ndarray) -> np.ndarr
 
 
 @njit
-def separation_reward(d_min):
+def separation_reward(d_min: float) -> float:
     """F_r of eq. (10)."""
     if d_min <= 1.4142135623730951:
         return -100.0
-    return np.exp(-1.0 / d_min)
+    return float(np.exp(-1.0 / d_min))
 
 
 @njit
-def score_paths(choices, x0, y0, h0, successors, tep, eu, blocked, fa_map, others, others_hard,
-                weights, steps_flown, range_steps, home_table, tep_once, scores, depths, cells):
+def score_paths(choices: np.ndarray, x0: int, y0: int, h0: int, successors: np.ndarray, tep: np.ndarray,
+                eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray, others: np.ndarray, others_hard: np.ndarray,
+                weights: np.ndarray, steps_flown: int, range_steps: int, home_table: np.ndarray, tep_once: bool,
+                scores: np.ndarray, depths: np.ndarray, cells: np.ndarray) -> int:
     """Score every row of `choices` (n x Np turn choices) from pose (x0, y0, h0).
 
     Writes `scores[i]` = J1 of the path's valid prefix, `depths[i]` = that prefix's length and
     `cells[i, q]` = (x, y, heading) of step q+1. A path stops (eq. 8) where it leaves the grid,
-    enters a blocked cell or a pose with no way home at all (a dead end of the OC), or meets a vehicle whose path is hard (`others_hard`) on the same
-    cell at the same step; its first step must also leave the range feasible:
-    steps_flown + 1 + home_table[h1, x1, y1] <= range_steps (range_steps < 0 disables the check).
+    enters a blocked cell or a pose with no way home at all (a dead end of the OC), or meets a
+    vehicle whose path is hard (`others_hard`) on the same cell at the same step; its first step
+    must also leave the range feasible: steps_flown + 1 + home_table[h1, x1, y1] <= range_steps
+    (range_steps < 0 disables the check).
     `others[j, q]` = (x, y) of vehicle j at step q+1, x < 0 where unknown.
     EU term: the reduction chi/2 of a visit, halved again for each earlier visit on the same path.
     With `tep_once`, a cell's TEP counts only at its first visit on the path (ST tracking)."""
@@ -84,21 +87,21 @@ def score_paths(choices, x0, y0, h0, successors, tep, eu, blocked, fa_map, other
             if g < 0:
                 break
             if g == 0:
-                qx = x; qy = y + 1
+                qx, qy = x, y + 1
             elif g == 1:
-                qx = x + 1; qy = y + 1
+                qx, qy = x + 1, y + 1
             elif g == 2:
-                qx = x + 1; qy = y
+                qx, qy = x + 1, y
             elif g == 3:
-                qx = x + 1; qy = y - 1
+                qx, qy = x + 1, y - 1
             elif g == 4:
-                qx = x; qy = y - 1
+                qx, qy = x, y - 1
             elif g == 5:
-                qx = x - 1; qy = y - 1
+                qx, qy = x - 1, y - 1
             elif g == 6:
-                qx = x - 1; qy = y
+                qx, qy = x - 1, y
             else:
-                qx = x - 1; qy = y + 1
+                qx, qy = x - 1, y + 1
             if qx < 0 or qy < 0 or qx >= nx or qy >= ny or blocked[qx, qy]:
                 break
             if home_table[g, qx, qy] >= 1073741824:
@@ -146,7 +149,8 @@ def score_paths(choices, x0, y0, h0, successors, tep, eu, blocked, fa_map, other
 
 
 @njit
-def add_terminal_value(scores, depths, cells, x0, y0, horizon):
+def add_terminal_value(scores: np.ndarray, depths: np.ndarray, cells: np.ndarray, x0: int, y0: int,
+                       horizon: np.ndarray) -> int:
     """Add to `scores[i]` the value of path i's last valid cell: `horizon` is a (2c+1) x (2c+1)
     window of values centred on the start cell (x0, y0), c >= Np, so every cell a path can end
     on is inside it. An empty window (0 x 0) adds nothing: J1 stays the paper's."""
@@ -161,7 +165,7 @@ def add_terminal_value(scores, depths, cells, x0, y0, horizon):
 
 
 @njit
-def best_two(scores, depths):
+def best_two(scores: np.ndarray, depths: np.ndarray) -> tuple[int, int]:
     """Indices of the best and runner-up paths: the deepest valid prefix first, then the highest
     score (ties to the lower index, so results do not depend on anything but the inputs).
     -1 where there is none (depth 0 paths are not candidates)."""

@@ -72,7 +72,7 @@ class SuccessTally:
         before = np.zeros(prior.shape) if looks_before is None else np.asarray(looks_before, dtype=float)
         self.missed = (1.0 - self.pc) ** before
         self.expected = 0.0
-        self.by_uav: dict[int, float] = {uid: 0.0 for uid in uav_ids}
+        self.by_uav: dict[int, float] = dict.fromkeys(uav_ids, 0.0)
 
     @property
     def available(self) -> float:

@@ -36,7 +36,7 @@ def legs_inside(points: np.ndarray, safe: BaseGeometry) -> np.ndarray:
         return np.ones(0, dtype=bool)
     shapely.prepare(safe)
     segments = shapely.linestrings(np.stack([points[:-1], points[1:]], axis=1))
-    return shapely.covers(safe, segments)
+    return np.asarray(shapely.covers(safe, segments), dtype=bool)
 
 
 def merge_waypoints(points: np.ndarray, safe: BaseGeometry, keep: np.ndarray | None = None) -> np.ndarray:

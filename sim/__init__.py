@@ -7,6 +7,7 @@ from sim.geo import HomePose, LocalFrame
 from sim.link import LinkFaults, signing_key_from
 from sim.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
 from sim.modes import Mode
+from sim.px4 import Px4BootTimes
 from sim.sensor import Observation, SensorConfig
 from sim.vehicle import SimVehicle, VehicleConfig, VehicleState
 
@@ -24,6 +25,7 @@ __all__ = [
     "Mode",
     "Observation",
     "ProtocolConfig",
+    "Px4BootTimes",
     "SensorConfig",
     "SimFleet",
     "SimVehicle",

@@ -168,7 +168,9 @@ def item_result(item: MissionItem) -> int:
     if kind == MissionType.FENCE:
         if item.command not in FENCE_COMMANDS:
             return mavlink.MAV_MISSION_UNSUPPORTED
-        return mavlink.MAV_MISSION_ACCEPTED if item.frame in FENCE_RALLY_FRAMES else mavlink.MAV_MISSION_UNSUPPORTED_FRAME
+        if item.frame not in FENCE_RALLY_FRAMES:
+            return mavlink.MAV_MISSION_UNSUPPORTED_FRAME
+        return mavlink.MAV_MISSION_ACCEPTED
     if kind == MissionType.RALLY:
         if item.frame not in FENCE_RALLY_FRAMES:
             return mavlink.MAV_MISSION_UNSUPPORTED_FRAME

@@ -5,13 +5,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import Enum
 
+DEFAULT_ENDURANCE_S = 1200.0
+
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class BatteryConfig:
-    """Capacity as flight endurance at `flight_current_a`; on the ground (powered) the current
-    is `ground_drain_fraction` of that."""
+    """Capacity as flight endurance at `flight_current_a` (None: 1200 s); on the ground
+    (powered) the current is `ground_drain_fraction` of that. The px4 profile's battery is
+    SIH's: an endurance given is its SIM_BAT_DRAIN (None: PX4's 60 s), and `low_pct`,
+    `critical_pct`, `ground_drain_fraction`, `flight_current_a` do not apply (PX4's BAT_*_THR)."""
 
-    endurance_s: float = 1200.0
+    endurance_s: float | None = None
     ground_drain_fraction: float = 0.05
     cells: int = 4
     flight_current_a: float = 20.0
@@ -19,14 +23,19 @@ class BatteryConfig:
     critical_pct: float = 5.0
 
     @property
+    def flight_endurance_s(self) -> float:
+        return DEFAULT_ENDURANCE_S if self.endurance_s is None else self.endurance_s
+
+    @property
     def capacity_mah(self) -> float:
-        return self.flight_current_a * self.endurance_s / 3.6
+        return self.flight_current_a * self.flight_endurance_s / 3.6
 
 
 class FailsafeLevel(Enum):
     NONE = 0
     LOW = 1  # return to launch
     CRITICAL = 2  # land now
+    EMERGENCY = 3  # PX4's last level (BAT_EMERGEN_THR)
 
 
 def failsafe_level(remaining_pct: float, config: BatteryConfig) -> FailsafeLevel:
@@ -92,4 +101,4 @@ class Battery:
 
     @property
     def time_remaining_s(self) -> float:
-        return self.remaining_fraction * self.config.endurance_s / max(self.drain_multiplier, 1e-9)
+        return self.remaining_fraction * self.config.flight_endurance_s / max(self.drain_multiplier, 1e-9)

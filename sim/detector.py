@@ -31,7 +31,7 @@ from contextlib import AsyncExitStack, suppress
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from gcs.links import AUTOPILOT_COMPONENT_ID, CommandError, LinkError, MAVMessage, MavLink, SigningKey, mavlink
+from gcs.links import AUTOPILOT_COMPONENT_ID, CommandError, LinkError, MavLink, MAVMessage, SigningKey, mavlink
 from sim.geo import LocalFrame
 from sim.sensor import DownwardSensor, Observation, SensorConfig, reading_message, reading_text
 

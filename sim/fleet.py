@@ -21,6 +21,7 @@ from gcs.links.connection import Connection, LinkKind, parse_connection
 from gcs.links.transport import LinkStatus, open_transport
 from sim.geo import HomePose, LocalFrame
 from sim.link import Address, LinkFaults, VehicleLink
+from sim.px4_vehicle import Px4Vehicle
 from sim.vehicle import SimVehicle, VehicleConfig
 
 MAX_STEP_S = 0.1
@@ -89,6 +90,9 @@ class SimFleet:
                        grid_origin_en=origin)
             for i, home in enumerate(homes)
         ]
+        for v in self.vehicles:
+            if isinstance(v, Px4Vehicle):
+                v.started_at_speedup(options.speedup)
         self.links = [
             VehicleLink(v, faults=options.faults, out=options.out, signing_key=options.signing_key)
             for v in self.vehicles

@@ -1,7 +1,8 @@
 """The transport of one vehicle: MAVLink 2 framing, optional signing, injected faults.
 
-Over UDP the vehicle answers whoever spoke to it last (like a PX4 SITL port) and also pushes to
-any fixed ground-station addresses (like ArduPilot SITL's `--out`). It can also serve byte
+Over UDP the vehicle answers whoever spoke to it last (a px4-profile vehicle: whoever spoke
+first, as PX4 SITL does) and also pushes to any fixed ground-station addresses (like ArduPilot
+SITL's `--out`). It can also serve byte
 streams, as a SITL serial port does: a TCP port that ground stations connect to, or a serial
 device (`gcs.links.transport`'s TCP server and serial port, reopened when they drop); every
 connected stream gets the vehicle's traffic. Faults are drawn from a seeded generator per
@@ -14,8 +15,8 @@ import asyncio
 import logging
 import random
 import time
-from dataclasses import dataclass
 from collections.abc import Hashable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -105,6 +106,11 @@ class VehicleLink(asyncio.DatagramProtocol):
         self.datagram_received(data, ("stream", peer))
 
     @property
+    def keeps_first_peer(self) -> bool:
+        """PX4 answers the first address that spoke to it, for good (research `px4` §11)."""
+        return self.vehicle.config.profile == "px4"
+
+    @property
     def local_address(self) -> Address:
         assert self.transport is not None
         return self.transport.get_extra_info("sockname")[:2]
@@ -141,7 +147,7 @@ class VehicleLink(asyncio.DatagramProtocol):
             if msg.get_type() == "SETUP_SIGNING" and msg.target_system in (0, self.vehicle.sysid):
                 self.set_signing_key(bytes(msg.secret_key))
                 continue
-            if addr[0] != "stream":
+            if addr[0] != "stream" and (self.peer is None or not self.keeps_first_peer):
                 self.peer = addr  # only a valid (and, with signing, authenticated) sender is answered
             try:
                 replies = self.vehicle.handle(msg, now)

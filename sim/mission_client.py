@@ -84,8 +84,9 @@ class MissionClient:
             item_msg = MissionItem(**{**_fields(item), "seq": msg.seq, "mission_type": mission_type})
             out = item_msg.to_msg(self.target)  # MISSION_ITEM_INT, also for ArduPilot's MISSION_REQUEST
             last_sends = 0
+            is_last = msg.seq == len(items) - 1  # bound now: `msg` is the next message by the time of a re-send
 
-            def send_last(out=out, last=msg.seq == len(items) - 1) -> None:
+            def send_last(out=out, last=is_last) -> None:
                 nonlocal last_sends
                 last_sends += last
                 mav.send(out)

@@ -124,7 +124,8 @@ class MissionProtocol:
         self.config = config or ProtocolConfig()
         self._stores: dict[int, list[MissionItem]] = {int(t): [] for t in MissionType if t != MissionType.ALL}
         self.versions: dict[int, int] = dict.fromkeys(self._stores, 0)
-        self.home: MissionItem = MissionItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_WAYPOINT)
+        self.home: MissionItem = MissionItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL,
+                                             command=mavlink.MAV_CMD_NAV_WAYPOINT)
         self._upload: _Upload | None = None
         self._done: _Done | None = None
 
@@ -245,7 +246,8 @@ class MissionProtocol:
             return [_ack(sender, mavlink.MAV_MISSION_UNSUPPORTED, msg.mission_type)]
         if self._upload is not None:
             return [_ack(sender, mavlink.MAV_MISSION_DENIED, msg.mission_type)]
-        return [mavlink.MAVLink_mission_count_message(sender[0], sender[1], self._count(msg.mission_type), msg.mission_type)]
+        return [mavlink.MAVLink_mission_count_message(sender[0], sender[1], self._count(msg.mission_type),
+                                                      msg.mission_type)]
 
     def _on_request(self, msg: MAVMessage, sender: tuple[int, int], *, legacy: bool) -> list[MAVMessage]:
         mtype = msg.mission_type

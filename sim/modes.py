@@ -20,6 +20,7 @@ class Mode(Enum):
     LAND = "LAND"
     LOITER = "LOITER"
     TAKEOFF = "TAKEOFF"
+    POSCTL = "POSCTL"  # PX4's position mode: without RC it sinks (px4 §9)
 
 
 _ARDUCOPTER = {
@@ -46,6 +47,7 @@ def _px4(main: int, sub: int = 0) -> int:
 
 _PX4 = {
     Mode.MANUAL: _px4(1),
+    Mode.POSCTL: _px4(3),
     Mode.GUIDED: _px4(6),  # OFFBOARD
     Mode.TAKEOFF: _px4(4, 2),
     Mode.LOITER: _px4(4, 3),  # Hold

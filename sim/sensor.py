@@ -83,7 +83,8 @@ class DownwardSensor:
             return None
         cell = self.cell_of(east_m, north_m)
         centre = self.cell_center_en(cell)
-        if cell == self._last_cell or math.dist(centre, (east_m, north_m)) > self.config.view_radius_cells * self.config.cell_size_m:
+        view_radius_m = self.config.view_radius_cells * self.config.cell_size_m
+        if cell == self._last_cell or math.dist(centre, (east_m, north_m)) > view_radius_m:
             return None
         self._last_cell = cell
         visit = self._visits.get(cell, 0)

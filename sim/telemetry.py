@@ -6,8 +6,10 @@ less often rather than in bursts.
 
 Defaults per profile: an ArduCopter streams nothing but HEARTBEAT until a station asks
 (SET_MESSAGE_INTERVAL or REQUEST_DATA_STREAM), an ArduPlane streams every group at 1 Hz
-(research `ardupilot_flight` §1); the px4 profile streams status at 1 Hz and position at
-`telemetry_hz`. Before its GPS fix an ArduPilot vehicle reports position 0, 0.
+(research `ardupilot_flight` §1); the px4 profile streams at PX4's own rates (research `px4`
+§3: position and attitude 50 Hz, GPS 5 Hz, HUD 4 Hz, status 1 Hz, battery, home and estimator
+0.5 Hz), position, attitude and HUD at `telemetry_hz` when given. Before its GPS fix (ArduPilot)
+or its position estimate (PX4) a vehicle reports position 0, 0.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from sim import px4
 from sim.battery import FailsafeLevel
 from sim.modes import Mode
 
@@ -36,6 +39,7 @@ AUTOPILOT_VERSION = mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION
 GPS_RAW_INT = mavlink.MAVLINK_MSG_ID_GPS_RAW_INT
 EKF_STATUS_REPORT = mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT
 GPS_GLOBAL_ORIGIN = mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN
+ESTIMATOR_STATUS = mavlink.MAVLINK_MSG_ID_ESTIMATOR_STATUS
 
 SLOW_STREAMS = (HEARTBEAT, SYS_STATUS, BATTERY_STATUS, EXTENDED_SYS_STATE, MISSION_CURRENT)
 FAST_STREAMS = (GLOBAL_POSITION_INT, ATTITUDE, VFR_HUD)
@@ -71,17 +75,18 @@ _SENSORS = (
 _GRAVITY_M_S2 = 9.80665
 
 
-def default_intervals_s(fast_hz: float, *, profile: str = "px4", vehicle_type: str = "copter"
+def default_intervals_s(fast_hz: float | None, *, profile: str = "px4", vehicle_type: str = "copter"
                         ) -> dict[int, float | None]:
     """What a vehicle streams before anyone asks: ArduCopter only HEARTBEAT, ArduPlane every
-    stream at 1 Hz; px4: slow streams at 1 Hz, position/attitude/HUD at `fast_hz`."""
+    stream at 1 Hz; px4: PX4's rates, position/attitude/HUD at `fast_hz` when given."""
     if profile == "ardupilot":
         hz = 1.0 if vehicle_type == "plane" else None
         intervals: dict[int, float | None] = dict.fromkeys(ARDUPILOT_STREAMS, hz)
         intervals[HEARTBEAT] = 1.0
         return intervals
-    intervals = dict.fromkeys(SLOW_STREAMS, 1.0)
-    intervals.update(dict.fromkeys(FAST_STREAMS, 1.0 / fast_hz))
+    intervals = {msg_id: 1.0 / hz for msg_id, hz in px4.DEFAULT_RATES_HZ.items()}
+    if fast_hz is not None:
+        intervals.update(dict.fromkeys(FAST_STREAMS, 1.0 / fast_hz))
     return intervals
 
 
@@ -117,7 +122,8 @@ class StreamScheduler:
 
 def known(msg_id: int, v: SimVehicle) -> bool:
     """Whether vehicle `v` can send message `msg_id` (when it has the data)."""
-    return msg_id in _BUILDERS and (v.ardupilot or msg_id not in _ARDUPILOT_ONLY)
+    only = _ARDUPILOT_ONLY if not v.ardupilot else _PX4_ONLY
+    return msg_id in _BUILDERS and msg_id not in only
 
 
 def build(msg_id: int, v: SimVehicle) -> mavlink.MAVLink_message | None:
@@ -154,7 +160,7 @@ def heartbeat(v: SimVehicle) -> mavlink.MAVLink_message:
 def global_position_int(v: SimVehicle) -> mavlink.MAVLink_message:
     s = v.kin
     hdg = round(math.degrees(s.heading_rad) % 360 * 100) % 36000
-    if not v.gps_fixed:  # ArduPilot's estimator has no origin yet
+    if not v.position_known:  # the estimator has no origin yet
         return mavlink.MAVLink_global_position_int_message(_time_boot_ms(v), 0, 0, 0, 0, 0, 0, 0, hdg)
     lat, lon = v.lat_lon_deg
     vn = s.speed_m_s * math.cos(s.heading_rad)
@@ -167,16 +173,24 @@ def global_position_int(v: SimVehicle) -> mavlink.MAVLink_message:
 
 
 def gps_raw_int(v: SimVehicle) -> mavlink.MAVLink_message:
-    """SITL's GPS: no fix and zeros until `gps_fix_s`, then fix type 6 with 10 satellites."""
+    """SITL's GPS: no fix and zeros until `gps_fix_s`, then 10 satellites, fix type 6
+    (ArduPilot) or 3 (PX4's SIH)."""
     if not v.gps_fixed:
         return mavlink.MAVLink_gps_raw_int_message(0, mavlink.GPS_FIX_TYPE_NO_FIX, 0, 0, 0, 65535, 65535, 0, 0, 0)
+    fix = mavlink.GPS_FIX_TYPE_RTK_FIXED if v.ardupilot else mavlink.GPS_FIX_TYPE_3D_FIX
     s = v.kin
     lat, lon = v.lat_lon_deg
     alt_mm = round((v.home.alt_m + s.alt_m) * 1000)
     cog = round(math.degrees(s.heading_rad) % 360 * 100) % 36000
     return mavlink.MAVLink_gps_raw_int_message(
-        int(v.time_s * 1e6), mavlink.GPS_FIX_TYPE_RTK_FIXED, round(lat * 1e7), round(lon * 1e7), alt_mm,
+        int(v.time_s * 1e6), fix, round(lat * 1e7), round(lon * 1e7), alt_mm,
         121, 200, round(s.speed_m_s * 100), cog, 10, alt_mm, 300, 300, 0, 0, 0)
+
+
+def estimator_status(v: SimVehicle) -> mavlink.MAVLink_message:
+    """PX4's estimator flags: vertical only (CONST_POS_MODE) until `estimator_s`."""
+    flags = px4.ESTIMATOR_POSITION_OK if v.time_s >= v.boot.estimator_s else px4.ESTIMATOR_BOOTING
+    return mavlink.MAVLink_estimator_status_message(int(v.time_s * 1e6), flags, 0, 0, 0, 0, 0, 0, 0, 0)
 
 
 def ekf_status_report(v: SimVehicle) -> mavlink.MAVLink_message:
@@ -208,6 +222,12 @@ def vfr_hud(v: SimVehicle) -> mavlink.MAVLink_message:
 
 
 def sys_status(v: SimVehicle) -> mavlink.MAVLink_message:
+    if not v.ardupilot:  # PX4 sets the pre-arm bit in `health` only (px4 §3)
+        ready = int(v.time_s >= v.boot.prearm_s)
+        health = px4.SENSORS_HEALTH[int(v.prearm_ok)]
+        return mavlink.MAVLink_sys_status_message(
+            px4.SENSORS_PRESENT[ready], px4.SENSORS_ENABLED[ready], health, 400, round(v.battery_voltage_v * 1000),
+            -100, round(v.battery_pct), 0, 0, 0, 0, 0, 0)
     b = v.battery
     present = health = _SENSORS
     if v.ardupilot:  # the pre-arm bit: healthy when its pre-arm checks pass in the current mode
@@ -223,6 +243,11 @@ def battery_status(v: SimVehicle) -> mavlink.MAVLink_message:
     """ArduPilot (flight §5): the pack voltage in voltages[0], no time remaining (0), consumed
     charge and energy; px4: cell voltages and a time-remaining estimate."""
     b = v.battery
+    if not v.ardupilot:  # SIH's battery as PX4 reports it (px4 §7)
+        return mavlink.MAVLink_battery_status_message(
+            0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, 0x7FFF,
+            [round(v.battery_voltage_v * 1000)] + [0xFFFF] * 9, -100, 0, -1, round(v.battery_pct), 0,
+            v.charge_state)
     if v.ardupilot:
         voltages = [round(v.battery_voltage_v * 1000)] + [0xFFFF] * 9
         remaining_s, energy_hj = 0, _clamp(b.energy_j / 100.0, -1, 2**31 - 1)
@@ -252,7 +277,7 @@ def extended_sys_state(v: SimVehicle) -> mavlink.MAVLink_message:
         landed = mavlink.MAV_LANDED_STATE_ON_GROUND
     elif v.landing:
         landed = mavlink.MAV_LANDED_STATE_LANDING
-    elif v.ardupilot and v.taking_off:  # ArduPilot: TAKEOFF until the take-off is done (flight §2)
+    elif v.taking_off:  # TAKEOFF until the take-off is done (ardupilot_flight §2, px4 §4)
         landed = mavlink.MAV_LANDED_STATE_TAKEOFF
     else:
         landed = mavlink.MAV_LANDED_STATE_IN_AIR
@@ -260,6 +285,8 @@ def extended_sys_state(v: SimVehicle) -> mavlink.MAVLink_message:
 
 
 def mission_current(v: SimVehicle) -> mavlink.MAVLink_message:
+    if not v.ardupilot:  # no current item yet: 65535; no mission: total 65535; v1.15 sends no state
+        return mavlink.MAVLink_mission_current_message(v.reported_seq & 0xFFFF, v.mission_total or 0xFFFF, 0, 0)
     return mavlink.MAVLink_mission_current_message(
         v.mission_seq, v.mission_total, v.mission_state, int(v.mode == Mode.AUTO)
     )
@@ -277,7 +304,10 @@ def home_position(v: SimVehicle) -> mavlink.MAVLink_message | None:
 
 
 def autopilot_version(v: SimVehicle) -> mavlink.MAVLink_message:
-    version = (4 << 24) | (5 << 16) | (0 << 8) | mavlink.FIRMWARE_VERSION_TYPE_OFFICIAL
+    if v.ardupilot:
+        version = (4 << 24) | (5 << 16) | mavlink.FIRMWARE_VERSION_TYPE_OFFICIAL
+    else:  # the peers' build reports v1.15.3-dirty as a development version
+        version = (1 << 24) | (15 << 16) | (3 << 8) | mavlink.FIRMWARE_VERSION_TYPE_DEV
     return mavlink.MAVLink_autopilot_version_message(
         CAPABILITIES, version, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, v.sysid,
     )
@@ -297,5 +327,7 @@ _BUILDERS = {
     GPS_RAW_INT: gps_raw_int,
     EKF_STATUS_REPORT: ekf_status_report,
     GPS_GLOBAL_ORIGIN: gps_global_origin,
+    ESTIMATOR_STATUS: estimator_status,
 }
-_ARDUPILOT_ONLY = frozenset({GPS_RAW_INT, EKF_STATUS_REPORT, GPS_GLOBAL_ORIGIN})
+_ARDUPILOT_ONLY = frozenset({EKF_STATUS_REPORT})
+_PX4_ONLY = frozenset({ESTIMATOR_STATUS})

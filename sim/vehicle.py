@@ -9,8 +9,9 @@ reports `ardupilot_protocol` and `ardupilot_flight`; docs/sim.md lists each beha
 milestones after boot and the arming refusals before them, no telemetry streams on a copter
 until asked, MISSION_START (0, 0) only and resuming where the mission was, the copter's GUIDED,
 arm, MISSION_START launch and auto-disarm, the plane's landing sequence, DO_REPOSITION as
-COMMAND_INT only, BATT_CAPACITY and the arming battery checks. The `px4` profile is the simpler
-generic autopilot it always was.
+COMMAND_INT only, BATT_CAPACITY and the arming battery checks. The `px4` profile is
+`sim.px4_vehicle.Px4Vehicle` (constructing a SimVehicle with that profile gives one), PX4
+v1.15.3 as measured.
 """
 
 from __future__ import annotations
@@ -22,7 +23,6 @@ from functools import partial
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.ardupilot_storage import stored_item
-
 from sim import telemetry
 from sim.ardupilot import BOOT_TIMES, CAPACITY, MISSION_TEXT_NAMES, BootTimes, boot_refusals, ekf_flags
 from sim.ardupilot_mission import ArduPilotMissionProtocol
@@ -31,6 +31,7 @@ from sim.geo import HomePose, LocalFrame
 from sim.kinematics import KinematicLimits, KinematicState, step_toward
 from sim.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
 from sim.modes import Mode, custom_mode_of, mode_from_custom, mode_table
+from sim.px4 import BOOT_TIMES as PX4_BOOT_TIMES, Px4BootTimes
 from sim.sensor import DownwardSensor, Observation, SensorConfig, reading_message, reading_text
 
 MAVMessage = mavlink.MAVLink_message
@@ -52,8 +53,12 @@ _LAND_SLOW_BELOW_M, _LAND_SLOW_M_S = 10.0, 0.5  # ArduCopter's LAND_ALT_LOW and 
 _COPTER_SPOOL_S, _PLANE_ROLL_S = 3.25, 2.0
 _TYPE_DEFAULTS = {
     # cruise m/s, turn deg/s, climb m/s, descent m/s, acceptance m, RTL altitude m
-    "copter": (10.0, 90.0, 2.5, 1.5, 2.0, 15.0),
-    "plane": (20.0, 20.0, 5.0, 3.0, 90.0, 100.0),
+    ("ardupilot", "copter"): (10.0, 90.0, 2.5, 1.5, 2.0, 15.0),
+    ("ardupilot", "plane"): (20.0, 20.0, 5.0, 3.0, 90.0, 100.0),
+    # PX4 (px4 §4, §6): MPC_XY_CRUISE 5, 29 m climbed in 14.6 s, 20 m descended in 15 s (then
+    # MPC_LAND_SPEED below 10 m), NAV_ACC_RAD 2, RTL_RETURN_ALT 30; the plane was not flown
+    ("px4", "copter"): (5.0, 90.0, 1.9, 1.35, 2.0, 30.0),
+    ("px4", "plane"): (20.0, 20.0, 5.0, 3.0, 90.0, 30.0),
 }
 
 
@@ -61,9 +66,11 @@ _TYPE_DEFAULTS = {
 class VehicleConfig:
     """Vehicle behaviour; None fields take the per-type defaults of `_TYPE_DEFAULTS`.
 
-    `boot`: when an `ardupilot` vehicle reaches each readiness milestone after boot (None: as
-    measured on SITL for its type, `sim.ardupilot.BOOT_TIMES`), every time multiplied by
-    `boot_scale` (0: ready at once; tests that are not about start-up use a small scale)."""
+    `boot`: when a vehicle reaches each readiness milestone after boot (None: as measured on
+    SITL for its profile and type, `sim.ardupilot.BOOT_TIMES`, `sim.px4.BOOT_TIMES`), every
+    time multiplied by `boot_scale` (0: ready at once; tests that are not about start-up use a
+    small scale). `telemetry_hz`: GLOBAL_POSITION_INT, ATTITUDE and VFR_HUD of the px4 profile
+    (None: PX4's 50, 50 and 4 Hz)."""
 
     vehicle_type: str = "copter"
     profile: str = "ardupilot"
@@ -74,23 +81,26 @@ class VehicleConfig:
     acceptance_radius_m: float | None = None
     rtl_alt_m: float | None = None
     takeoff_alt_m: float = 10.0
-    telemetry_hz: float = 4.0
+    telemetry_hz: float | None = None
     battery: BatteryConfig = field(default_factory=BatteryConfig)
     sensor: SensorConfig = field(default_factory=SensorConfig)
     mission_timeout_s: float = 1.0
-    boot: BootTimes | None = None
+    boot: BootTimes | Px4BootTimes | None = None
     boot_scale: float = 1.0
 
     def __post_init__(self) -> None:
-        if self.vehicle_type not in _TYPE_DEFAULTS:
+        if self.vehicle_type not in ("copter", "plane"):
             raise ValueError(f"vehicle_type must be copter or plane, not {self.vehicle_type!r}")
         if self.profile not in ("ardupilot", "px4"):
             raise ValueError(f"profile must be ardupilot or px4, not {self.profile!r}")
+        boot_type = Px4BootTimes if self.profile == "px4" else BootTimes
+        if self.boot is not None and not isinstance(self.boot, boot_type):
+            raise ValueError(f"boot must be a {boot_type.__name__} for the {self.profile} profile")
         if not self.boot_scale >= 0:
             raise ValueError(f"boot_scale must be 0 or more, not {self.boot_scale!r}")
         names = ("cruise_speed_m_s", "turn_rate_deg_s", "climb_rate_m_s", "descent_rate_m_s",
                  "acceptance_radius_m", "rtl_alt_m")
-        for name, default in zip(names, _TYPE_DEFAULTS[self.vehicle_type], strict=True):
+        for name, default in zip(names, _TYPE_DEFAULTS[self.profile, self.vehicle_type], strict=True):
             if getattr(self, name) is None:
                 object.__setattr__(self, name, default)
 
@@ -103,8 +113,9 @@ class VehicleConfig:
         )
 
     @property
-    def boot_times(self) -> BootTimes:
-        return (self.boot or BOOT_TIMES[self.vehicle_type]).scaled(self.boot_scale)
+    def boot_times(self) -> BootTimes | Px4BootTimes:
+        table = PX4_BOOT_TIMES if self.profile == "px4" else BOOT_TIMES
+        return (self.boot or table[self.vehicle_type]).scaled(self.boot_scale)
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,6 +143,22 @@ class _Goal:
 
 
 class SimVehicle:
+    #: the method answering each message type (looked up on the instance: a profile's own answers)
+    HANDLERS: dict[str, str] = {
+        "COMMAND_LONG": "_on_command", "COMMAND_INT": "_on_command", "SET_MODE": "_on_set_mode",
+        "SET_POSITION_TARGET_GLOBAL_INT": "_on_position_target", "MISSION_SET_CURRENT": "_on_mission_set_current",
+        "REQUEST_DATA_STREAM": "_on_request_data_stream", "PARAM_REQUEST_LIST": "_on_param_request_list",
+        "PARAM_REQUEST_READ": "_on_param_request_read", "PARAM_SET": "_on_param_set", "TIMESYNC": "_on_timesync",
+    }
+
+    def __new__(cls, sysid: int, home: HomePose, config: VehicleConfig | None = None, **kwargs: object) -> SimVehicle:
+        """A px4-profile vehicle is a `sim.px4_vehicle.Px4Vehicle`."""
+        if cls is SimVehicle and config is not None and config.profile == "px4":
+            from sim.px4_vehicle import Px4Vehicle
+
+            cls = Px4Vehicle
+        return super().__new__(cls)
+
     def __init__(
         self,
         sysid: int,
@@ -229,7 +256,7 @@ class SimVehicle:
         lat, lon = self.lat_lon_deg
         return VehicleState(
             lat, lon, self.kin.alt_m, math.degrees(self.kin.heading_rad) % 360.0, self.kin.speed_m_s,
-            self.mode, self.armed, self.landed, self.battery.remaining_pct, self.mission_seq, self.failsafe,
+            self.mode, self.armed, self.landed, self.battery_pct, self.mission_seq, self.failsafe,
         )
 
     @property
@@ -253,6 +280,11 @@ class SimVehicle:
         return not self.ardupilot or self.time_s >= self.boot.gps_fix_s
 
     @property
+    def position_known(self) -> bool:
+        """GLOBAL_POSITION_INT carries a position (before: 0, 0)."""
+        return self.gps_fixed
+
+    @property
     def ekf_flags(self) -> int:
         return ekf_flags(self.boot, self.time_s) if self.ardupilot else 0x33F
 
@@ -269,6 +301,11 @@ class SimVehicle:
     def prearm_ok(self) -> bool:
         """SYS_STATUS's pre-arm bit: ArduPilot's pre-arm checks pass in the current mode."""
         return not self._prearm_refusals()
+
+    @property
+    def battery_pct(self) -> float:
+        """The remaining charge the vehicle reports, %."""
+        return self.battery.remaining_pct
 
     @property
     def battery_voltage_v(self) -> float:
@@ -340,8 +377,8 @@ class SimVehicle:
             out = self.mission.handle(msg, self.time_s if self.ardupilot else wall_s)
             self._check_new_mission()
             return out
-        handler = _HANDLERS.get(kind)
-        return handler(self, msg, sender) if handler else []
+        handler = self.HANDLERS.get(kind)
+        return getattr(self, handler)(msg, sender) if handler else []
 
     def poll(self, wall_s: float) -> list[MAVMessage]:
         return self.mission.poll(self.time_s if self.ardupilot else wall_s)
@@ -828,6 +865,10 @@ class SimVehicle:
         if self.ardupilot and self.mode == Mode.RTL and not self.copter and self.params["RTL_AUTOLAND"] == 1 \
                 and math.dist(self.home_en, (self.kin.east_m, self.kin.north_m)) <= self.limits.turn_radius_m * 2:
             self._start_landing_sequence()
+        self._sense()
+
+    def _sense(self) -> None:
+        """The downward sensor's reading of this step, if any."""
         obs = self.sensor.update(self.kin.east_m, self.kin.north_m, self.kin.alt_m, self.time_s)
         if obs is not None:
             self._pending.append(self._capture_msg(obs))
@@ -965,7 +1006,7 @@ class SimVehicle:
             if self.mission_seq >= len(items):
                 if not self.mission_complete:
                     self.mission_complete = True
-                    self.statustext("Mission complete")
+                    self.statustext(self._finished_text)
                     self._pending.append(telemetry.mission_current(self))
                 return None if self.landed else _Goal(self._hold_or(None), self.kin.alt_m)
             item = items[self.mission_seq]
@@ -983,6 +1024,8 @@ class SimVehicle:
             self._nav_item = item
             return self._nav_goal(item)
         return None
+
+    _finished_text = "Mission complete"
 
     def _do_jump(self, item: MissionItem) -> None:
         done = self._jumps_done.get(item.seq, 0)
@@ -1130,17 +1173,3 @@ def _param_name(raw: bytes | str) -> str:
     if isinstance(raw, bytes):
         raw = raw.decode(errors="replace")
     return raw.rstrip("\x00")
-
-
-_HANDLERS = {
-    "COMMAND_LONG": SimVehicle._on_command,
-    "COMMAND_INT": SimVehicle._on_command,
-    "SET_MODE": SimVehicle._on_set_mode,
-    "SET_POSITION_TARGET_GLOBAL_INT": SimVehicle._on_position_target,
-    "MISSION_SET_CURRENT": SimVehicle._on_mission_set_current,
-    "REQUEST_DATA_STREAM": SimVehicle._on_request_data_stream,
-    "PARAM_REQUEST_LIST": SimVehicle._on_param_request_list,
-    "PARAM_REQUEST_READ": SimVehicle._on_param_request_read,
-    "PARAM_SET": SimVehicle._on_param_set,
-    "TIMESYNC": SimVehicle._on_timesync,
-}

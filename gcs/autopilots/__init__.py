@@ -15,7 +15,7 @@ from dataclasses import replace
 from enum import Enum
 from typing import TYPE_CHECKING
 
-from gcs.autopilots import ardupilot_storage, modes
+from gcs.autopilots import ardupilot_storage, modes, px4_storage
 from gcs.links import mavlink
 
 if TYPE_CHECKING:
@@ -69,14 +69,48 @@ class Autopilot(str, Enum):
     def streams_hz(self) -> dict[int, float]:
         """Telemetry to ask for with MAV_CMD_SET_MESSAGE_INTERVAL (rates in vehicle time).
         ArduCopter streams nothing until asked; readiness needs GPS_RAW_INT, HOME_POSITION and,
-        on ArduPilot, EKF_STATUS_REPORT."""
+        on ArduPilot, EKF_STATUS_REPORT. PX4 refuses a rate for MISSION_CURRENT (it sends it at
+        1 Hz anyway) and has no EKF_STATUS_REPORT."""
         streams = {mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT: 4.0, mavlink.MAVLINK_MSG_ID_BATTERY_STATUS: 1.0,
                    mavlink.MAVLINK_MSG_ID_SYS_STATUS: 1.0, mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: 1.0,
-                   mavlink.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0,
-                   mavlink.MAVLINK_MSG_ID_HOME_POSITION: 0.5}
+                   mavlink.MAVLINK_MSG_ID_GPS_RAW_INT: 1.0, mavlink.MAVLINK_MSG_ID_HOME_POSITION: 0.5}
+        if self is not Autopilot.PX4:
+            streams[mavlink.MAVLINK_MSG_ID_MISSION_CURRENT] = 1.0
         if self is Autopilot.ARDUPILOT:
             streams[mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT] = 1.0
         return streams
+
+    def readiness_signals(self) -> tuple[str, ...]:
+        """What says the vehicle may be armed besides a 3-D fix, a home and a position: ArduPilot's
+        EKF position flags ("ekf"), PX4's pre-arm bit in SYS_STATUS health ("prearm"), which PX4
+        sets once its estimator and every check pass (GPS fix and home come long before)."""
+        if self is Autopilot.ARDUPILOT:
+            return ("ekf",)
+        return ("prearm",) if self is Autopilot.PX4 else ()
+
+    def prearm_bit_always_reported(self) -> bool:
+        """Whether SYS_STATUS's pre-arm bit means something even when absent from `present`:
+        PX4 sets it in `health` only; others flag it present when they report it."""
+        return self is Autopilot.PX4
+
+    def param_changes_before_arming(self, fixed_wing: bool, has_landing_sequence: bool) -> dict[str, float]:
+        """Parameters a plan needs on board: ArduPlane refuses to arm with a DO_LAND_START and
+        RTL_AUTOLAND 0; with 2 its RTL (the fallback, and its battery failsafe) flies the
+        mission's landing sequence."""
+        if self is Autopilot.ARDUPILOT and fixed_wing and has_landing_sequence:
+            return {"RTL_AUTOLAND": 2.0}
+        return {}
+
+    def steers_by_reposition(self, fixed_wing: bool) -> bool:
+        """Whether a flying vehicle is steered to a point with DO_REPOSITION rather than a
+        streamed SET_POSITION_TARGET: ArduPlane ignores position targets, PX4 follows them only
+        in OFFBOARD with an unbroken stream."""
+        return self is Autopilot.PX4 or fixed_wing
+
+    def replaces_items_as_they_arrive(self) -> bool:
+        """Whether a refused upload leaves a half-replaced list (ArduPilot, measured) that must be
+        cleared, rather than the old list (PX4 replaces atomically)."""
+        return self is Autopilot.ARDUPILOT
 
     def arm_mode(self, fixed_wing: bool) -> str | None:
         """The mode to arm in: ArduCopter arms in GUIDED (AUTO is not armable) and is launched
@@ -102,10 +136,37 @@ class Autopilot(str, Enum):
             return "LOITER" if fixed_wing else "GUIDED"
         return "HOLD" if self is Autopilot.PX4 else "GUIDED"
 
+    def command_altitude(self, above_home_m: float, home_amsl_m: float) -> tuple[int, float]:
+        """(frame, z) for a command's altitude `above_home_m` (NAV_TAKEOFF param7, DO_REPOSITION):
+        PX4 takes them above sea level whatever the frame says (measured: a relative 20 m in
+        frame 6 made the copter descend to 20 m AMSL and land); ArduPilot honours the frame."""
+        if self is Autopilot.PX4:
+            return mavlink.MAV_FRAME_GLOBAL_INT, home_amsl_m + above_home_m
+        return mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, above_home_m
+
+    def restart_needs_current_item(self) -> bool:
+        """Whether a mission replaced in flight must be pointed at its first item before it is
+        started: ArduPilot resumes at the old index (DO_SET_MISSION_CURRENT first); PX4 starts
+        a new list at its first item on MISSION_START(0, 0) from HOLD and has no such command."""
+        return self is not Autopilot.PX4
+
+    def adapt_item(self, item: WireItem) -> WireItem:
+        """An item as this autopilot takes it: PX4 accepts commands without a location (DO_*,
+        RETURN_TO_LAUNCH) only in MAV_FRAME_MISSION, and refuses terrain frames (ValueError)."""
+        if self is not Autopilot.PX4:
+            return item
+        if item.frame in (mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT):
+            raise ValueError("PX4 refuses terrain-following frames: plan without --terrain-follow for this vehicle")
+        if item.command in px4_storage.MISSION_FRAME_COMMANDS:
+            return replace(item, frame=mavlink.MAV_FRAME_MISSION)
+        return item
+
     def stored_item(self, item: WireItem, *, fixed_wing: bool = False) -> WireItem:
         """What this autopilot returns on read-back for `item` as sent."""
         if self is Autopilot.ARDUPILOT:
             return ardupilot_storage.stored_item(item, fixed_wing=fixed_wing)
+        if self is Autopilot.PX4:
+            return px4_storage.stored_item(item)
         p = [_f32(v) for v in (item.param1, item.param2, item.param3, item.param4)]
         return replace(item, param1=p[0], param2=p[1], param3=p[2], param4=p[3], z=_f32(item.z))
 

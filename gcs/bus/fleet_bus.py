@@ -30,14 +30,26 @@ import logging
 import time
 import uuid
 from collections import deque
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
-from typing import Awaitable, Callable
 
 import aiomqtt
 
 from gcs.bus.connection import Broker
-from gcs.bus.messages import (INVALID_REQUEST, Command, InvalidCommand, Telemetry, Topics, check_name, encode,
-                              event_payload, parse_command, reply_payload, state_payload, station_payload)
+from gcs.bus.messages import (
+    INVALID_REQUEST,
+    Command,
+    InvalidCommand,
+    Telemetry,
+    Topics,
+    check_name,
+    encode,
+    event_payload,
+    parse_command,
+    reply_payload,
+    state_payload,
+    station_payload,
+)
 
 __all__ = ["BusStats", "CommandHandler", "FleetBus"]
 
@@ -223,7 +235,8 @@ class FleetBus:
                 self._connected.clear()
             if self._closing:
                 return
-            self.on_status(f"fleet bus: no broker at {self.broker} ({self.stats.last_error}); retrying in {delay:.1f} s")
+            self.on_status(f"fleet bus: no broker at {self.broker} ({self.stats.last_error}); "
+                           f"retrying in {delay:.1f} s")
             await asyncio.sleep(delay)
             delay = min(delay * 2, self.reconnect_max_s)
 
@@ -327,7 +340,7 @@ class FleetBus:
             request_id, reason = exc.request_id, exc.reason
         except TimeoutError:
             reason = f"no answer from the fleet within {self.handler_timeout_s:g} s"
-        except Exception as exc:  # noqa: BLE001 - a failing handler must not stop the bus
+        except Exception as exc:
             log.exception("command handler failed")
             reason = f"command failed: {type(exc).__name__}: {exc}"
         if reason is not None:

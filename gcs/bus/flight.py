@@ -1,6 +1,7 @@
 """The bus attached to `gcs fly`: `FlightFeed` listens to a `FlightController`'s events (stage
 changes, take-offs, readings) and publishes each as it happens, samples the vehicles' telemetry
-(it never writes their state), and carries commands from the bus to the controller. `attach_bus` is the few lines `gcs fly --mqtt` needs:
+(it never writes their state), and carries commands from the bus to the controller. `attach_bus`
+is the few lines `gcs fly --mqtt` needs:
 
     async with attach_bus(controller, args.mqtt, fleet=args.fleet):
         await controller.run()
@@ -18,7 +19,6 @@ from typing import TYPE_CHECKING
 from gcs.bus.connection import TlsOptions, parse_broker_url
 from gcs.bus.fleet_bus import FleetBus
 from gcs.bus.messages import Command, CommandKind, Telemetry
-
 from gcs.flight import FlightEvent, LinkChanged, ReadingReceived, StageChanged, TookOff
 
 if TYPE_CHECKING:

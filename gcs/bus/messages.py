@@ -127,7 +127,8 @@ def schema_errors(kind: MessageType, payload: Any) -> list[str]:
         error = jsonschema.exceptions.best_match([error])
         where = "/".join(map(str, error.absolute_path)) or "(top)"
         schema = error.schema if isinstance(error.schema, dict) else {}
-        lines.append(f"{where}: {schema.get('description') if error.validator == 'not' and 'description' in schema else error.message}")
+        message = schema.get("description") if error.validator == "not" and "description" in schema else error.message
+        lines.append(f"{where}: {message}")
     return lines
 
 
@@ -167,7 +168,8 @@ class Telemetry:
         if self.stage not in STAGES:
             raise ValueError(f"unknown stage {self.stage!r} (one of {', '.join(STAGES)})")
         heading = None if self.heading_deg is None else float(self.heading_deg) % 360.0
-        return {"v": VERSION, "fleet": fleet, "uav": int(self.uav), "t_s": self.t_s if self.t_s is not None else time.time(),
+        return {"v": VERSION, "fleet": fleet, "uav": int(self.uav),
+                "t_s": self.t_s if self.t_s is not None else time.time(),
                 "lat_deg": _finite(self.lat_deg), "lon_deg": _finite(self.lon_deg), "alt_m": _finite(self.alt_m),
                 "heading_deg": _finite(heading), "battery_pct": _finite(self.battery_pct), "stage": self.stage,
                 "range_left_steps": _finite(self.range_left_steps), "margin_steps": _finite(self.margin_steps)}

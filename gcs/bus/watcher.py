@@ -122,11 +122,13 @@ class FleetWatcher:
         view.heard_s = time.monotonic()
         if message_type is MessageType.STATE:
             view.stage, view.station, view.return_reason = data["stage"], data["station"], data["return_reason"]
-            if data["last_event"] is not None and (view.last_event is None or data["last_event"]["seq"] > view.last_event["seq"]
+            if data["last_event"] is not None and (view.last_event is None
+                                                   or data["last_event"]["seq"] > view.last_event["seq"]
                                                    or data["session"] != view.session):
                 view.last_event = data["last_event"]
             view.session = data["session"]
-            if data["telemetry"] is not None and (view.telemetry is None or data["telemetry"]["t_s"] >= view.telemetry["t_s"]):
+            if data["telemetry"] is not None and (view.telemetry is None
+                                                  or data["telemetry"]["t_s"] >= view.telemetry["t_s"]):
                 view.telemetry = data["telemetry"]
         elif message_type is MessageType.TELEMETRY:
             view.telemetry, view.stage = data, data["stage"]
@@ -176,9 +178,10 @@ def render_fleet(watcher: FleetWatcher) -> str:
         last = "-"
         if event is not None:
             last = f"#{event['seq']} {event['kind']}" + (f" ({event['reason']})" if event["reason"] else "")
-        rows.append(f"{uid:>3} {view.stage:<10} {_num(t.get('lat_deg'), '.6f'):>11} {_num(t.get('lon_deg'), '.6f'):>12} "
-                    f"{_num(t.get('alt_m'), '.1f'):>6} {_num(t.get('heading_deg'), '.0f'):>5} "
-                    f"{_num(t.get('battery_pct'), '.0f'):>6} {_num(t.get('range_left_steps'), '.1f'):>6} "
+        rows.append(f"{uid:>3} {view.stage:<10} {_num(t.get('lat_deg'), '.6f'):>11} "
+                    f"{_num(t.get('lon_deg'), '.6f'):>12} {_num(t.get('alt_m'), '.1f'):>6} "
+                    f"{_num(t.get('heading_deg'), '.0f'):>5} {_num(t.get('battery_pct'), '.0f'):>6} "
+                    f"{_num(t.get('range_left_steps'), '.1f'):>6} "
                     f"{_num(t.get('margin_steps'), '.1f'):>6} {view.station[:10]:<10} {last}")
     if len(rows) == 1:
         rows.append("(no UAV on the broker yet)")

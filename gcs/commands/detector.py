@@ -19,8 +19,7 @@ from gcs.errors import UserError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("detector", help="simulated sensor readings from a real vehicle (a MAVLink camera component)",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
+    p = sub.add_parser("detector", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     p.add_argument("--plan", metavar="DIR", help="a gcs plan --area folder: grid, targets and (by default) seed")
     p.add_argument("--area", metavar="GEOJSON",
                    help="or an area file, laid out as gcs plan --area does (grid and target features)")

@@ -13,8 +13,7 @@ NAMES = ("fig6", "fig8", "fig10", "fig12")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("experiment", help="reproduce the paper's Section 6 figures (CSV + PNG)",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
+    p = sub.add_parser("experiment", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     p.add_argument("name", choices=(*NAMES, "all"), help="which figure")
     p.add_argument("--out", default="runs/experiments", help="folder for the CSV and PNG files")
     p.add_argument("--runs", type=int, default=None,

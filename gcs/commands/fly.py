@@ -4,21 +4,28 @@ and online mode are in docs/fly.md).
 
 `gcs fly --plan DIR --connect udpout:127.0.0.1:14540 ...` flies a `gcs plan --area` folder;
 `gcs fly --area AREA.geojson` plans first (the plan command's code path); `--sim` starts the
-built-in simulated fleet at the plan's airports, so one command runs the whole job."""
+built-in simulated fleet at the plan's airports, so one command runs the whole job.
+
+`gcs fly --resume DIR` takes over a flight whose station died while the vehicles flew (the
+journal it left in DIR, `gcs.flight_journal`; the reattachment, `gcs.resume`)."""
 
 from __future__ import annotations
 
 import argparse
 import asyncio
 import sys
+import time
+from dataclasses import replace
 from pathlib import Path
 
-from gcs.errors import UserError
-from gcs.flight import FlyOptions, fly_async
-from gcs.fleet import FleetPlan, Stage, load_plan_dir
 from gcs.commands._links import add_link_arguments, connections_from, signing_from
+from gcs.errors import UserError
+from gcs.fleet import FleetPlan, Stage, load_plan_dir
+from gcs.flight import FlyOptions, fly_async
+from gcs.flight_journal import FlightJournal, check_no_flight_in_progress, new_start
 from gcs.links import SigningKey
-from gcs.sortie import SortieLog
+from gcs.links.connection import Connection, LinkKind, parse_connection
+from gcs.sortie import SortieLog, file_sha256
 from gcs.status_table import render_summary
 from planner.campaign import sortie_seed
 
@@ -55,10 +62,13 @@ def start_sim(plan: FleetPlan, *, speedup: float, profile: str = "ardupilot", se
 
 def add_connection_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plan", metavar="DIR", help="a gcs plan --area output folder")
+    p.add_argument("--resume", metavar="DIR", help="take over the flight in progress in DIR after the station that "
+                                                   "flew it died (its links, unless --connect is given again)")
     add_link_arguments(p)
     p.add_argument("--sim", action="store_true", help="start the built-in simulated fleet at the plan's airports")
     p.add_argument("--speedup", type=float, default=10.0, help="simulated time / real time with --sim")
-    p.add_argument("--sim-profile", choices=("ardupilot", "px4"), default="ardupilot", help="autopilot the sim imitates")
+    p.add_argument("--sim-profile", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="autopilot the sim imitates")
     p.add_argument("--sim-loss", type=float, default=0.0, help="packet loss probability on every simulated link")
     p.add_argument("--no-fence", action="store_true", help="do not upload geofence and rally points")
 
@@ -66,8 +76,7 @@ def add_connection_arguments(p: argparse.ArgumentParser) -> None:
 def register(sub: argparse._SubParsersAction) -> None:
     from gcs.missions import planning as area_plan
 
-    p = sub.add_parser("fly", help="upload, fly and watch the whole fleet until it has landed",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
+    p = sub.add_parser("fly", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     add_connection_arguments(p)
     from gcs.bus.flight import add_bus_arguments
 
@@ -87,7 +96,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="seconds to wait for each vehicle's GPS fix, position estimate and home")
     p.add_argument("--link-timeout", type=float, default=3.0, help="seconds without telemetry before a vehicle is lost")
     p.add_argument("--lost-giveup", type=float, default=20.0, help="seconds a lost vehicle is waited for at the end")
-    p.add_argument("--sim-endurance", type=float, default=1200.0, help="with --sim: flight endurance of a full battery, s")
+    p.add_argument("--sim-endurance", type=float, default=1200.0,
+                   help="with --sim: flight endurance of a full battery, s")
     p.add_argument("--sim-drain", metavar="UAV:K", action="append", default=[],
                    help="with --sim: UAV's battery drains K times faster than nominal")
     p.add_argument("--online", action="store_true",
@@ -104,9 +114,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pc", type=float, default=0.9)
     p.add_argument("--pf", type=float, default=0.1)
     p.add_argument("--footprint", type=int, default=0)
-    p.add_argument("--out", default=None, help="with --area: folder for the plan, missions and flight recording (default: runs/<area name>)")
+    p.add_argument("--out", default=None,
+                   help="with --area: folder for the plan, missions and flight recording (default: runs/<area name>)")
     p.add_argument("--quiet", action="store_true")
-    p.add_argument("--rrd", metavar="PATH", help="Rerun recording of the flight (default: flight.rrd in the plan folder)")
+    p.add_argument("--rrd", metavar="PATH",
+                   help="Rerun recording of the flight (default: flight.rrd in the plan folder)")
     p.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
     p.add_argument("--rerun-connect", nargs="?", const="rerun+http://127.0.0.1:9876/proxy", metavar="ADDR",
                    help="also stream the flight to a running Rerun viewer (ADDR default: %(const)s)")
@@ -170,7 +182,8 @@ def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
     returns = _pairs(args.return_after, "--return-after")
     unknown = [u for u in returns if u not in plan.uavs]
     if unknown:
-        raise UserError(f"--return-after: unknown UAV {unknown[0]} (the plan has {', '.join(map(str, sorted(plan.uavs)))})")
+        raise UserError(f"--return-after: unknown UAV {unknown[0]} "
+                        f"(the plan has {', '.join(map(str, sorted(plan.uavs)))})")
     if not 0 <= args.reserve_pct < 100:
         raise UserError("--reserve-pct must be in [0, 100)")
     return FlyOptions(speed_m_s=args.cruise_speed, reserve_pct=args.reserve_pct, descent_m_s=args.descent_speed,
@@ -197,22 +210,50 @@ def flight_recorder(args: argparse.Namespace, plan: FleetPlan):
     return recorder
 
 
+def _bus_from(args: argparse.Namespace) -> dict | None:
+    """The MQTT bus settings (`--mqtt` ...), or None without a bus."""
+    if not args.mqtt:
+        return None
+    from gcs.bus.flight import bus_options
+
+    try:
+        return bus_options(args)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def journal_options(options: FlyOptions) -> dict:
+    """The knobs a resumed flight keeps unless they are given again."""
+    return {name: getattr(options, name) for name in RESUMED_OPTIONS.values()}
+
+
+def _relative(path: Path | None, folder: Path) -> str | None:
+    if path is None:
+        return None
+    try:
+        return str(path.resolve().relative_to(folder.resolve()))
+    except ValueError:
+        return str(path.resolve())
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.resume:
+        return resume(args)
     if args.online and not getattr(args, "area", None):
         raise UserError("--online needs --area (the priors of the search map live in the area file)")
     drains = _pairs(args.sim_drain, "--sim-drain")
     if args.plan and not Path(args.plan).is_dir() and not getattr(args, "area", None):
-        raise UserError(f"plan folder {args.plan} does not exist (make one with: gcs plan --area AREA.geojson --out {args.plan})")
+        raise UserError(f"plan folder {args.plan} does not exist "
+                        f"(make one with: gcs plan --area AREA.geojson --out {args.plan})")
     connections = check_connections(args)
     signing = signing_from(args)
-    bus = None
-    if args.mqtt:
-        from gcs.bus.flight import bus_options
+    bus = _bus_from(args)
+    if args.plan:
+        check_no_flight_in_progress(Path(args.plan))
+    elif getattr(args, "area", None):
+        from gcs.missions.planning import area_out_dir
 
-        try:
-            bus = bus_options(args)
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
+        check_no_flight_in_progress(area_out_dir(args))
     plan = resolve_plan(args)
     options = options_from(args, plan)
     recorder = flight_recorder(args, plan)
@@ -234,13 +275,27 @@ def run(args: argparse.Namespace) -> int:
                           pf=args.pf, drain=drains, loss=args.sim_loss,
                           endurance_s=args.sim_endurance, signing=signing).start()
         connections = fleet.connection_strings()
-        print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}", flush=True)
+        print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}",
+              flush=True)
+    start = new_start(file_sha256(Path(plan.folder) / "plan.json"), connections, sim=args.sim,
+                      signed=signing is not None, online=args.online, options=journal_options(options),
+                      rrd=_relative(recorder.rrd_path if recorder else None, Path(plan.folder)), recording_id=None)
+    journal = FlightJournal.begin(plan, start, recorder)
+    if recorder is not None and recorder.rrd_path is not None:  # an earlier flight's continuations
+        for stale in recorder.rrd_path.parent.glob(f"{recorder.rrd_path.stem}.resume*{recorder.rrd_path.suffix}"):
+            stale.unlink(missing_ok=True)
     try:
-        controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online,
-                                           recorder=recorder, bus=bus, signing=signing, watchers=[sortie]))
+        controller = asyncio.run(fly_async(plan, connections, options,
+                                           stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online,
+                                           recorder=recorder, bus=bus, signing=signing, watchers=[journal, sortie]))
     finally:
         if fleet is not None:
             fleet.stop()
+    return _ending(controller, sortie, recorder)
+
+
+def _ending(controller, sortie: SortieLog, recorder) -> int:
+    """The summary and the exit code."""
     print(render_summary(controller))
     print(sortie.report())
     if recorder is not None and recorder.rrd_path is not None:
@@ -248,3 +303,110 @@ def run(args: argparse.Namespace) -> int:
     if controller._interrupted:
         return 130
     return 0 if all(st.stage is Stage.LANDED for st in controller.status.values()) else 1
+
+
+# ---- taking over a flight whose station died ----------------------------------------------
+
+#: the flags `--resume` takes (anything else belongs to the flight as it was started), and the
+def _from_the_same_ports(connections: list[str], source_ports: dict[str, int]) -> list[str | Connection]:
+    """The links again, each `udpout` sending from the local port it sent from before: PX4 answers
+    only the first address that spoke to it, and the dead station's is the one it knows."""
+    links: list[str | Connection] = []
+    for text in connections:
+        c = parse_connection(text)
+        port = source_ports.get(str(c))
+        links.append(replace(c, source_port=port) if port and c.kind is LinkKind.UDP_OUT else text)
+    return links
+
+
+#: options the journal keeps unless given again (flag: FlyOptions field)
+RESUMED_OPTIONS = {"--cruise-speed": "speed_m_s", "--reserve-pct": "reserve_pct", "--descent-speed": "descent_m_s",
+                   "--link-timeout": "link_timeout_s", "--lost-giveup": "lost_giveup_s",
+                   "--arm-timeout": "arm_timeout_s", "--ready-timeout": "ready_timeout_s", "--no-fence": "fence",
+                   "--allow-home-offset": "check_home"}
+RESUME_FLAGS = {"--resume", "--connect", "--signing-key", "--signing-passphrase", "--mqtt", "--fleet", "--mqtt-station",
+                "--mqtt-telemetry-hz", "--mqtt-ca-file", "--mqtt-tls-insecure", "--return-after", "--stdin-orders",
+                "--no-rrd", "--rerun-connect", "--quiet", *RESUMED_OPTIONS}
+
+
+def _flags_given(args: argparse.Namespace) -> list[str]:
+    return [word.split("=", 1)[0] for word in getattr(args, "argv", []) if word.startswith("--")]
+
+
+def resume(args: argparse.Namespace) -> int:
+    """`gcs fly --resume DIR`: read the journal, reconnect, reattach every vehicle and fly on."""
+    from gcs.flight_journal import JournalError, read_journal
+    from gcs.resume import Resumption
+
+    given = _flags_given(args)
+    foreign = [flag for flag in given if flag not in RESUME_FLAGS]
+    if foreign:
+        raise UserError(f"--resume flies the flight as it was started: leave out {', '.join(dict.fromkeys(foreign))}")
+    folder = Path(args.resume)
+    if not folder.is_dir():
+        raise UserError(f"--resume {folder}: no such folder")
+    try:
+        state = read_journal(folder)
+    except JournalError as exc:
+        raise UserError(f"--resume {folder}: {exc}") from None
+    if state.ended is not None:
+        raise UserError(f"--resume {folder}: no flight in progress there: the flight started {state.start.utc} ended "
+                        f"with its station running ({_end_text(state.ended)})")
+    if state.start.sim:
+        raise UserError(f"--resume {folder}: the flight flew the built-in simulated fleet (--sim), which stopped with "
+                        "its station: nothing is flying")
+    if state.start.online:
+        raise UserError(f"--resume {folder}: an online flight (--online) cannot be taken over: its vehicles hold "
+                        "their last cell in GUIDED until their failsafes bring them home")
+    plan = load_plan_dir(folder)
+    if file_sha256(folder / "plan.json") != state.start.plan_sha256:
+        raise UserError(f"--resume {folder}: plan.json changed since the flight started (it is not the plan flown)")
+    connections = connections_from(args) if args.connect else list(state.start.connections)
+    signing = signing_from(args)
+    if state.start.signed and signing is None:
+        raise UserError(f"--resume {folder}: the flight's links were signed: give --signing-key or "
+                        "--signing-passphrase again")
+    bus = _bus_from(args)
+    options = options_from(args, plan)
+    for flag, name in RESUMED_OPTIONS.items():
+        if flag not in given and name in state.start.options:
+            setattr(options, name, state.start.options[name])
+    recorder, segment = resumed_recorder(args, plan, state)
+    sortie = SortieLog(plan)
+    sortie.restore(state)
+    journal = FlightJournal.reopen(plan, state, connections, segment)
+    resumption = Resumption(plan, state)
+    print(f"resuming the flight started {state.start.utc} in {folder} over {', '.join(connections)}", flush=True)
+    controller = asyncio.run(fly_async(plan, _from_the_same_ports(connections, state.udp_source_ports), options,
+                                       stdin_orders=args.stdin_orders or sys.stdin.isatty(), recorder=recorder,
+                                       bus=bus, signing=signing, watchers=[journal, sortie], resume=resumption))
+    return _ending(controller, sortie, recorder)
+
+
+def _end_text(end: dict) -> str:
+    if end.get("error"):
+        return f"the station failed: {end['error']}"
+    if end.get("interrupted"):
+        return "stopped by the operator"
+    landed, still = end.get("landed", []), end.get("open", [])
+    text = f"{len(landed)} landed"
+    return text + (f", UAV {', '.join(map(str, still))} not landed" if still else "")
+
+
+def resumed_recorder(args: argparse.Namespace, plan: FleetPlan, state):
+    """The recorder of a resumed flight (a further segment of the flight's recording, beside
+    the first, with the event-log lines the earlier segments lack), or None; and the segment's
+    name for the journal."""
+    if args.no_rrd or (state.start.rrd is None and args.rerun_connect is None):
+        return None, None
+    from gcs.flight_recording import FlightRecorder, resumed_recording, segment_path
+
+    folder = Path(plan.folder)
+    rrd = segment = None
+    if state.start.rrd is not None:
+        rrd = segment_path(folder / state.start.rrd, len(state.segments))
+        segment = _relative(rrd, folder)
+    resumed = resumed_recording(state, plan, [folder / name for name in state.segments],
+                                time.time() - state.start.wall_s - state.last_t)
+    recorder = FlightRecorder(rrd, args.rerun_connect, plan, name=f"flight {folder.name}", resumed=resumed)
+    return recorder, segment

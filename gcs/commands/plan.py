@@ -8,15 +8,19 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable
+from contextlib import ExitStack
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from tqdm import tqdm
 
 from gcs.atomic import write_json_atomic
+from gcs.background import Background
 from gcs.errors import UserError
 from gcs.missions import planning as area_plan
-from gcs.overview import draw_overview
+from gcs.overview import draw_overview, warm_up as warm_up_picture
 from gcs.plan_file import plan_to_dict
+from gcs.plan_recording import BackgroundPlanRecorder
 from planner.dtscs import RETURN_PLANNERS, ClosedSearch, MissionConfig, StepRecord
 from planner.environment import Sensor
 from planner.horizon import HorizonValue
@@ -25,17 +29,21 @@ from planner.plan import Plan
 from planner.scenario import SCENARIOS, Scenario
 from planner.search import STRATEGIES
 
+if TYPE_CHECKING:
+    from gcs.missions.campaign import DrawPictures
+    from gcs.recording import PlanRecorder
+
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("plan", help="plan closed search trajectories for every UAV",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
+    p = sub.add_parser("plan", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     p.add_argument("--scenario", default="paper", help=f"built-in scenario ({', '.join(SCENARIOS)})")
     p.add_argument("--seed", type=int, default=0, help="seed for targets, sensor draws and optimisers")
     p.add_argument("--np", dest="np_steps", type=int, default=5, help="Np, steps of look-ahead (Definition 4)")
     p.add_argument("--oc", default="3", help="orientation constraint: 3, 4, 5 or 8")
     p.add_argument("--range", dest="range_steps", type=int, default=130, help="range T_i of every UAV, in steps")
     p.add_argument("--strategy", default="cpio", help=f"search strategy ({', '.join(sorted(STRATEGIES))})")
-    p.add_argument("--return", dest="return_planner", default="exact", help=f"return planner ({', '.join(RETURN_PLANNERS)})")
+    p.add_argument("--return", dest="return_planner", default="exact",
+                   help=f"return planner ({', '.join(RETURN_PLANNERS)})")
     p.add_argument("--reserve", type=int, default=0, help="steps of range kept in reserve by every range check")
     p.add_argument("--range-aware-search", action="store_true",
                    help="prune search moves by range (eq. 8) instead of the paper's switch (Algorithm 3)")
@@ -111,13 +119,19 @@ def recording_path(args: argparse.Namespace, default: Path) -> Path | None:
 
 
 def fly_and_record(search: ClosedSearch, args: argparse.Namespace, rrd: Path | None, name: str,
-                   cells_to_lat_lon: Callable | None = None) -> Plan:
-    """Fly the search with a progress bar, recording every step to Rerun unless disabled."""
+                   cells_to_lat_lon: Callable | None = None, helper: Background | None = None) -> Plan:
+    """Fly the search with a progress bar, recording every step to Rerun unless disabled: by
+    `helper` when it records to a file only, here when it also streams to a viewer."""
     if rrd is None and args.rerun_connect is None:
         return fly_with_progress(search, args.quiet)
-    from gcs.recording import PlanRecorder  # rerun takes ~0.45 s to import: only when recording
+    recorder: PlanRecorder | BackgroundPlanRecorder
+    if helper is not None and args.rerun_connect is None:
+        recorder = BackgroundPlanRecorder(helper, rrd, search.scenario, cells_to_lat_lon=cells_to_lat_lon, name=name)
+    else:
+        from gcs.recording import PlanRecorder  # rerun takes ~0.45 s to import: only when recording
 
-    with PlanRecorder(rrd, args.rerun_connect, search.scenario, cells_to_lat_lon=cells_to_lat_lon, name=name) as rec:
+        recorder = PlanRecorder(rrd, args.rerun_connect, search.scenario, cells_to_lat_lon=cells_to_lat_lon, name=name)
+    with recorder as rec:
         plan = fly_with_progress(search, args.quiet, rec.log_step)
         rec.log_plan(plan)
     return plan
@@ -136,7 +150,8 @@ def summary_table(plan: Plan) -> str:
     for u in plan.uavs:
         airport = f"({u.airport[0] + 1},{u.airport[1] + 1})"
         reason = u.return_reason.value if u.return_reason else "-"
-        expected = f"{pos.by_uav.get(u.uav_id, 0.0):>8.2f}  {pos.share_of(u.uav_id):>6.1%}" if pos else f"{'-':>8}  {'-':>6}"
+        expected = (f"{pos.by_uav.get(u.uav_id, 0.0):>8.2f}  {pos.share_of(u.uav_id):>6.1%}" if pos
+                    else f"{'-':>8}  {'-':>6}")
         found = found_by.get(u.uav_id, 0) if len(plan.targets) else "-"
         rows.append(f"{u.uav_id:>3}  {airport:>9}  {u.search_steps:>6}  {u.return_steps:>6}  {u.range_steps:>5}  "
                     f"{u.eta:>6.1%}  {expected}  {found:>5}  {reason}")
@@ -150,19 +165,47 @@ def summary_table(plan: Plan) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Plan, with two helper processes beside the search (`gcs.background`): one loads matplotlib
+    and draws the pictures, one loads rerun and writes the recording (when it goes to a file only)."""
+    with ExitStack() as stack:
+        pictures = stack.enter_context(Background(warm_up_picture))
+        recordings = None
+        if not args.no_rrd and args.rerun_connect is None:
+            recordings = stack.enter_context(Background(warm_up_recording))
+        return _run(args, pictures, recordings)
+
+
+def warm_up_recording() -> None:
+    """In the helper: rerun and the recorder, loaded while the search runs."""
+    import gcs.recording  # noqa: F401
+
+
+def picture_drawer(pictures: Background, recordings: Background | None) -> DrawPictures:
+    """Draws each (plan, scenario, path) in `pictures` and waits for them and the recordings."""
+    def draw(jobs: list[tuple[Plan, Scenario, Path]]) -> list[Path]:
+        indices = [pictures.submit(draw_overview, *job) for job in jobs]
+        if recordings is not None:
+            recordings.results()
+        drawn = pictures.results()
+        return [drawn[i] for i in indices]
+    return draw
+
+
+def _run(args: argparse.Namespace, pictures: Background, recordings: Background | None) -> int:
+    draw = picture_drawer(pictures, recordings)
     if args.area is not None or args.continue_from is not None:
         from gcs.missions.campaign import run_area
 
-        return run_area(args, lambda search, rrd, name, geo: fly_and_record(search, args, rrd, name, geo),
-                        summary_table, recording_path)
+        return run_area(args, lambda search, rrd, name, geo: fly_and_record(search, args, rrd, name, geo, recordings),
+                        summary_table, recording_path, draw)
     if args.sorties is not None:
         raise UserError("--sorties needs --area (or --continue): sorties are flown over a real area")
     search = build_search(args)
     out = plan_path(args.out or "runs/plan.json")
     rrd = recording_path(args, out.with_suffix(".rrd"))
-    plan = fly_and_record(search, args, rrd, f"{args.scenario} seed {args.seed}")
+    plan = fly_and_record(search, args, rrd, f"{args.scenario} seed {args.seed}", helper=recordings)
     write_json_atomic(out, plan_to_dict(plan, seed=args.seed))
-    picture = draw_overview(plan, search.scenario, out.with_suffix(".png"))
+    [picture] = draw([(plan, search.scenario, out.with_suffix(".png"))])
     if not args.quiet:
         print(summary_table(plan))
         print(f"plan written to {out}, picture {picture}" + (f", recording {rrd}" if rrd else ""))

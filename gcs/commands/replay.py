@@ -21,8 +21,7 @@ LOOPBACK = "127.0.0.1"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("replay", help="play a run's Rerun recording back in the viewer",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
+    p = sub.add_parser("replay", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     p.add_argument("rrd", help="the recording, e.g. runs/plan.rrd")
     p.add_argument("--web", action="store_true",
                    help=f"serve the web viewer on {LOOPBACK} and print its URL; runs until Ctrl-C")

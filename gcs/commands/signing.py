@@ -18,15 +18,21 @@ import time
 
 from gcs.commands._links import add_link_arguments, connections_from, signing_from
 from gcs.errors import UserError
-from gcs.links import (AUTOPILOT_COMPONENT_ID, CommandError, MavLink, SigningKey, mavlink, open_links,
-                       setup_signing_message)
+from gcs.links import (
+    AUTOPILOT_COMPONENT_ID,
+    CommandError,
+    MavLink,
+    SigningKey,
+    mavlink,
+    open_links,
+    setup_signing_message,
+)
 
 ZERO_KEY = SigningKey(bytes(32))
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("signing", help="provision (or remove) MAVLink 2 signing keys on vehicles",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser("signing", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_link_arguments(p, connect_required=True)
     p.add_argument("--uav", type=int, action="append", default=[], metavar="ID",
                    help="only this system id (repeatable; default: every vehicle heard)")

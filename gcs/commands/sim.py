@@ -16,8 +16,7 @@ DEFAULT_HOME = "-35.363261,149.165230,353"  # ArduPilot SITL's default location 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "sim", help="simulated MAVLink vehicles for testing without aircraft",
-        description="Start N kinematic MAVLink vehicles; vehicle i listens on UDP BASE+i-1.",
+        "sim", description="Start N kinematic MAVLink vehicles; vehicle i listens on UDP BASE+i-1.",
     )
     p.add_argument("--vehicles", type=int, default=1, metavar="N", help="number of vehicles (default 1)")
     p.add_argument("--home", action="append", metavar="LAT,LON[,HEADING]",

@@ -9,18 +9,19 @@ from __future__ import annotations
 import argparse
 import asyncio
 from collections.abc import Sequence
+from pathlib import Path
 
+from gcs.commands._links import signing_from
 from gcs.commands.fly import add_connection_arguments, check_connections, start_sim
 from gcs.errors import UserError
-from gcs.flight import FlightController, FlyOptions
 from gcs.fleet import FleetPlan, load_plan_dir
-from gcs.commands._links import signing_from
+from gcs.flight import FlightController, FlyOptions
+from gcs.flight_journal import check_no_flight_in_progress
 from gcs.links import SigningKey, open_links
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("upload", help="upload and verify every UAV's mission, fence and rally point",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
+    p = sub.add_parser("upload", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     add_connection_arguments(p)
     p.add_argument("--timeout", type=float, default=0.5, help="seconds before a mission message is re-sent")
     p.add_argument("--connect-timeout", type=float, default=15.0, help="seconds to wait for each vehicle's HEARTBEAT")
@@ -45,6 +46,8 @@ def run(args: argparse.Namespace) -> int:
     connections = check_connections(args)
     signing = signing_from(args)
     plan = load_plan_dir(args.plan)
+    if not args.sim:  # an upload goes to vehicles that may be flying that flight
+        check_no_flight_in_progress(Path(args.plan))
     options = FlyOptions(transfer_timeout_s=args.timeout, connect_timeout_s=args.connect_timeout,
                          fence=not args.no_fence, fly=False, ready_timeout_s=args.ready_timeout,
                          check_home=not args.allow_home_offset)

@@ -26,8 +26,7 @@ from gcs.errors import UserError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("watch", help="watch (and command) a fleet over the MQTT fleet bus",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser("watch", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--mqtt", metavar="URL",
                    help="broker: mqtt://[user@]host[:port] or mqtts://... (password: --password or $GCS_MQTT_PASSWORD)")
     add_link_arguments(p)
@@ -77,7 +76,8 @@ def command_from(args: argparse.Namespace) -> Command | None:
         except ValueError:
             steps = 0
         if uav is None or steps < 1:
-            raise UserError(f"--range: expected ID=STEPS with a UAV id and a positive whole number, not {args.range_change!r}")
+            raise UserError("--range: expected ID=STEPS with a UAV id and a positive whole number, "
+                            f"not {args.range_change!r}")
         return Command(request_id, CommandKind.RANGE, uav, range_steps=steps, sender="gcs watch")
     return None
 

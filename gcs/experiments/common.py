@@ -88,7 +88,7 @@ def publish(out: Path, name: str, tables: dict[str, str], figure: Figure,
     all or none; then hand the figure to `on_figure` (the experiment's recording)."""
     paths = [out / f"{name}{suffix}.csv" for suffix in tables] + [out / f"{name}.png"]
     with staged_outputs(paths) as staged:
-        for (suffix, text), path in zip(tables.items(), paths):
+        for text, path in zip(tables.values(), paths):
             staged[path].write_text(text, encoding="utf-8")
         figure.savefig(staged[paths[-1]], format="png", dpi=120, bbox_inches="tight")
         for tmp in staged.values():

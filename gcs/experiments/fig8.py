@@ -27,8 +27,8 @@ from gcs.experiments.common import (
 )
 from planner.dtscs import MissionConfig
 from planner.search import make_strategy
-from planner.search.competition import others_for
-from planner.search.cpio import CpioStrategy, fixed_others
+from planner.search.competition import fixed_others, others_for
+from planner.search.cpio import CpioStrategy
 from planner.search.exhaustive import ExhaustiveStrategy
 from planner.search.flock import path_cells
 from planner.search.ga import GaParams, GaStrategy

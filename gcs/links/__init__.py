@@ -3,8 +3,16 @@ async `MavLink` that the upload, the flight and the watcher talk through."""
 
 from gcs.links.connection import Connection, LinkKind, parse_connection
 from gcs.links.mavlink_codec import MAVMessage, mavlink
-from gcs.links.mavlink_link import (AUTOPILOT_COMPONENT_ID, GCS_SYSTEM_ID, CommandError, LinkError, LinkUnavailable,
-                                    MavLink, command_name, open_links)
+from gcs.links.mavlink_link import (
+                                    AUTOPILOT_COMPONENT_ID,
+                                    GCS_SYSTEM_ID,
+                                    CommandError,
+                                    LinkError,
+                                    LinkUnavailable,
+                                    MavLink,
+                                    command_name,
+                                    open_links,
+)
 from gcs.links.signing import SigningKey, setup_signing_message
 from gcs.links.transport import LinkState, LinkStatus
 

@@ -1,12 +1,13 @@
 """Connection strings as users type them into MAVProxy, QGroundControl or pymavlink.
 
-| string | meaning |
-| --- | --- |
-| `udpin:HOST:PORT`, `udp:HOST:PORT` | listen on a UDP port; vehicles (SITL `--serial1 udpclient:`, MAVProxy `--out`, a radio bridge) push to it and are answered at the address each one sends from |
-| `udpout:HOST:PORT` | send to a vehicle's UDP port first (PX4 SITL, `gcs sim`); it answers us |
-| `tcp:HOST:PORT` | connect to a TCP server (SITL SERIAL0 `tcp:127.0.0.1:5760`, MAVProxy, mavlink-router, a companion computer) |
-| `tcpin:HOST:PORT` | listen for TCP clients (one or several) |
-| `/dev/ttyUSB0[,BAUD]`, `COM3[,BAUD]`, `serial:DEVICE[:BAUD]` | a serial port (SiK / RFD900 telemetry radio, USB to an autopilot), 57600 baud by default as SiK radios ship |
+- `udpin:HOST:PORT`, `udp:HOST:PORT`: listen on a UDP port; vehicles (SITL `--serial1 udpclient:`,
+  MAVProxy `--out`, a radio bridge) push to it and are answered at the address each one sends from
+- `udpout:HOST:PORT`: send to a vehicle's UDP port first (PX4 SITL, `gcs sim`); it answers us
+- `tcp:HOST:PORT`: connect to a TCP server (SITL SERIAL0 `tcp:127.0.0.1:5760`, MAVProxy,
+  mavlink-router, a companion computer)
+- `tcpin:HOST:PORT`: listen for TCP clients (one or several)
+- `/dev/ttyUSB0[,BAUD]`, `COM3[,BAUD]`, `serial:DEVICE[:BAUD]`: a serial port (SiK / RFD900
+  telemetry radio, USB to an autopilot), 57600 baud by default as SiK radios ship
 
 `parse_connection` returns a small typed `Connection` or raises ValueError saying what is wrong."""
 
@@ -46,13 +47,16 @@ class LinkKind(str, Enum):
 
 @dataclass(frozen=True, slots=True)
 class Connection:
-    """Where a link goes: a network endpoint (`host`, `port`) or a serial `device` at `baud`."""
+    """Where a link goes: a network endpoint (`host`, `port`) or a serial `device` at `baud`.
+    `source_port`: the local UDP port a `udpout` link sends from (0: any), so that a restarted
+    station speaks from the same address as before (PX4 answers only the first it heard)."""
 
     kind: LinkKind
     host: str = ""
     port: int = 0
     device: str = ""
     baud: int = DEFAULT_BAUD
+    source_port: int = 0
 
     def __str__(self) -> str:
         if self.kind is LinkKind.SERIAL:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 
 os.environ.setdefault("MAVLINK20", "1")
-from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 __all__ = ["MAVMessage", "mavlink"]
 

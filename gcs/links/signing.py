@@ -107,7 +107,7 @@ class SignedCodec(mavlink.MAVLink):
 
     sender: mavlink.MAVLink | None = None
 
-    def check_signature(self, msgbuf: bytearray, srcSystem: int, srcComponent: int) -> bool:  # noqa: N803
+    def check_signature(self, msgbuf: bytearray, srcSystem: int, srcComponent: int) -> bool:
         signing = self.signing
         assert signing.secret_key is not None
         digest = hashlib.sha256(signing.secret_key + bytes(msgbuf[:-6])).digest()[:6]

@@ -122,7 +122,9 @@ class UdpTransport(Transport):
         c = self.connection
         try:
             if c.kind is LinkKind.UDP_OUT:
-                sock, _ = await loop.create_datagram_endpoint(lambda: _Datagrams(self), remote_addr=(c.host, c.port))
+                local = ("0.0.0.0", c.source_port) if c.source_port else None
+                sock, _ = await loop.create_datagram_endpoint(lambda: _Datagrams(self), remote_addr=(c.host, c.port),
+                                                              local_addr=local)
                 self._peers[(c.host, c.port)] = None
             else:
                 sock, _ = await loop.create_datagram_endpoint(lambda: _Datagrams(self), local_addr=(c.host, c.port))

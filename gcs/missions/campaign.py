@@ -24,6 +24,11 @@ from gcs.missions.planning import AreaSetup, area_out_dir, area_outputs, build_a
 from gcs.sortie import BELIEF_FILE, SORTIE_FILE, belief_from_dict, belief_to_dict, file_sha256
 from planner.campaign import Belief, predicted_after
 from planner.plan import Plan
+from planner.scenario import Scenario
+
+#: Draws the picture of each (plan, scenario, path) and waits for every output still being written
+#: (`gcs.commands.plan.picture_drawer`); returns the pictures' paths.
+DrawPictures = Callable[[list[tuple[Plan, Scenario, Path]]], list[Path]]
 
 #: Plan command options that say where outputs go or what is shown, not how to plan.
 NOT_PLANNING = frozenset({"func", "command", "argv", "area", "scenario", "out", "quiet", "rrd", "no_rrd",
@@ -55,7 +60,8 @@ def _share(value: float, available: float) -> float:
 def _row(sortie: int, status: str, belief: str, folder: Path, expected: float, cumulative: float, available: float,
          **more) -> dict:
     return {"sortie": sortie, "status": status, "belief": belief, "folder": str(folder), **more,
-            "expected_targets_found": round(expected, 6), "probability_of_success": round(_share(expected, available), 6),
+            "expected_targets_found": round(expected, 6),
+            "probability_of_success": round(_share(expected, available), 6),
             "cumulative_expected": round(cumulative, 6), "cumulative_pos": round(_share(cumulative, available), 6)}
 
 
@@ -94,17 +100,16 @@ def _read_json(path: Path, folder: Path, missing: str) -> dict:
 def _given_options(args: argparse.Namespace) -> dict[str, str]:
     """The plan command's options given on the command line (`args.argv`, else those that differ
     from their defaults), destination -> option string (`np_steps` -> `--np`)."""
-    from gcs.cli import build_parser
+    from gcs.cli import command_parser
 
-    parser = build_parser()
-    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    actions = [a for a in sub.choices["plan"]._actions if a.option_strings and a.dest != "help"]
+    parser = command_parser("plan")
+    actions = [a for a in parser._actions if a.option_strings and a.dest != "help"]
     flags = {a.dest: a.option_strings[0] for a in actions}
     if getattr(args, "argv", None) is None:
-        return {k: flags[k] for k in flags if hasattr(args, k) and getattr(args, k) != sub.choices["plan"].get_default(k)}
+        return {k: flags[k] for k in flags if hasattr(args, k) and getattr(args, k) != parser.get_default(k)}
     for action in actions:
         action.default = argparse.SUPPRESS
-    given = parser.parse_args(args.argv)
+    given = parser.parse_args(args.argv[1:])  # the words after `plan`
     return {k: flags[k] for k in flags if hasattr(given, k)}
 
 
@@ -135,11 +140,15 @@ def continued_start(args: argparse.Namespace) -> tuple[argparse.Namespace, Sorti
             or not isinstance(campaign["area"], dict) or not isinstance(campaign["options"], dict):
         raise UserError(f"--continue {folder}: its plan.json has no campaign record (made before campaigns, or not "
                         f"from an area file); plan the area again with gcs plan --area")
+    from gcs.flight_journal import check_no_flight_in_progress  # loads the flight code: only here
+
+    check_no_flight_in_progress(folder)
     record = _read_json(folder / SORTIE_FILE, folder,
                         f"no flight record ({SORTIE_FILE}): this plan was never flown; fly it first (gcs fly --plan "
                         f"{folder} ...)")
     if record.get("finished") is not True:
-        raise UserError(f"--continue {folder}: the flight did not finish ({record.get('reason') or 'no reason recorded'})"
+        reason = record.get("reason") or "no reason recorded"
+        raise UserError(f"--continue {folder}: the flight did not finish ({reason})"
                         f"; only a finished flight can be continued")
     if record.get("plan_sha256") != file_sha256(folder / "plan.json"):
         raise UserError(f"--continue {folder}: plan.json changed since the flight (it is not the plan that was flown)")
@@ -203,12 +212,10 @@ def _recording(recording_path: Callable, args: argparse.Namespace, folder: Path,
 
 
 def run_area(args: argparse.Namespace, fly: Callable[..., Plan], summary: Callable[[Plan], str],
-             recording_path: Callable[[argparse.Namespace, Path], Path | None]) -> int:
+             recording_path: Callable[[argparse.Namespace, Path], Path | None], draw: DrawPictures) -> int:
     """`gcs plan --area` and `--continue`: `fly(search, rrd, name, cells_to_lat_lon)` runs and
     records each sortie's search. With `--sorties N`, N sorties in `sortie<k>/` sub-folders and
-    `campaign.json`; every file published together."""
-    from gcs.overview import draw_overview
-
+    `campaign.json`; every file published together, then the pictures (`draw`)."""
     start = None
     if args.continue_from is not None:
         args, start = continued_start(args)
@@ -249,9 +256,9 @@ def run_area(args: argparse.Namespace, fly: Callable[..., Plan], summary: Callab
                                            "expected_targets_in_area": available, "sorties": rows,
                                            "pos": rows[-1]["cumulative_pos"]}, indent=1) + "\n"
     write_outputs(out_dir, files)
-    pictures = [draw_overview(plan, setup.search.scenario, folder / "plan.png") for folder, setup, plan, *_ in sorties]
+    drawn = draw([(plan, setup.search.scenario, folder / "plan.png") for folder, setup, plan, *_ in sorties])
     if not args.quiet:
-        for (folder, setup, plan, mine, rrd), picture in zip(sorties, pictures):
+        for (folder, setup, plan, mine, rrd), picture in zip(sorties, drawn):
             if count is not None or len(rows) > 1:
                 print(f"-- sortie {setup.belief.sortie} ({folder}) --")
             print(summary(plan))

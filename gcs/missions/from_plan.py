@@ -71,8 +71,8 @@ def landing_approach(area: AreaGrid, airport_m: tuple[float, float], heading_deg
             return approach, not direct
         distance -= 50.0
     raise ValueError(f"{label}: no room for a landing approach of {options.min_distance_m:.0f} m or more along "
-                     f"heading {heading_deg:.0f} degrees inside the area (use --approach-m, or give the airport another "
-                     "heading)")
+                     f"heading {heading_deg:.0f} degrees inside the area (use --approach-m, or give the airport "
+                     "another heading)")
 
 
 def uav_mission(area: AreaGrid, uav: UavPlan, name: str, vehicle: Vehicle, home_lat_lon: tuple[float, float],

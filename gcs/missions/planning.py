@@ -179,8 +179,8 @@ def build_area_search(args: argparse.Namespace, belief: Belief | None = None) ->
     _positive(args.endurance_s, "--endurance")
     if args.range_m is not None:
         _positive(args.range_m, "--range-m")
-    approach = ApproachOptions(_positive(args.approach_m, "--approach-m"), _positive(args.approach_alt_m, "--approach-alt"),
-                               min(250.0, args.approach_m))
+    approach = ApproachOptions(_positive(args.approach_m, "--approach-m"),
+                               _positive(args.approach_alt_m, "--approach-alt"), min(250.0, args.approach_m))
     landing_m = 2 * approach.distance_m if args.vehicle == Vehicle.PLANE.value else 0.0
     try:
         area = build_area_grid(source.area, list(source.no_fly), cell, args.margin_m, args.max_cells)
@@ -309,8 +309,8 @@ def mission_table(setup: AreaSetup, plan: Plan, files: dict[str, str]) -> str:
     rows = [f"{'UAV':>3}  {'name':<16} {'alt m':>6} {'layer':>5} {'range m':>8} {'path m':>8} {'waypoints':>9}"]
     for u in data["uavs"]:
         layer = u.get("altitude_layer")
-        rows.append(f"{u['id']:>3}  {u['name'][:16]:<16} {u['altitude_m']:>6.0f} {layer or '-':>5} {u['range_m']:>8.0f} "
-                    f"{u['length_m']:>8.0f} {len(u['waypoints']):>9}")
+        rows.append(f"{u['id']:>3}  {u['name'][:16]:<16} {u['altitude_m']:>6.0f} {layer or '-':>5} "
+                    f"{u['range_m']:>8.0f} {u['length_m']:>8.0f} {len(u['waypoints']):>9}")
     layers = setup.layers
     above = "the ground below" if setup.altitude_reference is AltitudeReference.TERRAIN else "each airport"
     if layers.levels_m:
@@ -318,7 +318,8 @@ def mission_table(setup: AreaSetup, plan: Plan, files: dict[str, str]) -> str:
                     f"({len(layers.levels_m)} layers)")
     for level, uavs in sorted(layers.shared.items()):
         rows.append(f"UAVs {', '.join(map(str, uavs))} share layer {level} ({layers.levels_m[level - 1]:g} m): "
-                    "the plan keeps them out of each other's cells; raise --ceiling or lower --altitude-step to part them")
+                    "the plan keeps them out of each other's cells; raise --ceiling or lower --altitude-step to part "
+                    "them")
     g = setup.area.grid
     rows.append(f"grid {g.nx}x{g.ny} cells of {g.cell_size_m:g} m, {int(setup.area.free.sum())} searchable, "
                 f"{setup.area.edge_blocked} blocked at edges")

@@ -28,7 +28,7 @@ class SearchStrategy(Protocol):
                   others_hard: np.ndarray) -> Decision | None: ...
 
 
-STRATEGIES: dict[str, type] = {
+STRATEGIES: dict[str, type[SearchStrategy]] = {
     "cpio": CpioStrategy,
     "exhaustive": ExhaustiveStrategy,
     "ga": GaStrategy,

@@ -22,6 +22,7 @@ which the other subgroups score against (cooperation) and its own scoring ignore
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -54,7 +55,7 @@ def turn_ordered(successors: np.ndarray) -> np.ndarray:
 
 
 @njit
-def clamp_position(x, branching):
+def clamp_position(x: float, branching: int) -> float:
     """Keep a continuous position inside [-0.5, K-0.5], the span that rounds to a valid choice."""
     if x < -0.5:
         return -0.5
@@ -64,7 +65,7 @@ def clamp_position(x, branching):
 
 
 @njit
-def decode_positions(positions, branching, choices):
+def decode_positions(positions: np.ndarray, branching: int, choices: np.ndarray) -> None:
     """Round and clamp every continuous position (n x Np) to a turn choice index."""
     for i in range(positions.shape[0]):
         for q in range(positions.shape[1]):
@@ -77,8 +78,11 @@ def decode_positions(positions, branching, choices):
 
 
 @njit
-def evaluate_flock(g, choices, n, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
-                   others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness):
+def evaluate_flock(g: int, choices: np.ndarray, n: int, poses: np.ndarray, range_steps: np.ndarray,
+                   home_tables: np.ndarray, horizons: np.ndarray, successors: np.ndarray, tep: np.ndarray,
+                   eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray, others: np.ndarray,
+                   others_hard: np.ndarray, n_fixed: int, weights: np.ndarray, tep_once: bool, scores: np.ndarray,
+                   depths: np.ndarray, cells: np.ndarray, fitness: np.ndarray) -> None:
     """Score the first n rows of `choices` for subgroup g against everything in `others` but
     its own best row; `fitness[i] = depth * DEPTH_WEIGHT + J1` (+ the horizon value of the
     path's last cell when `horizons[g]` is not empty)."""
@@ -96,7 +100,7 @@ def evaluate_flock(g, choices, n, poses, range_steps, home_tables, horizons, suc
 
 
 @njit
-def share_best_cells(others, row, cells_row, depth):
+def share_best_cells(others: np.ndarray, row: int, cells_row: np.ndarray, depth: int) -> None:
     """Publish a subgroup's best path (cells padded with -1) in its row of `others`."""
     for q in range(others.shape[1]):
         if q < depth:
@@ -142,7 +146,7 @@ def _stacked_tables(tables: tuple[np.ndarray, ...]) -> np.ndarray:
 
 
 def others_with_groups(fixed: np.ndarray, fixed_hard: np.ndarray, groups: int, np_steps: int,
-                       group_cells: list[np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                       group_cells: list[np.ndarray | None] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """`fixed` other vehicles followed by one soft row per subgroup (its known future, or -1)."""
     rows = np.full((fixed.shape[0] + groups, np_steps, 2), -1, dtype=np.int64)
     rows[: fixed.shape[0]] = fixed
@@ -192,7 +196,7 @@ def choices_along(successors: np.ndarray, pose: tuple[int, int, int], cells: np.
             break
         dx, dy = int(cells[q, 0]) - x, int(cells[q, 1]) - y
         g = next((g for g in range(8) if HEADING_DX[g] == dx and HEADING_DY[g] == dy), -1)
-        matches = np.flatnonzero(successors[h] == g) if g >= 0 else []
+        matches = np.flatnonzero(successors[h] == g) if g >= 0 else np.zeros(0, dtype=np.int64)
         if len(matches) == 0:
             return None
         out[q] = matches[0]
@@ -252,7 +256,7 @@ class PopulationOptimiser:
     name = ""
     params_type: type = object
 
-    def __init__(self, params=None, seed: int = 0, warm_start: bool = True) -> None:
+    def __init__(self, params: Any = None, seed: int = 0, warm_start: bool = True) -> None:
         self.params = params or self.params_type()
         self._rng = np.random.default_rng(seed)
         self.memory = PathMemory() if warm_start else None

@@ -36,9 +36,13 @@ class GaParams:
 
 
 @njit
-def ga_population(poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map, others,
-                  others_hard, n_fixed, weights, tep_once, population, tournaments, crossover_draws, mask_draws,
-                  mutation_draws, mutation_values, crossover_rate, mutation_rate, elites, best_choice, trace):
+def ga_population(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarray, horizons: np.ndarray,
+                  successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray,
+                  others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray, tep_once: bool,
+                  population: np.ndarray, tournaments: np.ndarray, crossover_draws: np.ndarray,
+                  mask_draws: np.ndarray, mutation_draws: np.ndarray, mutation_values: np.ndarray,
+                  crossover_rate: float, mutation_rate: float, elites: int, best_choice: np.ndarray, trace: np.ndarray
+) -> int:
     """One population (subgroup 0 of the flock layout), C x Np turn choices updated in place.
     tournaments: T x C x 4 indices; crossover_draws: T x C; mask_draws, mutation_draws: T x C x Np
     uniform; mutation_values: T x C x Np choices. Returns the number of paths scored."""
@@ -95,7 +99,7 @@ def ga_population(poses, range_steps, home_tables, horizons, successors, tep, eu
                 best_score = scores[a]
                 best_choice[:] = population[a]
         trace[t + 1] = best_score
-    return evaluations
+    return int(evaluations)
 
 
 class GaStrategy(PopulationOptimiser):

@@ -20,14 +20,15 @@ from planner.search.flock import choices_along, decision_from_choices, turn_orde
 from planner.search.problem import Decision, Searcher, StepProblem
 
 
-def sweep_lanes(blocked: np.ndarray, airports: dict[int, tuple[int, int]], lane_spacing: int) -> dict[int, list[tuple[int, int]]]:
+def sweep_lanes(blocked: np.ndarray, airports: dict[int, tuple[int, int]],
+                lane_spacing: int) -> dict[int, list[tuple[int, int]]]:
     """Each UAV's lane cells in visiting order."""
     nx, ny = blocked.shape
     ids = sorted(airports)
     xs, ys = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
     distances = np.stack([np.hypot(xs - airports[i][0], ys - airports[i][1]) for i in ids])
     owner = np.argmin(distances, axis=0)
-    out = {}
+    out: dict[int, list[tuple[int, int]]] = {}
     for k, uid in enumerate(ids):
         mine = (owner == k) & ~blocked
         ax, ay = airports[uid]

@@ -24,8 +24,8 @@ import numpy as np
 
 from planner.config import njit
 from planner.search.flock import (
-    PopulationOptimiser,
     DEPTH_WEIGHT,
+    PopulationOptimiser,
     clamp_position,
     decode_positions,
     evaluate_flock,
@@ -66,7 +66,7 @@ class PioParams:
 
 
 @njit
-def landmark_flock_size(n, min_flock):
+def landmark_flock_size(n: int, min_flock: int) -> int:
     """C2^v = C2^(v-1) / 2, never below min_flock (nor above the flock there is)."""
     half = n // 2
     if half < min_flock:
@@ -75,7 +75,7 @@ def landmark_flock_size(n, min_flock):
 
 
 @njit
-def landmark_centre(positions, fitness, n):
+def landmark_centre(positions: np.ndarray, fitness: np.ndarray, n: int) -> np.ndarray:
     """Eq. (15) read as the fitness-weighted mean of the first n pigeons, fitness shifted so the
     worst weighs zero (equal weights when all are equal)."""
     m = positions.shape[1]
@@ -94,9 +94,12 @@ def landmark_centre(positions, fitness, n):
 
 
 @njit
-def _refresh_best(g, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map, others,
-                  others_hard, n_fixed, weights, tep_once, best_choices, best_fitness, best_scores, best_depths,
-                  one_choice, one_score, one_depth, one_cells, one_fitness):
+def _refresh_best(g: int, poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarray, horizons: np.ndarray,
+                  successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray,
+                  others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray, tep_once: bool,
+                  best_choices: np.ndarray, best_fitness: np.ndarray, best_scores: np.ndarray,
+                  best_depths: np.ndarray, one_choice: np.ndarray, one_score: np.ndarray, one_depth: np.ndarray,
+                  one_cells: np.ndarray, one_fitness: np.ndarray) -> None:
     """Re-score subgroup g's best path against the others' current bests (their moves change it)."""
     one_choice[0] = best_choices[g]
     evaluate_flock(g, one_choice, 1, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
@@ -108,8 +111,10 @@ def _refresh_best(g, poses, range_steps, home_tables, horizons, successors, tep,
 
 
 @njit
-def _keep_best(g, n, choices, positions, fitness, scores, depths, cells, others, n_fixed, best_positions,
-               best_choices, best_fitness, best_scores, best_depths):
+def _keep_best(g: int, n: int, choices: np.ndarray, positions: np.ndarray, fitness: np.ndarray, scores: np.ndarray,
+               depths: np.ndarray, cells: np.ndarray, others: np.ndarray, n_fixed: int, best_positions: np.ndarray,
+               best_choices: np.ndarray, best_fitness: np.ndarray, best_scores: np.ndarray, best_depths: np.ndarray
+) -> None:
     for a in range(n):
         if fitness[a] > best_fitness[g]:
             best_fitness[g] = fitness[a]
@@ -121,9 +126,12 @@ def _keep_best(g, n, choices, positions, fitness, scores, depths, cells, others,
 
 
 @njit
-def pio_flocks(poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map, others, others_hard,
-               n_fixed, weights, tep_once, positions, compass_draws, landmark_draws, compass_coefficient, min_flock,
-               best_choices, best_scores, best_depths, trace):
+def pio_flocks(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarray, horizons: np.ndarray,
+               successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray,
+               others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray, tep_once: bool,
+               positions: np.ndarray, compass_draws: np.ndarray, landmark_draws: np.ndarray,
+               compass_coefficient: float, min_flock: int, best_choices: np.ndarray, best_scores: np.ndarray,
+               best_depths: np.ndarray, trace: np.ndarray) -> int:
     """Run PIO for G subgroups (positions: G x C x Np, updated in place) in lock-step.
 
     compass_draws: Nc1 x G x C x Np, landmark_draws: Nc2 x G x C x Np, uniform in [0, 1).
@@ -225,7 +233,7 @@ def pio_draws(params: PioParams, groups: int, np_steps: int, branching: int,
 
 def run_pio(problem: StepProblem, searchers: list[Searcher], fixed: np.ndarray, fixed_hard: np.ndarray,
             params: PioParams, rng: np.random.Generator,
-            group_cells: list[np.ndarray] | None = None,
+            group_cells: list[np.ndarray | None] | None = None,
             warm_starts: list[np.ndarray | None] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Run `pio_flocks` for `searchers` as subgroups; returns best choices (turn-ordered table),
     the others array the subgroups ended with, traces, and the number of paths scored.

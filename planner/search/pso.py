@@ -37,9 +37,11 @@ class PsoParams:
 
 
 @njit
-def pso_swarm(poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map, others, others_hard,
-              n_fixed, weights, tep_once, positions, velocities, r_personal, r_social, inertia, c_personal, c_social,
-              best_choice, trace):
+def pso_swarm(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarray, horizons: np.ndarray,
+              successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray,
+              others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray, tep_once: bool,
+              positions: np.ndarray, velocities: np.ndarray, r_personal: np.ndarray, r_social: np.ndarray,
+              inertia: float, c_personal: float, c_social: float, best_choice: np.ndarray, trace: np.ndarray) -> int:
     """One swarm (subgroup 0 of the flock layout); positions and velocities: C x Np, updated in
     place; r_personal, r_social: T x C x Np uniform draws. Writes the best turn choices and
     `trace[t]` = J1 of the swarm's best after iteration t. Returns the number of paths scored."""

@@ -171,8 +171,8 @@ def test_wpl_text_reads_back_item_by_item(run_gcs, area_doc):
 
 
 def test_terrain_following_missions_use_the_terrain_frame_in_files_and_on_the_wire(run_gcs, area_doc):
-    from gcs.fleet import load_plan_dir
     from gcs.autopilots import Autopilot
+    from gcs.fleet import load_plan_dir
     from gcs.missions import parse_wpl
 
     code, err, out = run_gcs(area_doc, "--terrain-follow")

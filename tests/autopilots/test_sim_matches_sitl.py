@@ -17,8 +17,6 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import pytest
-
-from tests.sim import helpers  # noqa: F401  (MAVLink 2 for pymavlink, before mavutil is used)
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -28,6 +26,7 @@ from sim import FleetOptions, HomePose, MissionItem, MissionType, SimFleet, Vehi
 from sim.mission_client import MissionClient, MissionTransferError
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.site import Airport, Site
+from tests.sim import helpers  # noqa: F401  (MAVLink 2 for pymavlink, before mavutil is used)
 
 pytestmark = pytest.mark.autopilot
 
@@ -63,7 +62,8 @@ def varied(lat: float, lon: float, plane: bool) -> list[MissionItem]:
 
     items = [
         at(0, ABS, mavlink.MAV_CMD_NAV_WAYPOINT, 55, 55, 999.0, 9, 8, 7, 6),
-        at(1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 30.456, 15.3, 2, 3, math.nan),
+        at(1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 30.456, 15.3, 2, 3,
+           math.nan),
         at(2, REL, mavlink.MAV_CMD_NAV_WAYPOINT, 20, 0, 12.349, 7.5, 3.7, 2.2, math.nan),
         at(3, mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_CMD_NAV_WAYPOINT, 20, 20, 612.3449, 300.9, 300, 256, 45),
         at(4, REL, mavlink.MAV_CMD_DO_CHANGE_SPEED, 1, 1, 5.0, 1, 12.34, 55.5, 0, current=1, autocontinue=0),
@@ -109,7 +109,8 @@ def exercise(conn, sysid: int, vehicle: str, plan_dir: Path) -> Transcript:
     lat, lon = task.airport_lat_lon
     odd = varied(lat, lon, vehicle == "plane")
     refused = odd[:6]
-    refused[3] = MissionItem(seq=3, frame=mavlink.MAV_FRAME_LOCAL_NED, command=mavlink.MAV_CMD_NAV_WAYPOINT, x=1, y=2, z=3)
+    refused[3] = MissionItem(seq=3, frame=mavlink.MAV_FRAME_LOCAL_NED, command=mavlink.MAV_CMD_NAV_WAYPOINT,
+                             x=1, y=2, z=3)
     client = MissionClient(conn, sysid, timeout_s=0.5, deadline_s=60.0)
     out = Transcript(home)
     for name, items, kind in (("planned", planned, MissionType.MISSION), ("varied", odd, MissionType.MISSION),

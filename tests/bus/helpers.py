@@ -144,7 +144,8 @@ class ScriptedFleet:
         if command.kind is CommandKind.RANGE:
             self.ranges[command.uav] = command.range_steps
             return None
-        if command.kind is CommandKind.RETURN and command.uav is not None and self.stage[command.uav] in ("return", "rtl"):
+        if (command.kind is CommandKind.RETURN and command.uav is not None
+                and self.stage[command.uav] in ("return", "rtl")):
             return f"UAV {command.uav} is already returning"
         for u in targets:
             if self.stage[u] == "search":

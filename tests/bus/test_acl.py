@@ -43,7 +43,8 @@ def test_only_the_command_role_may_command_the_fleet(make_broker, tmp_path, flee
                 await asyncio.sleep(0.5)
                 out["invalid seen by anonymous"] = list(anonymous.stats.invalid)
             out["commands after anonymous"] = list(fleet.commands)
-            async with FleetWatcher(parse_broker_url(url, username="operator", password="0per"), fleet=fleet_name) as op:
+            operator = parse_broker_url(url, username="operator", password="0per")
+            async with FleetWatcher(operator, fleet=fleet_name) as op:
                 out["operator reply"] = await op.command(Command("op1", CommandKind.RETURN, 1), timeout_s=5)
             with pytest.raises(ConnectionError):
                 async with FleetWatcher(parse_broker_url(url, username="operator", password="wrong"), fleet=fleet_name):

@@ -10,8 +10,7 @@ from collections import defaultdict
 
 import aiomqtt
 
-from gcs.bus import (Command, CommandKind, FleetBus, FleetWatcher, MessageType, Topics, parse_broker_url,
-                     schema_errors)
+from gcs.bus import Command, CommandKind, FleetBus, FleetWatcher, MessageType, Topics, parse_broker_url, schema_errors
 from tests.bus.helpers import ScriptedFleet
 
 
@@ -70,7 +69,7 @@ def test_four_uavs_reach_a_plain_subscriber_and_every_message_validates(broker, 
         got = [{k: e[k] for k in ("seq", "kind", "reason", "text", "data")} for e in events[uav]]
         assert got == raised
     assert events[3][-1]["kind"] == "return" and events[3][-1]["reason"] == "battery"
-    states = {uav: p for uav, p in by_type[MessageType.STATE]}
+    states = dict(by_type[MessageType.STATE])
     assert states[3]["stage"] == "return" and states[3]["return_reason"] == "battery"
     assert states[1]["last_event_seq"] == len(fleet.raised[1])
     presence = [p for _, p in by_type[MessageType.STATION]]
@@ -110,7 +109,8 @@ def test_commands_reach_the_handler_and_are_acknowledged(broker, fleet_name):
     assert replies["return all"].ok
     assert fleet.stage == {1: "return", 2: "return", 3: "rtl", 4: "return"}
     assert [c.request_id for c in fleet.commands] == ["r2", "r2b", "g1", "a3", "r9", "rall"]
-    assert fleet.raised[2][-1] == {"seq": 2, "kind": "return", "reason": "mqtt", "text": "ordered by the bus", "data": {}}
+    assert fleet.raised[2][-1] == {"seq": 2, "kind": "return", "reason": "mqtt", "text": "ordered by the bus",
+                                   "data": {}}
 
 
 def test_malformed_commands_are_refused_with_a_reason_and_the_bus_carries_on(broker, fleet_name):

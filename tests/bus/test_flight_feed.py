@@ -16,8 +16,8 @@ from gcs.bus import Command, CommandKind, FleetWatcher, MessageType, Topics, par
 from gcs.bus.flight import add_bus_arguments, attach_bus, bus_options
 from gcs.cli import main
 from gcs.commands.fly import start_sim
-from gcs.flight import FlightController, FlyOptions
 from gcs.fleet import Stage, load_plan_dir
+from gcs.flight import FlightController, FlyOptions
 from gcs.links import MavLink
 
 ROOT = Path(__file__).resolve().parents[2]

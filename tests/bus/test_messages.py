@@ -7,8 +7,7 @@ import json
 
 import pytest
 
-from gcs.bus import (FleetBus, MessageType, Telemetry, TlsOptions, Topics, parse_broker_url, parse_command,
-                     schema_errors)
+from gcs.bus import FleetBus, MessageType, Telemetry, TlsOptions, Topics, parse_broker_url, parse_command, schema_errors
 from gcs.bus.messages import InvalidCommand
 
 
@@ -96,8 +95,10 @@ def test_fly_bus_arguments_are_checked_before_the_flight():
 
     parser = argparse.ArgumentParser()
     add_bus_arguments(parser)
-    opts = bus_options(parser.parse_args(["--mqtt", "mqtts://op@h:8884", "--fleet", "north", "--mqtt-ca-file", "ca.crt"]))
-    assert (opts["broker"].port, opts["broker"].tls.ca_file, opts["fleet"], opts["station"]) == (8884, "ca.crt", "north", "gcs")
+    opts = bus_options(parser.parse_args(["--mqtt", "mqtts://op@h:8884", "--fleet", "north",
+                                          "--mqtt-ca-file", "ca.crt"]))
+    assert (opts["broker"].port, opts["broker"].tls.ca_file, opts["fleet"], opts["station"]) == \
+        (8884, "ca.crt", "north", "gcs")
     for argv, what in [(["--mqtt", "tcp://h"], "mqtt://"), (["--mqtt", "mqtt://h", "--fleet", "a/b"], "--fleet"),
                        (["--mqtt", "mqtt://h", "--mqtt-ca-file", "ca.crt"], "mqtts")]:
         with pytest.raises(ValueError, match=what):

@@ -16,7 +16,8 @@ def gcs(*args, cwd=None):
 
 def test_plan_writes_a_valid_closed_plan(tmp_path):
     out = tmp_path / "plan.json"
-    run = gcs("plan", "--scenario", "paper", "--seed", "7", "--np", "3", "--oc", "3", "--range", "90", "--out", str(out))
+    run = gcs("plan", "--scenario", "paper", "--seed", "7", "--np", "3", "--oc", "3", "--range", "90",
+              "--out", str(out))
     assert run.returncode == 0, run.stderr
     data = json.loads(out.read_text())
     validate_plan_dict(data)
@@ -34,8 +35,9 @@ def test_plan_writes_a_valid_closed_plan(tmp_path):
 
 
 def test_a_folder_out_gets_plan_json_and_same_seed_same_file(tmp_path):
-    assert gcs("plan", "--np", "2", "--range", "60", "--seed", "3", "--out", str(tmp_path / "a"), "--quiet").returncode == 0
-    assert gcs("plan", "--np", "2", "--range", "60", "--seed", "3", "--out", str(tmp_path / "b"), "--quiet").returncode == 0
+    for folder in ("a", "b"):
+        run = gcs("plan", "--np", "2", "--range", "60", "--seed", "3", "--out", str(tmp_path / folder), "--quiet")
+        assert run.returncode == 0
     a, b = (tmp_path / "a" / "plan.json").read_text(), (tmp_path / "b" / "plan.json").read_text()
     assert a == b
 

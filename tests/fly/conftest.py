@@ -10,8 +10,8 @@ import pytest
 
 from gcs.cli import main
 from gcs.commands.fly import start_sim
-from gcs.flight import FlightController, FlyOptions, fly_async
 from gcs.fleet import FleetPlan, load_plan_dir
+from gcs.flight import FlightController, FlyOptions, fly_async
 
 ROOT = Path(__file__).resolve().parents[2]
 SPEEDUP = 60.0

@@ -38,7 +38,8 @@ def test_links_that_cannot_open_are_one_line(plan_dir, capsys, tmp_path, command
                                               f"tcp:127.0.0.1:{port}"]) == 2
     assert "connection refused" in _one_error_line(capsys)
     assert main([command, "--plan", str(plan_dir), "--connect", str(tmp_path / "ttyUSB7")]) == 2
-    assert f"link {tmp_path / 'ttyUSB7'},57600: cannot open the serial device: no such device" in _one_error_line(capsys)
+    assert (f"link {tmp_path / 'ttyUSB7'},57600: cannot open the serial device: no such device"
+            in _one_error_line(capsys))
     key = tmp_path / "missing.key"
     assert main([command, "--plan", str(plan_dir), "--sim", "--signing-key", str(key)]) == 2
     assert "cannot read signing key file" in _one_error_line(capsys)

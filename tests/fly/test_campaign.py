@@ -15,8 +15,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from gcs.cli import build_parser, main
 from gcs.fleet import Detection, load_plan_dir
@@ -88,7 +87,8 @@ def test_a_flight_leaves_the_posterior_of_its_readings_its_tracks_and_its_detect
     looks = np.zeros(p0.shape, dtype=int)
     for _, _, x, y, _, _ in log:
         looks[x - 1, y - 1] += 1
-    assert np.array_equal(np.asarray(belief["looks"]), looks) and np.array_equal(np.asarray(belief["sortie_looks"]), looks)
+    assert np.array_equal(np.asarray(belief["looks"]), looks)
+    assert np.array_equal(np.asarray(belief["sortie_looks"]), looks)
     negative_only = looks > 0
     for _, _, x, y, hit, _ in log:
         negative_only[x - 1, y - 1] &= not hit
@@ -179,7 +179,8 @@ def test_sortie_after_sortie_the_campaign_counts_every_flight(campaign, capsys):
     assert record["campaign"]["expected_before"] == pytest.approx(first_record["campaign"]["expected_after"])
     assert record["campaign"]["pos_after"] > record["campaign"]["pos_before"]
     looks = np.asarray(record["belief"]["looks"])
-    assert np.array_equal(looks, np.asarray(first_record["belief"]["looks"]) + np.asarray(record["belief"]["sortie_looks"]))
+    assert np.array_equal(looks, np.asarray(first_record["belief"]["looks"])
+                          + np.asarray(record["belief"]["sortie_looks"]))
 
     third = campaign.base / "third"
     assert main(["plan", "--continue", str(second), "--out", str(third), "--no-rrd", "--quiet"]) == 0
@@ -267,7 +268,8 @@ def test_an_interrupted_flight_is_recorded_as_unfinished_and_cannot_be_continued
     out = tmp_path / "next"
     assert main(["plan", "--continue", str(folder), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("error:") and "the flight did not finish (the flight was stopped" in err[0]
+    assert len(err) == 1 and err[0].startswith("error:")
+    assert "the flight did not finish (the flight was stopped" in err[0]
     assert not out.exists()
 
 

@@ -9,9 +9,9 @@ import math
 import pytest
 
 from gcs.cli import main
-from gcs.flight import FlyOptions, ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.commands.upload import upload_fleet
 from gcs.fleet import Stage
+from gcs.flight import FlyOptions, ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.status_table import render_summary, render_table
 from sim import FailsafeLevel
 from tests.fly.conftest import fast_options, fly
@@ -151,8 +151,8 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     there only the finds are compared. (Seed 4: one UAV's search ends on its airport, with no
     return leg.)"""
     from gcs.commands.fly import start_sim
-    from gcs.flight import fly_async
     from gcs.fleet import load_plan_dir
+    from gcs.flight import fly_async
     from gcs.missions import planning as area_plan
     from gcs.online import observed_search
     from gcs.status_table import targets_found

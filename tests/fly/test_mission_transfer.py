@@ -8,8 +8,8 @@ import random
 
 import pytest
 
-from gcs.links import mavlink
 from gcs.autopilots import Autopilot, compare_items
+from gcs.links import mavlink
 from gcs.mission_transfer import Download, MissionType, Upload, WireItem
 from sim.mission_protocol import MissionProtocol, ProtocolConfig
 

@@ -7,12 +7,19 @@ import itertools
 import math
 
 import pytest
-from hypothesis import given
-from hypothesis import strategies as st
+from hypothesis import given, strategies as st
 
 from gcs.flight import OperatorOrder, parse_order
-from gcs.return_trigger import (RangeModel, battery_drain_pct_s, check_return, consumption_pct_per_step,
-                                drain_rate_pct_s, estimate_range_steps, landing_seconds, range_left_steps)
+from gcs.return_trigger import (
+    RangeModel,
+    battery_drain_pct_s,
+    check_return,
+    consumption_pct_per_step,
+    drain_rate_pct_s,
+    estimate_range_steps,
+    landing_seconds,
+    range_left_steps,
+)
 
 MODEL = RangeModel(step_m=20.0, speed_m_s=10.0, reserve_pct=30.0, descent_m_s=2.0)
 

@@ -11,8 +11,7 @@ import socket
 import pytest
 import serial
 
-from gcs.links import (CommandError, Connection, LinkKind, LinkState, LinkUnavailable, MavLink, mavlink,
-                       parse_connection)
+from gcs.links import CommandError, Connection, LinkKind, LinkState, LinkUnavailable, MavLink, mavlink, parse_connection
 
 
 @pytest.mark.parametrize("text, expected", [
@@ -36,8 +35,9 @@ def test_connection_strings_users_type_are_understood(text, expected):
 
 
 @pytest.mark.parametrize("text, reason", [
-    ("serial:", "no serial device"), ("udpout:127.0.0.1", "expected udpout:HOST:PORT"), ("udpout:127.0.0.1:0", "out of range"),
-    ("udpout:127.0.0.1:x", "not a number"), ("tcp:no-such-host.invalid:5760", "unknown host"),
+    ("serial:", "no serial device"), ("udpout:127.0.0.1", "expected udpout:HOST:PORT"),
+    ("udpout:127.0.0.1:0", "out of range"), ("udpout:127.0.0.1:x", "not a number"),
+    ("tcp:no-such-host.invalid:5760", "unknown host"),
     ("/dev/ttyUSB0,1234", "baud rate 1234"), ("/dev/ttyUSB0,fast", "not a number"), ("ttyUSB0", "expected"),
     ("COM0", "expected"), ("", "empty"), ("http://127.0.0.1:80", "expected"),
 ])
@@ -99,7 +99,7 @@ def test_tcp_link_comes_back_when_the_far_end_closes_and_keeps_its_state(make_fl
 
 
 def test_serial_cable_unplugged_and_plugged_back(make_fleet, serial_cable):
-    fleet = make_fleet(serial_devices=(serial_cable.vehicle_end,))
+    make_fleet(serial_devices=(serial_cable.vehicle_end,))  # the vehicle at the cable's other end
     seen = []
 
     async def main():

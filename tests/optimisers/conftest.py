@@ -19,9 +19,10 @@ def make_problem(tep, searchers, np_steps=3, oc=OC3, weights=None, eu=None, bloc
     eu = np.zeros(tep.shape) if eu is None else np.ascontiguousarray(eu, dtype=np.float64)
     airports = np.array([s[4] for s in searchers], dtype=np.int64)
     states = [Searcher(uid, x, y, h, 0, -1, return_table(blocked, home, oc)) for uid, x, y, h, home in searchers]
-    w = (weights if weights is not None else RewardWeights()).as_array() if not isinstance(weights, np.ndarray) else weights
-    return StepProblem(tep, eu, blocked, airport_reward_map(tep.shape, airports), w, oc.successors, np_steps, states,
-                       committed or {}, predicted or {})
+    if not isinstance(weights, np.ndarray):
+        weights = (weights if weights is not None else RewardWeights()).as_array()
+    return StepProblem(tep, eu, blocked, airport_reward_map(tep.shape, airports), weights, oc.successors, np_steps,
+                       states, committed or {}, predicted or {})
 
 
 @pytest.fixture

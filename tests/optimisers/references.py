@@ -26,7 +26,7 @@ class Scorer:
         self.shared = {}
 
     def others(self, g):
-        rows = [r for r in self.fixed] + [c for k, c in sorted(self.shared.items()) if k != g]
+        rows = list(self.fixed) + [c for k, c in sorted(self.shared.items()) if k != g]
         hard = list(self.fixed_hard) + [False] * (len(rows) - len(self.fixed))
         m = self.p.np_steps
         return (np.array(rows, dtype=np.int64).reshape(-1, m, 2), np.array(hard, dtype=np.bool_))
@@ -134,11 +134,12 @@ def reference_pso(scorer, k, positions, velocities, r1, r2, w, c1, c2):
         if t > 0:
             for a in range(n):
                 for q in range(m):
-                    v = w * V[a, q] + c1 * r1[t - 1, a, q] * (pbest[a, q] - X[a, q]) + c2 * r2[t - 1, a, q] * (gbest[q] - X[a, q])
+                    v = (w * V[a, q] + c1 * r1[t - 1, a, q] * (pbest[a, q] - X[a, q])
+                         + c2 * r2[t - 1, a, q] * (gbest[q] - X[a, q]))
                     V[a, q] = min(k - 1.0, max(-(k - 1.0), v))
                     X[a, q] = clamp(X[a, q] + V[a, q], k)
         rows = [decode(X[a], k) for a in range(n)]
-        for a, (f, s, d, c) in enumerate(scorer(0, rows)):
+        for a, (f, s, _depth, _cells) in enumerate(scorer(0, rows)):
             if f > pfit[a]:
                 pfit[a], pbest[a] = f, X[a].copy()
             if f > gfit:

@@ -4,17 +4,26 @@ import numpy as np
 import pytest
 
 from planner.reward import RewardWeights
-from planner.search.cpio import CpioStrategy, paths_conflict
+from planner.search.competition import paths_conflict
+from planner.search.cpio import PROXIMITY, CpioStrategy
 from tests.optimisers.conftest import make_problem
 
 
 def test_paths_conflict_within_sqrt2_at_the_same_step_only():
     a = np.array([[4, 4], [6, 4], [-1, -1]])
-    assert paths_conflict(a, np.array([[4, 4], [0, 0], [0, 0]]))          # same cell
-    assert paths_conflict(a, np.array([[0, 0], [7, 5], [0, 0]]))          # diagonal neighbour
-    assert not paths_conflict(a, np.array([[6, 4], [0, 0], [0, 0]]))      # 2 cells apart
-    assert not paths_conflict(a, np.array([[0, 0], [4, 4], [0, 0]]))      # a's cell one step later
-    assert not paths_conflict(a, np.array([[0, 0], [0, 0], [0, 0]]))      # unknown cells never conflict
+    assert paths_conflict(a, np.array([[4, 4], [0, 0], [0, 0]]), PROXIMITY)          # same cell
+    assert paths_conflict(a, np.array([[0, 0], [7, 5], [0, 0]]), PROXIMITY)          # diagonal neighbour
+    assert not paths_conflict(a, np.array([[6, 4], [0, 0], [0, 0]]), PROXIMITY)      # 2 cells apart
+    assert not paths_conflict(a, np.array([[0, 0], [4, 4], [0, 0]]), PROXIMITY)      # a's cell one step later
+    assert not paths_conflict(a, np.array([[0, 0], [0, 0], [0, 0]]), PROXIMITY)      # unknown cells never conflict
+
+
+def test_the_basic_rule_conflicts_on_a_shared_cell_only():
+    a = np.array([[4, 4], [6, 4], [-1, -1]])
+    assert paths_conflict(a, np.array([[0, 0], [6, 4], [0, 0]]))
+    assert not paths_conflict(a, np.array([[0, 0], [7, 5], [0, 0]]))                 # diagonal neighbour
+    assert not paths_conflict(a, np.array([[5, 4], [0, 0], [0, 0]]))                 # next cell
+    assert not paths_conflict(a, np.array([[-1, -1], [-1, -1], [-1, -1]]))
 
 
 def two_uavs_aimed_at_one_cell(left_bonus: float, right_bonus: float):
@@ -52,6 +61,6 @@ def test_cooperation_steers_subgroups_apart_through_f_r():
     problem = make_problem(tep, [(1, 2, 6, 3, (0, 8)), (2, 4, 3, 0, (8, 0))], np_steps=1,
                            weights=RewardWeights(0.3, 0.0, 0.3, 0.0))
     alone = PioStrategy().decide(problem, np.random.default_rng(0))
-    assert paths_conflict(alone[1].path[:, :2], alone[2].path[:, :2])
+    assert paths_conflict(alone[1].path[:, :2], alone[2].path[:, :2], PROXIMITY)
     together = CpioStrategy().coevolve(problem, np.random.default_rng(0))
-    assert not paths_conflict(together[1].path[:, :2], together[2].path[:, :2])
+    assert not paths_conflict(together[1].path[:, :2], together[2].path[:, :2], PROXIMITY)

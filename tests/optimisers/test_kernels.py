@@ -52,8 +52,8 @@ def test_pio_kernel_matches_reference(random_problem, seed, groups, compass, hor
                              problem.fa_map, others, hard, 0, problem.weights, False, moved, compass,
                              landmark, params.compass_coefficient, params.min_flock, best, np.empty(groups),
                              np.empty(groups, dtype=np.int64), trace)
-    ref_best, ref_trace, ref_evaluations, ref_positions = reference_pio(scorer, successors.shape[1], positions, compass, landmark,
-                                                         params.compass_coefficient, params.min_flock)
+    ref_best, ref_trace, ref_evaluations, ref_positions = reference_pio(
+        scorer, successors.shape[1], positions, compass, landmark, params.compass_coefficient, params.min_flock)
     assert best.tolist() == ref_best
     np.testing.assert_allclose(trace, ref_trace)
     np.testing.assert_allclose(moved, ref_positions, rtol=1e-12, atol=1e-12)

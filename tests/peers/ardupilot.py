@@ -8,7 +8,6 @@ only where the peers folder is absent."""
 from __future__ import annotations
 
 import os
-import shutil
 import socket
 import subprocess
 import tempfile
@@ -17,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
+
+from tests.peers.process import SitlProcess
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -60,7 +61,7 @@ def free_instance(first: int = 0) -> int:
 
 
 @dataclass
-class ArduPilotSitl:
+class ArduPilotSitl(SitlProcess):
     """One SITL process. `gcs_port`: the UDP port SERIAL1 pushes to (`udpin:127.0.0.1:PORT` on our
     side); `tcp_port`: SERIAL0; `tcp_port_2`: SERIAL2 (a companion computer's port)."""
 
@@ -109,7 +110,7 @@ class ArduPilotSitl:
                 f"{hdg:g}", "--serial1", f"udpclient:127.0.0.1:{self.gcs_port}"]
         if self.serial2:
             args += ["--serial2", self.serial2]
-        log = open(self.workdir / "sitl.log", "wb")  # noqa: SIM115 - closed with the process
+        log = open(self.workdir / "sitl.log", "wb")
         self.process = subprocess.Popen(args, env=env, stdout=log, stderr=subprocess.STDOUT, cwd=self.workdir)
         log.close()
         deadline = time.monotonic() + 20.0
@@ -119,22 +120,3 @@ class ArduPilotSitl:
             assert time.monotonic() < deadline, "SITL did not open its TCP port"
             time.sleep(0.05)
         return self
-
-    def stop(self) -> None:
-        if self.process is not None and self.process.poll() is None:
-            self.process.terminate()
-            try:
-                self.process.wait(10)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait(5)
-        self.process = None
-        if self.workdir is not None:
-            shutil.rmtree(self.workdir, ignore_errors=True)
-            self.workdir = None
-
-    def __enter__(self) -> ArduPilotSitl:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()

@@ -10,7 +10,8 @@ import threading
 class UdpRelay:
     """Listens on `port` (where the vehicle sends), forwards to the station at `station_port` from
     its own socket, and sends the station's replies back to the vehicle. `silence()` drops
-    everything both ways until `restore()`."""
+    everything both ways until `restore()`. The roles turn round for a vehicle the station calls
+    first (PX4's GCS port): the station sends to `port`, and `station_port` is the vehicle's."""
 
     def __init__(self, station_port: int) -> None:
         self.station = ("127.0.0.1", station_port)

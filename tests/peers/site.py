@@ -60,7 +60,8 @@ class Site:
     def geojson(self) -> dict:
         h = self.half_m
         features = [{"type": "Feature", "properties": {"role": "area", "name": "sitl square"},
-                     "geometry": {"type": "Polygon", "coordinates": [self._ring([(-h, -h), (h, -h), (h, h), (-h, h)])]}},
+                     "geometry": {"type": "Polygon",
+                                  "coordinates": [self._ring([(-h, -h), (h, -h), (h, h), (-h, h)])]}},
                     {"type": "Feature", "properties": {"role": "prior", "tep": 0.9, "eu": 0.9},
                      "geometry": {"type": "Polygon",
                                   "coordinates": [self._ring([(-h, 0), (0, 0), (0, h), (-h, h)])]}}]

@@ -70,7 +70,8 @@ def assert_plan_safe(plan: Plan, scenario: Scenario, oc: OrientationConstraint) 
                 assert not seen_return, "no search after the return stage began"
         for p in traj:
             key = (p.step, p.x, p.y)
-            assert key not in occupied, f"UAVs {occupied.get(key)} and {u.uav_id} share cell ({p.x},{p.y}) at step {p.step}"
+            assert key not in occupied, \
+                f"UAVs {occupied.get(key)} and {u.uav_id} share cell ({p.x},{p.y}) at step {p.step}"
             occupied[key] = u.uav_id
 
 

@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from planner.campaign import Belief, look_counts, predicted_after, sortie_seed
 from planner.dtscs import ClosedSearch, MissionConfig

@@ -1,10 +1,14 @@
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from planner.dtscs import ClosedSearch, MissionConfig, fly
+import gcs.return_trigger
+from planner.dtscs import ClosedSearch, MissionConfig, first_step_feasible, fly
 from planner.motion import OC3, OC4, OC8
 from planner.plan import ReturnReason, Stage
+from planner.range_check import check_return
 from planner.scenario import paper_scenario
 from tests.planner.helpers import assert_plan_safe, random_scenario
 
@@ -142,7 +146,8 @@ def test_observed_search_changes_the_map_only_through_readings():
     assert search.map.tep[tx, ty] > before[tx, ty]
     assert search.map.eu[tx, ty] == scenario.search_map.eu[tx, ty] / 2
     assert search.observe((tx, ty), True, 0.9, 0.1) is False
-    empty = next((x, y) for x in range(50) for y in range(50) if not search.target_grid[x, y] and not search.map.no_fly[x, y])
+    empty = next((x, y) for x in range(50) for y in range(50)
+                 if not search.target_grid[x, y] and not search.map.no_fly[x, y])
     assert search.observe(empty, True, 0.9, 0.1) is False and search.false_alarms == 1
     plan = search.plan()
     assert plan.targets[0].found_step == 1 and plan.targets[0].found_by == 2
@@ -189,3 +194,14 @@ def test_simulated_readings_are_fixed_by_seed_uav_cell_and_visit():
                     alarms += 1
     assert {(t.x, t.y): t.found_step for t in plan.targets if t.found_step is not None} == expected_finds
     assert plan.false_alarms == alarms and alarms > 0
+
+
+def test_the_planner_and_the_live_trigger_share_one_range_check():
+    """Eq. (23) at k+1 is written once (`planner.range_check`): the live trigger uses it, and the
+    planner's first-step test agrees with it on every range, step count and way home."""
+    assert gcs.return_trigger.check_return is check_return
+    blocked = np.zeros((3, 3), dtype=np.bool_)
+    for home, flown, range_steps in itertools.product(range(6), range(4), range(10)):
+        table = np.full((8, 3, 3), home, dtype=np.int32)
+        feasible = first_step_feasible(table, OC3.successors, blocked, (1, 1, 0), flown, range_steps)
+        assert feasible == (not check_return(range_steps - flown, home).must_return)

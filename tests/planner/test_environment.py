@@ -1,7 +1,15 @@
 import numpy as np
 import pytest
 
-from planner.environment import SearchMap, Sensor, eu_after_visit, footprint_cells, sense, tep_after_no_report, tep_after_report
+from planner.environment import (
+    SearchMap,
+    Sensor,
+    eu_after_visit,
+    footprint_cells,
+    sense,
+    tep_after_no_report,
+    tep_after_report,
+)
 
 
 def test_bayes_after_report_matches_hand_computation():

@@ -176,7 +176,7 @@ def test_off_is_the_paper_and_a_zero_weight_changes_nothing(strategy):
 
 def test_off_searchers_carry_no_window_and_score_plain_j1():
     search = ClosedSearch(paper_scenario(1, range_steps=60), MissionConfig(np_steps=3), seed=1)
-    problem = search._problem([u for u in search.uavs.values()])
+    problem = search._problem(list(search.uavs.values()))
     s = problem.searchers[0]
     assert all(t.horizon is None for t in problem.searchers)
     choices = all_choices(3, 3)

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OC4, OC8
-from planner.reward import airport_reward_map, best_two, score_paths
 from planner.return_exact import UNREACHABLE, return_table
+from planner.reward import airport_reward_map, best_two, score_paths
 from planner.search.exhaustive import all_choices
 
 

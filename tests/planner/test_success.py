@@ -51,7 +51,7 @@ def test_expected_finds_match_the_reference_and_the_parts_add_up(case):
     assert success.expected == pytest.approx(expected_finds(prior, searchable, pc, counts), abs=1e-12)
     if looks:
         assert success.cumulative[-1] == pytest.approx(success.expected)
-        assert list(success.steps) == sorted(set(s for s, *_ in looks))
+        assert list(success.steps) == sorted({s for s, *_ in looks})
         assert np.all(np.diff(success.cumulative) >= 0)
         for uid, series in success.cumulative_by_uav.items():
             assert series[-1] == pytest.approx(success.by_uav[uid])

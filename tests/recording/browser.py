@@ -37,10 +37,10 @@ class Browser:
                 self.page_ws = next(t["webSocketDebuggerUrl"] for t in _json(f"http://127.0.0.1:{port}/json")
                                     if t["type"] == "page")
                 return
-            except (OSError, StopIteration, ValueError):
+            except (OSError, StopIteration, ValueError) as err:
                 if time.monotonic() > deadline or self.proc.poll() is not None:
                     self.close()
-                    raise RuntimeError("chromium did not start its DevTools endpoint")
+                    raise RuntimeError("chromium did not start its DevTools endpoint") from err
                 time.sleep(0.2)
 
     def close(self) -> None:

@@ -79,8 +79,8 @@ def test_events_tell_take_offs_the_early_return_and_why_and_landings(flown):
     for uid in plan.uavs:
         assert sum(line.startswith(f"UAV {uid}: take-off") for line in lines) == 1
         assert sum(line.startswith(f"UAV {uid}: landed") for line in lines) == 1
-        assert lines.index(next(l for l in lines if l.startswith(f"UAV {uid}: take-off"))) < \
-            lines.index(next(l for l in lines if l.startswith(f"UAV {uid}: landed")))
+        assert lines.index(next(line for line in lines if line.startswith(f"UAV {uid}: take-off"))) < \
+            lines.index(next(line for line in lines if line.startswith(f"UAV {uid}: landed")))
     for uid in (2, 3, 4):  # they follow their plans home
         assert sum(line.startswith(f"UAV {uid}: planned return begins") for line in lines) == 1
     returns = [line for line in lines if "return triggered" in line]

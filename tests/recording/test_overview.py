@@ -7,8 +7,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from gcs.overview import HEIGHT_PX, WIDTH_PX, draw_overview
-from gcs.overview import uav_colour
+from gcs.overview import HEIGHT_PX, WIDTH_PX, draw_overview, uav_colour
 from tests.recording.conftest import RecordedRun
 
 
@@ -40,7 +39,8 @@ def test_overview_differs_between_plans(recorded_run: RecordedRun, tmp_path: Pat
 
     other_scenario = paper_scenario(11, range_steps=30)
     other = fly(other_scenario, MissionConfig(), seed=11)
-    a = np.asarray(Image.open(draw_overview(recorded_run.plan, recorded_run.scenario, tmp_path / "a.png")).convert("RGB"))
+    a = np.asarray(Image.open(draw_overview(recorded_run.plan, recorded_run.scenario, tmp_path / "a.png"))
+                   .convert("RGB"))
     b = np.asarray(Image.open(draw_overview(other, other_scenario, tmp_path / "b.png")).convert("RGB"))
     assert a.shape == b.shape and (a != b).any(axis=-1).mean() > 0.01
 

@@ -52,8 +52,9 @@ def vertex(seq, n=4, **fields) -> MissionItem:
 
 
 def rally(seq, z=60.0, **fields) -> MissionItem:
-    return MissionItem(**(dict(seq=seq, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, command=mavlink.MAV_CMD_NAV_RALLY_POINT,
-                               x=LAT, y=LON + seq, z=z, mission_type=RALLY) | fields))
+    return MissionItem(**(dict(seq=seq, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                               command=mavlink.MAV_CMD_NAV_RALLY_POINT, x=LAT, y=LON + seq, z=z,
+                               mission_type=RALLY) | fields))
 
 
 def send(p, item: MissionItem, now=0.0, sender=GCS):

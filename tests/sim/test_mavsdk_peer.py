@@ -10,8 +10,7 @@ import math
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.action import ActionAsync, ActionError
 from mavsdk.asyncio.plugins.mission import MissionAsync, MissionItem, MissionPlan
-from mavsdk.asyncio.plugins.mission_raw import MissionItem as RawItem
-from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
+from mavsdk.asyncio.plugins.mission_raw import MissionItem as RawItem, MissionRawAsync
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 
 from gcs.autopilots.ardupilot_storage import stored_item

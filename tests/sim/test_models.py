@@ -6,14 +6,13 @@ import math
 
 import pymap3d
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 
+from planner.sensor_noise import reading_draw
 from sim.battery import Battery, BatteryConfig, FailsafeLevel, failsafe_level, failsafe_to_trigger
 from sim.geo import LocalFrame
 from sim.kinematics import KinematicLimits, KinematicState, step_toward, wrap_pi
 from sim.modes import Mode, custom_mode_of, mode_from_custom
-from planner.sensor_noise import reading_draw
 from sim.sensor import DownwardSensor, SensorConfig
 
 PLANE = KinematicLimits(cruise_speed_m_s=20, turn_rate_rad_s=math.radians(20), climb_rate_m_s=5,

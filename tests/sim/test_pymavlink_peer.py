@@ -13,7 +13,6 @@ from gcs.autopilots.ardupilot_storage import stored_item
 from sim import BatteryConfig, LinkFaults, MissionItem
 from sim.link import signing_key_from
 from sim.mission_client import MissionClient, MissionTransferError
-
 from tests.sim.helpers import HOME, distance_m, fast, home_placeholder, offset, waypoint
 
 COPTER_GUIDED, COPTER_AUTO, COPTER_RTL, COPTER_LAND = 4, 3, 6, 9

@@ -1,0 +1,170 @@
+"""PX4 SITL (v1.15.3, built-in SIH simulator) as a test peer: `Px4Sitl` starts one instance with
+the peers folder's `run-sitl` (its README lists ports, start-up times and quirks) and stops it.
+
+The shared bundle's `bin/px4-*` module aliases are plain files where PX4 expects symbolic links
+to `px4` (rcS then fails with "px4-param: Permission denied"), so the first start makes a private
+copy of the bundle with the links restored; the binary and its start-up files are used as they
+are. PX4 does not exit with its parent: `stop()` kills it, and deletes its working folder.
+
+The station talks to an instance on its GCS port (`udpout:127.0.0.1:18570+I`: PX4 answers the
+first address that speaks to it, for good); parameters are set beforehand through the instance's
+API port (14580+I), so the GCS port is still free for the station."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import struct
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+from tests.peers.ardupilot import peers_dir
+from tests.peers.process import SitlProcess
+
+#: PX4's simulated battery drains 100 % over SIM_BAT_DRAIN seconds of armed vehicle time (its
+#: default, 60 s, then stops at SIM_BAT_MIN_PCT 50 %); an hour keeps it well above the reserve
+#: for a whole search
+STEADY_BATTERY = {"SIM_BAT_DRAIN": 3600.0, "SIM_BAT_MIN_PCT": 5.0}
+
+_BUNDLE_COPY = Path(tempfile.gettempdir()) / f"gcs-px4-bundle-{os.getuid()}"
+
+
+def px4_dir() -> Path:
+    return peers_dir() / "px4"
+
+
+def require_px4() -> Path:
+    folder = px4_dir()
+    if not (folder / "run-sitl").exists():
+        pytest.skip(f"PX4 SITL not found at {folder} (set GCS_PEERS_DIR to the peers folder)")
+    if shutil.which("bc") is None:
+        raise RuntimeError("PX4's rcS needs bc for a speed-up (tools/setup --test installs it)")
+    return folder
+
+
+def _bundle() -> Path:
+    """A copy of the PX4 bundle whose module aliases are symbolic links to `px4` (made once)."""
+    src = require_px4()
+    if (_BUNDLE_COPY / "bin" / "px4").exists() and (_BUNDLE_COPY / "bin" / "px4-param").is_symlink():
+        return _BUNDLE_COPY
+    staging = Path(tempfile.mkdtemp(prefix="gcs-px4-bundle-"))
+    shutil.copytree(src / "etc", staging / "etc")
+    shutil.copy2(src / "run-sitl", staging / "run-sitl")
+    (staging / "bin").mkdir()
+    shutil.copy2(src / "bin" / "px4", staging / "bin" / "px4")
+    shutil.copy2(src / "bin" / "px4-alias.sh", staging / "bin" / "px4-alias.sh")
+    for alias in (src / "bin").glob("px4-*"):
+        if alias.name != "px4-alias.sh":
+            (staging / "bin" / alias.name).symlink_to("px4")
+    for path in (staging / "run-sitl", staging / "bin" / "px4", staging / "bin" / "px4-alias.sh"):
+        path.chmod(0o755)
+    for root, dirs, files in os.walk(staging / "etc"):
+        for name in dirs + files:
+            target = Path(root) / name
+            if not target.is_symlink():
+                target.chmod(target.stat().st_mode | 0o200)
+    shutil.rmtree(_BUNDLE_COPY, ignore_errors=True)
+    staging.rename(_BUNDLE_COPY)
+    return _BUNDLE_COPY
+
+
+def _udp_free(port: int) -> bool:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError:
+            return False
+    return True
+
+
+def free_instance(first: int = 0) -> int:
+    for instance in range(first, first + 20):
+        if all(_udp_free(p + instance) for p in (18570, 14580, 14280, 13030, 19450)):
+            return instance
+    raise RuntimeError("no free PX4 instance number")
+
+
+@dataclass
+class Px4Sitl(SitlProcess):
+    """One PX4 SITL process; `gcs_connection` is the station's link to it."""
+
+    vehicle: str = "copter"
+    home: tuple[float, float, float] = (47.2771883, 11.4039709, 584.0)
+    sysid: int = 1
+    speedup: float = 5.0
+    params: dict[str, float | int] = field(default_factory=dict)  # int: an INT32 parameter
+    instance: int | None = None
+    process: subprocess.Popen | None = None
+    workdir: Path | None = None
+
+    @property
+    def gcs_port(self) -> int:
+        assert self.instance is not None
+        return 18570 + self.instance
+
+    @property
+    def gcs_connection(self) -> str:
+        return f"udpout:127.0.0.1:{self.gcs_port}"
+
+    @property
+    def api_connection(self) -> str:
+        assert self.instance is not None
+        return f"udpout:127.0.0.1:{14580 + self.instance}"
+
+    @property
+    def payload_connection(self) -> str:
+        """The payload (camera) port: what PX4 hears there it forwards to the station, and back."""
+        assert self.instance is not None
+        return f"udpout:127.0.0.1:{14280 + self.instance}"
+
+    def start(self) -> Px4Sitl:
+        bundle = _bundle()
+        self.instance = free_instance() if self.instance is None else self.instance
+        self.workdir = Path(tempfile.mkdtemp(prefix=f"px4-{self.vehicle}-{self.instance}-"))
+        env = dict(os.environ, SPEEDUP=f"{self.speedup:g}", WIPE="1", SYSID=str(self.sysid),
+                   PX4_SITL_HOME=str(self.workdir))
+        lat, lon, alt = self.home[:3]
+        log = open(self.workdir / "px4.log", "wb")
+        self.process = subprocess.Popen([str(bundle / "run-sitl"), self.vehicle, str(self.instance), f"{lat:.7f}",
+                                         f"{lon:.7f}", f"{alt:g}"], env=env, stdout=log, stderr=subprocess.STDOUT,
+                                        cwd=self.workdir, start_new_session=True)
+        log.close()
+        deadline = time.monotonic() + 30.0
+        while _udp_free(self.gcs_port):  # the GCS port is bound once PX4's mavlink is up
+            if self.process.poll() is not None:
+                raise RuntimeError(f"PX4 exited at start: {(self.workdir / 'px4.log').read_text()[-2000:]}")
+            assert time.monotonic() < deadline, "PX4 did not open its MAVLink ports"
+            time.sleep(0.05)
+        if self.params:
+            self._set_params()
+        return self
+
+    def _set_params(self) -> None:
+        """PARAM_SET through the API port, confirmed by PARAM_VALUE, before the station connects."""
+        os.environ.setdefault("MAVLINK20", "1")
+        from pymavlink import mavutil
+
+        conn = mavutil.mavlink_connection(self.api_connection, source_system=250, source_component=190)
+        try:
+            for name, value in self.params.items():
+                # an int goes as MAV_PARAM_TYPE_INT32, its bytes in the float field (PX4's encoding)
+                is_int = isinstance(value, int)
+                wire = struct.unpack("<f", struct.pack("<i", value))[0] if is_int else float(value)
+                for _ in range(50):
+                    conn.mav.param_set_send(self.sysid, 1, name.encode(), wire, 6 if is_int else 9)
+                    msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=0.5)
+                    if msg is None or msg.param_id.rstrip("\x00") != name:
+                        continue
+                    got = struct.unpack("<i", struct.pack("<f", msg.param_value))[0] if is_int else msg.param_value
+                    if abs(got - value) < 1e-6:
+                        break
+                else:
+                    raise RuntimeError(f"PX4 did not confirm {name} = {value}")
+        finally:
+            conn.close()
