@@ -176,6 +176,7 @@ def load_plan_dir(folder: str | Path) -> FleetPlan:
         raise _fail(folder, "no plan.json in it (make one with gcs plan --area)") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise _fail(folder, f"plan.json is not readable JSON ({exc})") from None
+    _check_schema(folder, data)
     try:
         grid_data = data["grid"]
         georef = grid_data.get("georef")
@@ -211,6 +212,19 @@ def load_plan_dir(folder: str | Path) -> FleetPlan:
     if not uavs:
         raise _fail(folder, "plan.json has no UAVs")
     return FleetPlan(folder, uavs, frame, grid, no_fly, oc, targets, data)
+
+
+def _check_schema(folder: Path, data: object) -> None:
+    """plan.json against gcs/schemas/plan.schema.json: UserError naming the first field that
+    is missing or wrong (where it is, and what was expected)."""
+    import jsonschema
+
+    from gcs.plan_file import plan_schema
+
+    error = jsonschema.exceptions.best_match(jsonschema.Draft202012Validator(plan_schema()).iter_errors(data))
+    if error is not None:
+        where = "".join(f"[{p}]" if isinstance(p, int) else f".{p}" for p in error.absolute_path).lstrip(".")
+        raise _fail(folder, f"plan.json does not follow the plan schema: {where or 'the top level'}: {error.message}")
 
 
 def _approach(data: dict | None) -> LandingApproach | None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import shutil
 import socket
 
 import pytest
@@ -62,6 +64,22 @@ def test_plan_without_geo_reference(tmp_path, capsys):
     capsys.readouterr()
     assert main(["upload", "--plan", str(tmp_path), "--sim"]) == 2
     assert "geo-reference" in _one_error_line(capsys)
+
+
+@pytest.mark.parametrize("tamper, named", [
+    (lambda d: d.pop("grid"), "the top level: 'grid' is a required property"),
+    (lambda d: d["uavs"][1].pop("trajectory"), "uavs[1]: 'trajectory' is a required property"),
+    (lambda d: d["grid"].update(nx="fifty"), "grid.nx: 'fifty' is not of type 'integer'"),
+])
+def test_a_tampered_plan_file_names_the_field(plan_dir, tmp_path, capsys, tamper, named):
+    folder = tmp_path / "tampered"
+    shutil.copytree(plan_dir, folder)
+    data = json.loads((folder / "plan.json").read_text())
+    tamper(data)
+    (folder / "plan.json").write_text(json.dumps(data))
+    assert main(["upload", "--plan", str(folder), "--sim"]) == 2
+    line = _one_error_line(capsys)
+    assert "does not follow the plan schema" in line and named in line, line
 
 
 def test_vehicles_that_never_answer_are_named_with_the_links_listened_on(plan_dir, capsys):
