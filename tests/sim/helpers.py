@@ -6,13 +6,14 @@ import math
 import os
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim import HomePose, MissionItem, VehicleConfig
+from sim import HomePose, MissionItem, SimVehicle, VehicleConfig
 
 HOME = HomePose(-35.363261, 149.165230, 584.0, 0.0)
 # ArduPilot's start-up (GPS fix, home, EKF position) at 5 % of the measured times: a copter is
@@ -119,3 +120,58 @@ def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
     dn = (lat2 - lat1) * 111_319.49
     de = (lon2 - lon1) * 111_319.49 * math.cos(math.radians(lat1))
     return math.hypot(de, dn)
+
+
+STATION = (255, 190)  # the system and component id a stepped vehicle hears its station as
+
+
+@dataclass
+class SteppedVehicle:
+    """One vehicle stepped by hand (no sockets), a clock and everything it sent, as (vehicle
+    seconds, message); each profile's tests add the station's commands in that profile's words."""
+
+    v: SimVehicle
+    sent: list = field(default_factory=list)
+
+    def run(self, seconds: float, until=None, dt: float = 0.05, station: bool = False) -> None:
+        """Step for `seconds` (or until `until(vehicle)`); `station`: a ground station's HEARTBEAT
+        every second, as over a real link."""
+        end = self.v.time_s + seconds
+        while self.v.time_s < end - 1e-9:
+            if station and math.floor(self.v.time_s + dt) > math.floor(self.v.time_s):
+                self.handle(mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID,
+                                                              0, 0, 0, 3))
+            self.v.step(dt)
+            self.sent += [(self.v.time_s, m) for m in self.v.emit() + self.v.poll(0.0)]
+            if until is not None and until(self.v):
+                return
+        assert until is None, f"not reached within {seconds} s"
+
+    def handle(self, msg) -> list:
+        msg._header = mavlink.MAVLink_header(msg.id, srcSystem=STATION[0], srcComponent=STATION[1])
+        out = self.v.handle(msg, 0.0) + self.v.emit()
+        self.sent += [(self.v.time_s, m) for m in out]
+        return out
+
+    def command(self, command: int, *params: float) -> int:
+        p = list(params) + [0.0] * (7 - len(params))
+        out = self.handle(mavlink.MAVLink_command_long_message(1, 1, command, 0, *p))
+        return next(m.result for m in out if m.get_type() == "COMMAND_ACK")
+
+    def mark(self) -> int:
+        """A place in what was sent, for `texts(since=...)`."""
+        return len(self.sent)
+
+    def texts(self, since: int = 0) -> list[str]:
+        return [m.text for _, m in self.sent[since:] if m.get_type() == "STATUSTEXT"]
+
+    def said(self, action, *args) -> tuple:
+        """`action(*args)`'s result and the texts the vehicle sent meanwhile."""
+        mark = self.mark()
+        return action(*args), self.texts(mark)
+
+    def of(self, kind: str, since: float = -1.0) -> list:
+        return [(t, m) for t, m in self.sent if m.get_type() == kind and t >= since]
+
+    def first(self, kind: str, pred=lambda m: True) -> float:
+        return next(t for t, m in self.sent if m.get_type() == kind and pred(m))

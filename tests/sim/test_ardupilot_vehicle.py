@@ -6,49 +6,23 @@ DO_REPOSITION, the battery."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim import BatteryConfig, HomePose, MissionItem, Mode, SimVehicle, VehicleConfig
 from sim.ardupilot import BOOT_TIMES
-from tests.sim.helpers import distance_m, offset
+from tests.sim.helpers import SteppedVehicle, distance_m, offset
 
 HOME = HomePose(47.2771883, 11.4039709, 584.0, 90.0)
-GCS = (255, 190)
 REL = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 COPTER = {"GUIDED": 4, "AUTO": 3, "LOITER": 5, "RTL": 6}
 PLANE = {"MANUAL": 0, "AUTO": 10, "RTL": 11, "GUIDED": 15}
 ACCEPTED, FAILED, DENIED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_FAILED, mavlink.MAV_RESULT_DENIED
 
 
-@dataclass
-class Sim:
-    """One vehicle, a clock and everything it sent, as (vehicle seconds, message)."""
-
-    v: SimVehicle
-    sent: list = field(default_factory=list)
-
-    def run(self, seconds: float, until=None, dt: float = 0.05) -> None:
-        end = self.v.time_s + seconds
-        while self.v.time_s < end - 1e-9:
-            self.v.step(dt)
-            self.sent += [(self.v.time_s, m) for m in self.v.emit() + self.v.poll(0.0)]
-            if until is not None and until(self.v):
-                return
-        assert until is None, f"not reached within {seconds} s"
-
-    def handle(self, msg) -> list:
-        msg._header = mavlink.MAVLink_header(msg.id, srcSystem=GCS[0], srcComponent=GCS[1])
-        out = self.v.handle(msg, 0.0) + self.v.emit()
-        self.sent += [(self.v.time_s, m) for m in out]
-        return out
-
-    def command(self, command: int, *params: float) -> int:
-        p = list(params) + [0.0] * (7 - len(params))
-        out = self.handle(mavlink.MAVLink_command_long_message(1, 1, command, 0, *p))
-        return next(m.result for m in out if m.get_type() == "COMMAND_ACK")
+class Sim(SteppedVehicle):
+    """An ardupilot-profile vehicle stepped by hand."""
 
     def command_int(self, command: int, p: tuple, lat: float, lon: float, alt: float) -> int:
         out = self.handle(mavlink.MAVLink_command_int_message(1, 1, REL, command, 0, 0, *p, round(lat * 1e7),
@@ -66,24 +40,6 @@ class Sim:
 
     def stream(self, msg_id: int, hz: float) -> None:
         assert self.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz) == ACCEPTED
-
-    def mark(self) -> int:
-        """A place in what was sent, for `texts(since=...)`."""
-        return len(self.sent)
-
-    def texts(self, since: int = 0) -> list[str]:
-        return [m.text for _, m in self.sent[since:] if m.get_type() == "STATUSTEXT"]
-
-    def said(self, action, *args) -> tuple:
-        """`action(*args)`'s result and the texts the vehicle sent meanwhile."""
-        mark = self.mark()
-        return action(*args), self.texts(mark)
-
-    def of(self, kind: str, since: float = -1.0) -> list:
-        return [(t, m) for t, m in self.sent if m.get_type() == kind and t >= since]
-
-    def first(self, kind: str, pred=lambda m: True) -> float:
-        return next(t for t, m in self.sent if m.get_type() == kind and pred(m))
 
     def upload(self, items: list[MissionItem]) -> None:
         """The mission protocol as a station runs it: COUNT, then each MISSION_REQUEST answered."""

@@ -7,18 +7,15 @@ from __future__ import annotations
 
 import math
 import struct
-from dataclasses import dataclass, field
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim import HomePose, MissionItem, Mode, SimVehicle, VehicleConfig
 from sim.px4 import BOOT_TIMES
-from sim.px4_vehicle import Px4Vehicle
-from tests.sim.helpers import distance_m, offset
+from tests.sim.helpers import SteppedVehicle, distance_m, offset
 
 HOME = HomePose(47.2771883, 11.4039709, 584.0, 90.0)
-GCS = (255, 190)
 REL, ABS = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL
 REL_INT, ABS_INT = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_FRAME_GLOBAL_INT
 MODES = {"MANUAL": (1, 0), "POSCTL": (3, 0), "OFFBOARD": (6, 0), "TAKEOFF": (4, 2), "HOLD": (4, 3),
@@ -28,37 +25,12 @@ DENIED, UNSUPPORTED = mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_UNSUPPORTED
 READY_S = BOOT_TIMES["copter"].prearm_s
 
 
-@dataclass
-class Sim:
-    """One vehicle, a clock and everything it sent, as (vehicle seconds, message); texts with
-    PX4's trailing tab removed and its chunks joined."""
-
-    v: Px4Vehicle
-    sent: list = field(default_factory=list)
+class Sim(SteppedVehicle):
+    """A px4-profile vehicle stepped by hand, hearing its station's HEARTBEAT; texts with PX4's
+    trailing tab removed and its chunks joined."""
 
     def run(self, seconds: float, until=None, dt: float = 0.05, station: bool = True) -> None:
-        """`station`: a ground station's HEARTBEAT every second, as over a real link."""
-        end = self.v.time_s + seconds
-        while self.v.time_s < end - 1e-9:
-            if station and math.floor(self.v.time_s + dt) > math.floor(self.v.time_s):
-                self.handle(mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID,
-                                                              0, 0, 0, 3))
-            self.v.step(dt)
-            self.sent += [(self.v.time_s, m) for m in self.v.emit() + self.v.poll(0.0)]
-            if until is not None and until(self.v):
-                return
-        assert until is None, f"not reached within {seconds} s"
-
-    def handle(self, msg) -> list:
-        msg._header = mavlink.MAVLink_header(msg.id, srcSystem=GCS[0], srcComponent=GCS[1])
-        out = self.v.handle(msg, 0.0) + self.v.emit()
-        self.sent += [(self.v.time_s, m) for m in out]
-        return out
-
-    def command(self, command: int, *params: float) -> int:
-        p = list(params) + [0.0] * (7 - len(params))
-        out = self.handle(mavlink.MAVLink_command_long_message(1, 1, command, 0, *p))
-        return next(m.result for m in out if m.get_type() == "COMMAND_ACK")
+        super().run(seconds, until, dt, station)
 
     def command_int(self, command: int, frame: int, p: tuple, lat: float, lon: float, z: float) -> int:
         out = self.handle(mavlink.MAVLink_command_int_message(1, 1, frame, command, 0, 0, *p, round(lat * 1e7),
@@ -77,9 +49,6 @@ class Sim:
         out = self.handle(mavlink.MAVLink_param_set_message(1, 1, name.encode(), raw, kind))
         return next(m for m in out if m.get_type() == "PARAM_VALUE")
 
-    def mark(self) -> int:
-        return len(self.sent)
-
     def texts(self, since: int = 0) -> list[str]:
         out, chunks = [], {}
         for _, m in self.sent[since:]:
@@ -89,16 +58,6 @@ class Sim:
             if len(m.text) < 50:
                 out.append(chunks.pop(m.id).rstrip("\t"))
         return out
-
-    def said(self, action, *args) -> tuple:
-        mark = self.mark()
-        return action(*args), self.texts(mark)
-
-    def of(self, kind: str, since: float = -1.0) -> list:
-        return [(t, m) for t, m in self.sent if m.get_type() == kind and t >= since]
-
-    def first(self, kind: str, pred=lambda m: True) -> float:
-        return next(t for t, m in self.sent if m.get_type() == kind and pred(m))
 
     def upload(self, items: list[MissionItem], mission_type: int = 0) -> int:
         """COUNT, each request answered with MISSION_ITEM_INT; the ACK's result."""
