@@ -405,20 +405,18 @@ class FlightJournal:
         self._open()
         self.write("links", udp_source_ports={link.name: link.local_address[1] for link in controller.links
                                               if link.connection.kind is LinkKind.UDP_OUT})
-        failure: BaseException | None = None
+        async with watching(controller, self.on_event, lambda last: self.sample(controller), self.poll_s,
+                            "flight-journal", on_end=lambda failure: self._end(controller, failure)):
+            yield self
+
+    def _end(self, controller: FlightController, failure: BaseException | None) -> None:
+        """The `end` line (the station alive to see the flight end: nothing to resume)."""
         try:
-            async with watching(controller, self.on_event, lambda last: self.sample(controller), self.poll_s,
-                                "flight-journal"):
-                try:
-                    yield self
-                except BaseException as exc:
-                    failure = exc
-                    raise
-        finally:
             open_ends = sorted(uid for uid, st in controller.status.items() if st.stage not in FINAL_STAGES)
             self.write("end", landed=[uid for uid, st in sorted(controller.status.items()) if st.stage is Stage.LANDED],
                        open=open_ends, interrupted=controller._interrupted,
                        error=None if failure is None else f"{type(failure).__name__}: {failure}")
+        finally:
             self.close()
 
 

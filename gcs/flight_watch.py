@@ -22,9 +22,11 @@ _RETURN_STAGES = ("return", "rtl")
 
 @contextlib.asynccontextmanager
 async def watching(controller: FlightController, on_event: FlightListener, sample: Callable[[bool], None],
-                   period_s: float, name: str) -> AsyncIterator[None]:
+                   period_s: float, name: str,
+                   on_end: Callable[[BaseException | None], None] | None = None) -> AsyncIterator[None]:
     """Subscribe `on_event` and call `sample(False)` every `period_s` while the block runs; on
-    the way out, however it ends, unsubscribe, stop sampling and call `sample(True)` once."""
+    the way out, however it ends, unsubscribe, stop sampling, call `sample(True)` once, then
+    `on_end(the exception that ended the block, or None)`."""
     unsubscribe = controller.subscribe(on_event)
 
     async def poll() -> None:
@@ -33,14 +35,22 @@ async def watching(controller: FlightController, on_event: FlightListener, sampl
             await asyncio.sleep(period_s)
 
     task = asyncio.create_task(poll(), name=name)
+    failure: BaseException | None = None
     try:
         yield
+    except BaseException as exc:
+        failure = exc
+        raise
     finally:
         unsubscribe()
         task.cancel()
         with contextlib.suppress(asyncio.CancelledError):
             await task
-        sample(True)
+        try:
+            sample(True)
+        finally:
+            if on_end is not None:
+                on_end(failure)
 
 
 @dataclass(frozen=True, slots=True)

@@ -202,17 +202,9 @@ class SortieLog:
         """Listen and sample while the block runs; write the record when it ends, however."""
         from gcs.flight_watch import watching
 
-        failure: BaseException | None = None
-        try:
-            async with watching(controller, self.on_event, lambda last: self.sample(controller), self.poll_s,
-                                "sortie-log"):
-                try:
-                    yield self
-                except BaseException as exc:
-                    failure = exc
-                    raise
-        finally:
-            self.finish(controller, failure)
+        async with watching(controller, self.on_event, lambda last: self.sample(controller), self.poll_s,
+                            "sortie-log", on_end=lambda failure: self.finish(controller, failure)):
+            yield self
 
     # ---- when it ends ------------------------------------------------------------------
 

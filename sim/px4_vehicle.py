@@ -395,11 +395,7 @@ class Px4Vehicle(SimVehicle):
     def _disarm(self, reason: str = "") -> None:
         if self.armed and reason:
             self.statustext(reason)
-        self.armed = False
-        self.landing = False
-        self._takeoff_alt_m = None
-        self._disarm_at_s = None
-        self._lift_at_s = None
+        self._clear_flight()
         self._after_hold = None
         self._rtl = None
         self.failsafe = FailsafeLevel.NONE

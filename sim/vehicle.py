@@ -640,14 +640,18 @@ class SimVehicle:
             self._disarm_at_s = self.time_s + self.params["DISARM_DELAY"]  # unless it takes off
         return mavlink.MAV_RESULT_ACCEPTED
 
-    def _disarm(self) -> None:
-        if self.armed:
-            self.statustext("Disarming motors" if self.copter or not self.ardupilot else "Auto disarmed")
+    def _clear_flight(self) -> None:
+        """Disarmed: no landing, take-off or pending (auto-)disarm left over."""
         self.armed = False
         self.landing = False
         self._takeoff_alt_m = None
         self._disarm_at_s = None
         self._lift_at_s = None
+
+    def _disarm(self) -> None:
+        if self.armed:
+            self.statustext("Disarming motors" if self.copter or not self.ardupilot else "Auto disarmed")
+        self._clear_flight()
         self._auto_armed = False
         if self.ardupilot and self.copter and self.mode == Mode.AUTO:
             # the mission is reset: MISSION_CURRENT 0, then "Mission: 1 Takeoff" (flight §2)

@@ -16,6 +16,7 @@ from pathlib import Path
 from gcs.flight_journal import JOURNAL_FILE, JournalError, JournalState, read_journal
 from gcs.flight_recording import FLIGHT_TIME, segment_path
 from gcs.recording import read_recording
+from tests.peers.process import stop_process
 
 
 def station(plan_dir: Path, connections: list[str], *extra: str) -> subprocess.Popen:
@@ -106,12 +107,7 @@ class SimProcess:
 
     def __exit__(self, *exc: object) -> None:
         if self.process is not None:
-            self.process.terminate()
-            try:
-                self.process.wait(10)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait(5)
+            stop_process(self.process)
 
 
 def _free_udp_ports(n: int) -> int:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.peers.process import SitlProcess
+from tests.peers.process import SitlProcess, port_free
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -43,19 +43,10 @@ def free_udp_port() -> int:
         return s.getsockname()[1]
 
 
-def _tcp_free(port: int) -> bool:
-    with socket.socket() as s:
-        try:
-            s.bind(("127.0.0.1", port))
-        except OSError:
-            return False
-    return True
-
-
 def free_instance(first: int = 0) -> int:
     """An instance number whose TCP ports (5760 + 10 I .. 5763 + 10 I) are all free."""
     for instance in range(first, first + 50):
-        if all(_tcp_free(5760 + 10 * instance + k) for k in (0, 2, 3)):
+        if all(port_free(5760 + 10 * instance + k) for k in (0, 2, 3)):
             return instance
     raise RuntimeError("no free SITL instance number")
 
@@ -114,7 +105,7 @@ class ArduPilotSitl(SitlProcess):
         self.process = subprocess.Popen(args, env=env, stdout=log, stderr=subprocess.STDOUT, cwd=self.workdir)
         log.close()
         deadline = time.monotonic() + 20.0
-        while _tcp_free(self.tcp_port):  # SERIAL0 listens once the process is up
+        while port_free(self.tcp_port):  # SERIAL0 listens once the process is up
             if self.process.poll() is not None:
                 raise RuntimeError(f"SITL exited at start: {(self.workdir / 'sitl.log').read_text()[-2000:]}")
             assert time.monotonic() < deadline, "SITL did not open its TCP port"

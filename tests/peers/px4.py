@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import socket
 import struct
 import subprocess
 import tempfile
@@ -25,7 +24,7 @@ from pathlib import Path
 import pytest
 
 from tests.peers.ardupilot import peers_dir
-from tests.peers.process import SitlProcess
+from tests.peers.process import SitlProcess, port_free
 
 #: PX4's simulated battery drains 100 % over SIM_BAT_DRAIN seconds of armed vehicle time (its
 #: default, 60 s, then stops at SIM_BAT_MIN_PCT 50 %); an hour keeps it well above the reserve
@@ -74,18 +73,9 @@ def _bundle() -> Path:
     return _BUNDLE_COPY
 
 
-def _udp_free(port: int) -> bool:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        try:
-            s.bind(("127.0.0.1", port))
-        except OSError:
-            return False
-    return True
-
-
 def free_instance(first: int = 0) -> int:
     for instance in range(first, first + 20):
-        if all(_udp_free(p + instance) for p in (18570, 14580, 14280, 13030, 19450)):
+        if all(port_free(p + instance, udp=True) for p in (18570, 14580, 14280, 13030, 19450)):
             return instance
     raise RuntimeError("no free PX4 instance number")
 
@@ -136,7 +126,7 @@ class Px4Sitl(SitlProcess):
                                         cwd=self.workdir, start_new_session=True)
         log.close()
         deadline = time.monotonic() + 30.0
-        while _udp_free(self.gcs_port):  # the GCS port is bound once PX4's mavlink is up
+        while port_free(self.gcs_port, udp=True):  # the GCS port is bound once PX4's mavlink is up
             if self.process.poll() is not None:
                 raise RuntimeError(f"PX4 exited at start: {(self.workdir / 'px4.log').read_text()[-2000:]}")
             assert time.monotonic() < deadline, "PX4 did not open its MAVLink ports"
