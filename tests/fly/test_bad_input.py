@@ -9,6 +9,7 @@ import socket
 import pytest
 
 from gcs.cli import main
+from tests.fly.conftest import ROOT
 
 
 def _one_error_line(capsys) -> str:
@@ -90,3 +91,17 @@ def test_vehicles_that_never_answer_are_named_with_the_links_listened_on(plan_di
         assert (f"UAV {uid}: FAILED: no HEARTBEAT from system id {uid} within 0.5 s on udpout:127.0.0.1:9, "
                 "udpin:127.0.0.1:0") in out
     assert "0/4 vehicles verified" in out
+
+
+def test_a_terrain_following_plan_is_refused_for_px4_before_any_upload(tmp_path, capsys):
+    """PX4 has no terrain frame (it answers MAV_MISSION_UNSUPPORTED_FRAME): the station says so
+    per vehicle and uploads nothing, rather than failing half-way through the list."""
+    out = tmp_path / "terrain"
+    assert main(["plan", "--area", str(ROOT / "missions" / "paper.geojson"), "--seed", "0", "--strategy",
+                 "exhaustive", "--terrain-follow", "--out", str(out), "--quiet", "--no-rrd"]) == 0
+    capsys.readouterr()
+    assert main(["upload", "--plan", str(out), "--sim", "--sim-profile", "px4", "--speedup", "20"]) == 1
+    said = capsys.readouterr().out
+    for uid in (1, 2, 3, 4):
+        assert f"UAV {uid}: FAILED: mission not uploaded: PX4 refuses terrain-following frames: plan without " \
+               "--terrain-follow for this vehicle" in said, said
