@@ -138,7 +138,7 @@ def _can_leave(table: np.ndarray, cell: tuple[int, int], heading: int, steps: in
 def mission_scenario(name: str, extra: list[str] | None = None) -> Scenario:
     """The scenario `gcs plan --area missions/<name>.geojson` plans (its default options)."""
     from gcs.cli import build_parser
-    from gcs.missions.planning import build_area_search
+    from gcs.plans.planning import build_area_search
 
     args = build_parser().parse_args(["plan", "--area", str(ROOT / "missions" / f"{name}.geojson"), *(extra or [])])
     return build_area_search(args).search.scenario

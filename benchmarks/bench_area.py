@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from gcs.cli import build_parser  # noqa: E402
-from gcs.missions.planning import area_outputs, build_area_search, write_outputs  # noqa: E402
+from gcs.plans.planning import area_outputs, build_area_search, write_outputs  # noqa: E402
 
 LARGE = ROOT / "missions" / "large.geojson"
 

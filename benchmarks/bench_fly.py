@@ -27,11 +27,11 @@ sys.path.insert(0, str(ROOT))
 
 from gcs.autopilots import Autopilot  # noqa: E402
 from gcs.cli import main as gcs_main  # noqa: E402
-from gcs.commands.fly import start_sim  # noqa: E402
-from gcs.commands.upload import upload_fleet  # noqa: E402
-from gcs.fleet import FleetPlan, load_plan_dir  # noqa: E402
-from gcs.flight import FlightController, FlyOptions  # noqa: E402
+from gcs.cli.commands.fly import start_sim  # noqa: E402
+from gcs.cli.commands.upload import upload_fleet  # noqa: E402
+from gcs.flight.controller import FlightController, FlyOptions  # noqa: E402
 from gcs.links import MavLink  # noqa: E402
+from gcs.plans.plan_folder import FleetPlan, load_plan_dir  # noqa: E402
 
 
 def make_plan() -> FleetPlan:

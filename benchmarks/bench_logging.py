@@ -29,7 +29,7 @@ def fake_geo(cells):
 
 
 def timed_run(seed: int, range_steps: int, rrd: Path | None, **options) -> tuple[float, int, int]:
-    from gcs.recording import PlanRecorder
+    from gcs.recording.plan import PlanRecorder
 
     scenario = paper_scenario(seed, range_steps=range_steps)
     start = time.perf_counter()
@@ -45,12 +45,12 @@ def timed_run(seed: int, range_steps: int, rrd: Path | None, **options) -> tuple
 def child(seed: int, range_steps: int, out: Path, record: bool) -> None:
     """One `gcs plan`-like run in this fresh process: search, plan JSON, recording if asked."""
     from gcs.atomic import write_json_atomic
-    from gcs.plan_file import plan_to_dict
+    from gcs.plans.plan_file import plan_to_dict
 
     scenario = paper_scenario(seed, range_steps=range_steps)
     search = ClosedSearch(scenario, MissionConfig(), seed=seed)
     if record:
-        from gcs.recording import PlanRecorder
+        from gcs.recording.plan import PlanRecorder
 
         with PlanRecorder(out.with_suffix(".rrd"), None, scenario) as rec:
             for step in search.run():

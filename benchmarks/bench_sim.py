@@ -28,7 +28,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim import FleetOptions, HomePose, MissionItem, SimFleet, VehicleConfig, homes_for
-from sim.mission_client import MissionClient
+from tests.sim.mission_client import MissionClient
 
 HOME = HomePose(-35.363261, 149.165230, 584.0, 0.0)
 

@@ -28,8 +28,8 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil  # noqa: E402
 
 from gcs.autopilots import Autopilot  # noqa: E402
+from gcs.autopilots.mission_transfer import Upload, WireItem, transfer, upload_verified  # noqa: E402
 from gcs.links import MavLink, mavlink  # noqa: E402
-from gcs.mission_transfer import Upload, WireItem, transfer, upload_verified  # noqa: E402
 from tests.peers.ardupilot import ArduPilotSitl, require_ardupilot  # noqa: E402
 from tests.peers.px4 import Px4Sitl, require_px4  # noqa: E402
 from tests.peers.site import CENTRE  # noqa: E402

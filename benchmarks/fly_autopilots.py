@@ -26,9 +26,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from gcs.fleet import load_plan_dir  # noqa: E402
-from gcs.flight_recording import FLIGHT_TIME  # noqa: E402
-from gcs.recording import read_recording  # noqa: E402
+from gcs.plans.plan_folder import load_plan_dir  # noqa: E402
+from gcs.recording.flight import FLIGHT_TIME  # noqa: E402
+from gcs.recording.plan import read_recording  # noqa: E402
 from tests.peers.ardupilot import ArduPilotSitl, free_udp_port, require_ardupilot  # noqa: E402
 from tests.peers.px4 import STEADY_BATTERY, Px4Sitl, require_px4  # noqa: E402
 from tests.peers.site import COPTERS, PLANE, Site  # noqa: E402

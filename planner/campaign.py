@@ -11,7 +11,7 @@ up to the campaign's.
 Two ways to the next sortie's belief:
 
 - a flown sortie folds its real readings in, positive or not (`SearchMap.observe`, the update
-  online mode uses; `gcs.sortie` does it during the flight);
+  online mode uses; `gcs.flight.sortie` does it during the flight);
 - a sortie only planned is *predicted* by `predicted_after`: every look of the plan folded in as a
   reading without a report. That is the belief the crew holds when the sortie comes back with
   nothing, the case in which a next sortie is flown at all (search theory's posterior of an

@@ -61,7 +61,7 @@ class SearchMap:
     def observe(self, x: int, y: int, reported: bool, pc: float, pf: float) -> None:
         """Fold one reading of cell (x, y) into the map: eq. (2) after a report, eq. (3) after
         none, eq. (4) for the EU, and one more visit. The planner in the loop and a flight's
-        posterior (`gcs.sortie`) both update through here.
+        posterior (`gcs.flight.sortie`) both update through here.
 
         A reading the model rules out (a report where P = 0 and Pf = 0, none where P = 1 and
         Pc = 1: the Bayes denominator is 0) leaves the TEP as it is; the EU still halves."""

@@ -1,5 +1,5 @@
 """DTSCS's range check (Section 5, eq. 23-24): the one rule by which the planner's switch
-(`planner.dtscs`) and the live return trigger (`gcs.return_trigger`, on battery state) decide
+(`planner.dtscs`) and the live return trigger (`gcs.flight.return_trigger`, on battery state) decide
 that a searching UAV must turn home.
 
 Keep searching while one more step and the lowest-cost return from the pose it reaches still fit

@@ -1,15 +1,15 @@
 """Kinematic software-in-the-loop vehicles that speak MAVLink 2 over UDP (see docs/sim.md)."""
 
-from sim.ardupilot import BootTimes
-from sim.battery import BatteryConfig, FailsafeLevel
+from sim.autopilot.ardupilot import BootTimes
+from sim.autopilot.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
+from sim.autopilot.modes import Mode
+from sim.autopilot.px4 import Px4BootTimes
+from sim.autopilot.vehicle import SimVehicle, VehicleConfig, VehicleState
 from sim.fleet import FleetOptions, SimFleet, homes_for
-from sim.geo import HomePose, LocalFrame
-from sim.link import LinkFaults, signing_key_from
-from sim.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
-from sim.modes import Mode
-from sim.px4 import Px4BootTimes
-from sim.sensor import Observation, SensorConfig
-from sim.vehicle import SimVehicle, VehicleConfig, VehicleState
+from sim.physics.battery import BatteryConfig, FailsafeLevel
+from sim.physics.geo import HomePose, LocalFrame
+from sim.physics.sensor import Observation, SensorConfig
+from sim.vehicle_link import LinkFaults, signing_key_from
 
 __all__ = [
     "BatteryConfig",

@@ -11,10 +11,10 @@ asked), again whenever positions stop. ArduPilot forwards the detector's message
 station with its ids, and the station's COMMAND_LONG to (system, 100) to the detector.
 
 The world is the one `gcs fly --sim` simulates (`World`): the fleet frame at the first UAV's
-airport, the plan's grid as the sensor grid, the plan's targets; the sensor is `sim.sensor`'s
+airport, the plan's grid as the sensor grid, the plan's targets; the sensor is `sim.physics.sensor`'s
 `DownwardSensor` with the noise of `planner.sensor_noise` per (seed, UAV, cell, visit). So on
 one seed the detector reports what the simulated vehicle flying the same track reports, with
-the same CAMERA_IMAGE_CAPTURED (`sim.sensor.reading_message`; image indices from 0) and
+the same CAMERA_IMAGE_CAPTURED (`sim.physics.sensor.reading_message`; image indices from 0) and
 STATUSTEXT for a positive reading, and answers MAV_CMD_REQUEST_MESSAGE(263, index) for a lost
 one with COMMAND_ACK and the reading again.
 
@@ -32,12 +32,12 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from gcs.links import AUTOPILOT_COMPONENT_ID, CommandError, LinkError, MavLink, MAVMessage, SigningKey, mavlink
-from sim.geo import LocalFrame
-from sim.sensor import DownwardSensor, Observation, SensorConfig, reading_message, reading_text
+from sim.physics.geo import LocalFrame
+from sim.physics.sensor import DownwardSensor, Observation, SensorConfig, reading_message, reading_text
 
 if TYPE_CHECKING:
-    from gcs.fleet import FleetPlan
-    from gcs.missions.planning import AreaSetup
+    from gcs.plans.plan_folder import FleetPlan
+    from gcs.plans.planning import AreaSetup
 
 __all__ = ["CAMERA_COMPONENT_ID", "Detector", "Fix", "World", "run_detectors", "serve"]
 
@@ -62,7 +62,7 @@ class World:
 
     @classmethod
     def of_plan(cls, plan: FleetPlan) -> World:
-        """The world of a plan folder (`gcs.fleet.load_plan_dir`)."""
+        """The world of a plan folder (`gcs.plans.plan_folder.load_plan_dir`)."""
         first = plan.uavs[min(plan.uavs)].airport_lat_lon
         corner = plan.frame.local2geodetic(plan.grid.east0_m, plan.grid.north0_m)
         return cls(LocalFrame(*first), (float(corner[0]), float(corner[1])), plan.cell_size_m,

@@ -19,10 +19,10 @@ from typing import Any
 
 from gcs.links.connection import Connection, LinkKind, parse_connection
 from gcs.links.transport import LinkStatus, open_transport
-from sim.geo import HomePose, LocalFrame
-from sim.link import Address, LinkFaults, VehicleLink
-from sim.px4_vehicle import Px4Vehicle
-from sim.vehicle import SimVehicle, VehicleConfig
+from sim.autopilot.px4_vehicle import Px4Vehicle
+from sim.autopilot.vehicle import SimVehicle, VehicleConfig
+from sim.physics.geo import HomePose, LocalFrame
+from sim.vehicle_link import Address, LinkFaults, VehicleLink
 
 MAX_STEP_S = 0.1
 # Real seconds one tick may simulate at most: a process that falls behind slows simulated time

@@ -19,7 +19,7 @@ from gcs.autopilots import ardupilot_storage, modes, px4_storage
 from gcs.links import mavlink
 
 if TYPE_CHECKING:
-    from gcs.mission_transfer import WireItem
+    from gcs.autopilots.mission_transfer import WireItem
 
 __all__ = ["Autopilot", "compare_items"]
 

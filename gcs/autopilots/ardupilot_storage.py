@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING
 from gcs.links import mavlink
 
 if TYPE_CHECKING:
-    from gcs.mission_transfer import WireItem
+    from gcs.autopilots.mission_transfer import WireItem
 
 __all__ = ["MAX_ABS_ALT_M", "known_command", "stored_item"]
 

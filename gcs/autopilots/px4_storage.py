@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING
 from gcs.links import mavlink
 
 if TYPE_CHECKING:
-    from gcs.mission_transfer import WireItem
+    from gcs.autopilots.mission_transfer import WireItem
 
 __all__ = ["MISSION_FRAME_COMMANDS", "refusal", "stored_item"]
 

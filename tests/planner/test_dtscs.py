@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-import gcs.return_trigger
+import gcs.flight.return_trigger
 from planner.dtscs import ClosedSearch, MissionConfig, first_step_feasible, fly
 from planner.motion import OC3, OC4, OC8
 from planner.plan import ReturnReason, Stage
@@ -199,7 +199,7 @@ def test_simulated_readings_are_fixed_by_seed_uav_cell_and_visit():
 def test_the_planner_and_the_live_trigger_share_one_range_check():
     """Eq. (23) at k+1 is written once (`planner.range_check`): the live trigger uses it, and the
     planner's first-step test agrees with it on every range, step count and way home."""
-    assert gcs.return_trigger.check_return is check_return
+    assert gcs.flight.return_trigger.check_return is check_return
     blocked = np.zeros((3, 3), dtype=np.bool_)
     for home, flown, range_steps in itertools.product(range(6), range(4), range(10)):
         table = np.full((8, 3, 3), home, dtype=np.int32)

@@ -10,9 +10,9 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.ardupilot_storage import stored_item
-from sim.ardupilot import CAPACITY, f32, fence_problems, from_legacy_item, item_result, to_legacy_item
-from sim.ardupilot_mission import ArduPilotMissionProtocol
-from sim.mission_protocol import MissionItem, MissionType, ProtocolConfig
+from sim.autopilot.ardupilot import CAPACITY, f32, fence_problems, from_legacy_item, item_result, to_legacy_item
+from sim.autopilot.ardupilot_mission import ArduPilotMissionProtocol
+from sim.autopilot.mission_protocol import MissionItem, MissionType, ProtocolConfig
 
 GCS = (255, 190)
 OTHER = (254, 190)

@@ -11,7 +11,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim import BatteryConfig, HomePose, MissionItem, Mode, SimVehicle, VehicleConfig
-from sim.ardupilot import BOOT_TIMES
+from sim.autopilot.ardupilot import BOOT_TIMES
 from tests.sim.helpers import SteppedVehicle, distance_m, offset
 
 HOME = HomePose(47.2771883, 11.4039709, 584.0, 90.0)

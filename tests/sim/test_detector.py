@@ -18,14 +18,14 @@ from pathlib import Path
 import pytest
 
 from gcs.cli import main
-from gcs.commands.fly import start_sim
-from gcs.fleet import load_plan_dir
-from gcs.flight import fly_async
+from gcs.cli.commands.fly import start_sim
+from gcs.flight.fly import fly_async
 from gcs.links import MavLink, mavlink
+from gcs.plans.plan_folder import load_plan_dir
 from sim.detector import CAMERA_COMPONENT_ID, MAX_GAP_S, Detector, Fix, World, serve
-from sim.sensor import reading_message
-from tests.fly.conftest import fast_options
-from tests.fly.test_bad_input import _one_error_line
+from sim.physics.sensor import reading_message
+from tests.gcs.flight.conftest import fast_options
+from tests.gcs.flight.test_bad_input import _one_error_line
 
 ROOT = Path(__file__).resolve().parents[2]
 PC, PF = 0.9, 0.1
@@ -111,7 +111,7 @@ def test_the_detector_senses_the_world_of_the_simulated_fleet(plan):
 def test_an_area_file_gives_the_world_of_its_plan_folder(plan, plan_dir):
     """`gcs detector --area` lays the area out as `gcs plan --area` does, without planning."""
     from gcs.cli import build_parser
-    from gcs.commands.detector import _world
+    from gcs.cli.commands.detector import _world
 
     def world(*source: str):
         return _world(build_parser().parse_args(["detector", *source, "--uav", "1", "--connect", "tcp:127.0.0.1:5763"]))

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
+from sim.autopilot.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
 
 GCS = (255, 190)
 OTHER = (254, 190)

@@ -9,11 +9,11 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from planner.sensor_noise import reading_draw
-from sim.battery import Battery, BatteryConfig, FailsafeLevel, failsafe_level, failsafe_to_trigger
-from sim.geo import LocalFrame
-from sim.kinematics import KinematicLimits, KinematicState, step_toward, wrap_pi
-from sim.modes import Mode, custom_mode_of, mode_from_custom
-from sim.sensor import DownwardSensor, SensorConfig
+from sim.autopilot.modes import Mode, custom_mode_of, mode_from_custom
+from sim.physics.battery import Battery, BatteryConfig, FailsafeLevel, failsafe_level, failsafe_to_trigger
+from sim.physics.geo import LocalFrame
+from sim.physics.kinematics import KinematicLimits, KinematicState, step_toward, wrap_pi
+from sim.physics.sensor import DownwardSensor, SensorConfig
 
 PLANE = KinematicLimits(cruise_speed_m_s=20, turn_rate_rad_s=math.radians(20), climb_rate_m_s=5,
                         descent_rate_m_s=3, can_hover=False)

@@ -1,4 +1,4 @@
-"""PX4's mission manager (`sim.px4_mission`), messages in and out without sockets, against what
+"""PX4's mission manager (`sim.autopilot.px4_mission`), messages in and out without sockets, against what
 PX4 v1.15.3 SITL did (research `px4` §1, §2) and, where it was not measured, its source: the
 requests, atomic replacement, refusals, capacities, re-requests and the timeout, read-backs and
 their `current` flags, and the item checks against the station's own model of PX4."""
@@ -13,9 +13,9 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots import px4_storage
-from sim.mission_protocol import MissionItem, ProtocolConfig
-from sim.px4 import CAPACITY, item_result, list_result
-from sim.px4_mission import Px4MissionProtocol
+from sim.autopilot.mission_protocol import MissionItem, ProtocolConfig
+from sim.autopilot.px4 import CAPACITY, item_result, list_result
+from sim.autopilot.px4_mission import Px4MissionProtocol
 
 GCS, OTHER = (255, 190), (254, 190)
 MISSION, FENCE, RALLY = 0, 1, 2

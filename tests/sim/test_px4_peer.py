@@ -11,9 +11,9 @@ import time
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim import MissionItem, VehicleConfig
-from sim.mission_client import MissionClient
-from sim.px4 import BOOT_TIMES
+from sim.autopilot.px4 import BOOT_TIMES
 from tests.sim.helpers import HOME, distance_m, fast, offset, waypoint
+from tests.sim.mission_client import MissionClient
 
 PREARM = mavlink.MAV_SYS_STATUS_PREARM_CHECK
 MISSION_MODE = (4, 4)

@@ -12,7 +12,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim import HomePose, MissionItem, Mode, SimVehicle, VehicleConfig
-from sim.px4 import BOOT_TIMES
+from sim.autopilot.px4 import BOOT_TIMES
 from tests.sim.helpers import SteppedVehicle, distance_m, offset
 
 HOME = HomePose(47.2771883, 11.4039709, 584.0, 90.0)

@@ -11,9 +11,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.ardupilot_storage import stored_item
 from sim import BatteryConfig, LinkFaults, MissionItem
-from sim.link import signing_key_from
-from sim.mission_client import MissionClient, MissionTransferError
+from sim.vehicle_link import signing_key_from
 from tests.sim.helpers import HOME, distance_m, fast, home_placeholder, offset, waypoint
+from tests.sim.mission_client import MissionClient, MissionTransferError
 
 COPTER_GUIDED, COPTER_AUTO, COPTER_RTL, COPTER_LAND = 4, 3, 6, 9
 

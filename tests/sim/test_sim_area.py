@@ -8,7 +8,7 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from gcs.area_file import read_area_file
+from gcs.plans.area_file import read_area_file
 from tests.sim.helpers import Gcs, distance_m
 
 ROOT = Path(__file__).resolve().parents[2]

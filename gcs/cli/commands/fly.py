@@ -1,0 +1,414 @@
+"""`gcs fly`: upload the plan to every vehicle, arm, start the missions, and watch the fleet
+until every vehicle has landed (the controller is `gcs.flight.controller`; the live DTSCS return trigger
+and online mode are in docs/fly.md).
+
+`gcs fly --plan DIR --connect udpout:127.0.0.1:14540 ...` flies a `gcs plan --area` folder;
+`gcs fly --area AREA.geojson` plans first (the plan command's code path); `--sim` starts the
+built-in simulated fleet at the plan's airports, so one command runs the whole job.
+
+`gcs fly --resume DIR` takes over a flight whose station died while the vehicles flew (the
+journal it left in DIR, `gcs.flight.journal`; the reattachment, `gcs.flight.resume`)."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from gcs.cli.link_options import add_link_arguments, connections_from, signing_from
+from gcs.display.status_table import render_summary
+from gcs.errors import UserError
+from gcs.flight.controller import FlyOptions
+from gcs.flight.fly import fly_async
+from gcs.flight.journal import FlightJournal, check_no_flight_in_progress, new_start
+from gcs.flight.sortie import SortieLog, file_sha256
+from gcs.links import SigningKey
+from gcs.links.connection import Connection, LinkKind, parse_connection
+from gcs.plans.plan_folder import FleetPlan, load_plan_dir
+from gcs.telemetry.status import Stage
+from planner.campaign import sortie_seed
+
+# ---- the simulated fleet ------------------------------------------------------------------
+
+
+def start_sim(plan: FleetPlan, *, speedup: float, profile: str = "ardupilot", seed: int = 0, pc: float = 0.9,
+              pf: float = 0.1, drain: dict[int, float] | None = None, loss: float = 0.0,
+              endurance_s: float = 1200.0, signing: SigningKey | None = None):
+    """The built-in simulated fleet on free loopback ports: vehicle i (system id i) at UAV i's
+    airport with its start heading, the plan's targets, a sensor on the plan's grid."""
+    from sim import BatteryConfig, FleetOptions, HomePose, LinkFaults, SimFleet, VehicleConfig
+    from sim.detector import World
+
+    ids = sorted(plan.uavs)
+    if ids != list(range(1, len(ids) + 1)):
+        raise UserError(f"--sim needs UAV ids 1..N, the plan has {ids}")
+    homes = [HomePose(*plan.uavs[i].airport_lat_lon, 0.0, plan.uavs[i].start_heading * 45.0) for i in ids]
+    world = World.of_plan(plan)  # the world `gcs detector` gives real vehicles
+    vehicle = plan.uavs[ids[0]].vehicle.value
+    config = VehicleConfig(vehicle_type=vehicle, profile=profile, sensor=world.sensor_config(pc, pf),
+                           battery=BatteryConfig(endurance_s=endurance_s))
+    fleet = SimFleet(homes, config, FleetOptions(base_port=0, speedup=speedup, targets=world.targets, seed=seed,
+                                                 faults=LinkFaults(loss=loss, seed=seed),
+                                                 signing_key=signing.secret if signing else None,
+                                                 grid_origin=world.grid_origin))
+    for uid, k in (drain or {}).items():
+        fleet.vehicle(uid).set_drain_multiplier(k)
+    return fleet
+
+
+# ---- the command line ---------------------------------------------------------------------
+
+
+def add_connection_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--plan", metavar="DIR", help="a gcs plan --area output folder")
+    p.add_argument("--resume", metavar="DIR", help="take over the flight in progress in DIR after the station that "
+                                                   "flew it died (its links, unless --connect is given again)")
+    add_link_arguments(p)
+    p.add_argument("--sim", action="store_true", help="start the built-in simulated fleet at the plan's airports")
+    p.add_argument("--speedup", type=float, default=10.0, help="simulated time / real time with --sim")
+    p.add_argument("--sim-profile", choices=("ardupilot", "px4"), default="ardupilot",
+                   help="autopilot the sim imitates")
+    p.add_argument("--sim-loss", type=float, default=0.0, help="packet loss probability on every simulated link")
+    p.add_argument("--no-fence", action="store_true", help="do not upload geofence and rally points")
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    from gcs.plans import planning as area_plan
+
+    p = sub.add_parser("fly", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
+    add_connection_arguments(p)
+    from gcs.bus.flight_feed import add_bus_arguments
+
+    add_bus_arguments(p)
+    p.add_argument("--reserve-pct", type=float, default=30.0, help="battery kept back by the return trigger")
+    p.add_argument("--cruise-speed", type=float, default=10.0, help="vehicles' cruise speed, m/s (range estimate)")
+    p.add_argument("--descent-speed", type=float, default=1.5, help="vehicles' landing descent rate, m/s")
+    p.add_argument("--return-after", metavar="UAV:SECONDS", action="append", default=[],
+                   help="order UAV home after SECONDS (real time), as the operator's 'r UAV' would")
+    p.add_argument("--stdin-orders", action="store_true",
+                   help="read return orders ('r ID') from stdin even when it is not a terminal")
+    p.add_argument("--allow-home-offset", action="store_true",
+                   help="fly even when a vehicle's home is more than a cell from its UAV's airport")
+    p.add_argument("--arm-timeout", type=float, default=60.0,
+                   help="seconds to keep retrying arming while the autopilot refuses (its reasons are shown)")
+    p.add_argument("--ready-timeout", type=float, default=180.0,
+                   help="seconds to wait for each vehicle's GPS fix, position estimate and home")
+    p.add_argument("--link-timeout", type=float, default=3.0, help="seconds without telemetry before a vehicle is lost")
+    p.add_argument("--lost-giveup", type=float, default=20.0, help="seconds a lost vehicle is waited for at the end")
+    p.add_argument("--sim-endurance", type=float, default=1200.0,
+                   help="with --sim: flight endurance of a full battery, s")
+    p.add_argument("--sim-drain", metavar="UAV:K", action="append", default=[],
+                   help="with --sim: UAV's battery drains K times faster than nominal")
+    p.add_argument("--online", action="store_true",
+                   help="planner in the loop: re-decide every step from live positions and readings (needs --area)")
+    # planning options for --area (the plan command's own arguments)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--np", dest="np_steps", type=int, default=5)
+    p.add_argument("--oc", default="3")
+    p.add_argument("--range", dest="range_steps", type=int, default=130)
+    p.add_argument("--strategy", default="exhaustive")
+    p.add_argument("--return", dest="return_planner", default="exact")
+    p.add_argument("--reserve", type=int, default=0)
+    p.add_argument("--range-aware-search", action="store_true")
+    p.add_argument("--pc", type=float, default=0.9)
+    p.add_argument("--pf", type=float, default=0.1)
+    p.add_argument("--footprint", type=int, default=0)
+    p.add_argument("--out", default=None,
+                   help="with --area: folder for the plan, missions and flight recording (default: runs/<area name>)")
+    p.add_argument("--quiet", action="store_true")
+    p.add_argument("--rrd", metavar="PATH",
+                   help="Rerun recording of the flight (default: flight.rrd in the plan folder)")
+    p.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
+    p.add_argument("--rerun-connect", nargs="?", const="rerun+http://127.0.0.1:9876/proxy", metavar="ADDR",
+                   help="also stream the flight to a running Rerun viewer (ADDR default: %(const)s)")
+    area_plan.add_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _pairs(values: list[str], what: str, kind=float) -> dict[int, float]:
+    out = {}
+    for text in values:
+        try:
+            uid, value = text.split(":")
+            out[int(uid)] = kind(value)
+        except ValueError:
+            raise UserError(f"{what} {text!r}: expected UAV:NUMBER") from None
+    return out
+
+
+def plan_namespace(args: argparse.Namespace) -> argparse.Namespace:
+    """The `gcs plan --area` arguments for this flight: the plan command's own parser and
+    defaults, overlaid with the planning options given to `gcs fly` (no Rerun recording)."""
+    from gcs.cli import build_parser
+
+    ns = build_parser().parse_args(["plan", "--area", args.area])
+    for name, value in vars(args).items():
+        if hasattr(ns, name) and name not in ("func", "command"):
+            setattr(ns, name, value)
+    if hasattr(ns, "no_rrd"):
+        ns.no_rrd = True
+        ns.rerun_connect = None
+    return ns
+
+
+def resolve_plan(args: argparse.Namespace) -> FleetPlan:
+    """`--plan DIR`, or `--area FILE` planned first by the plan command itself."""
+    if getattr(args, "area", None):
+        from gcs.cli.commands import plan as plan_command
+
+        if args.plan:
+            raise UserError("give --plan or --area, not both")
+        from gcs.plans.planning import area_out_dir
+
+        args.out = str(area_out_dir(args))
+        plan_command.run(plan_namespace(args))
+        return load_plan_dir(args.out)
+    if not args.plan:
+        raise UserError("give --plan DIR (a gcs plan --area folder) or --area FILE")
+    return load_plan_dir(args.plan)
+
+
+def check_connections(args: argparse.Namespace) -> list[str]:
+    """`--sim` or well-formed `--connect` strings, checked before any planning or upload."""
+    if args.sim and args.connect:
+        raise UserError("--sim starts its own vehicles: leave out --connect")
+    if not args.sim and not args.connect:
+        raise UserError("give --connect (e.g. udpin:127.0.0.1:14550, tcp:127.0.0.1:5760, /dev/ttyUSB0,57600) or --sim")
+    return connections_from(args)
+
+
+def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
+    returns = _pairs(args.return_after, "--return-after")
+    unknown = [u for u in returns if u not in plan.uavs]
+    if unknown:
+        raise UserError(f"--return-after: unknown UAV {unknown[0]} "
+                        f"(the plan has {', '.join(map(str, sorted(plan.uavs)))})")
+    if not 0 <= args.reserve_pct < 100:
+        raise UserError("--reserve-pct must be in [0, 100)")
+    return FlyOptions(speed_m_s=args.cruise_speed, reserve_pct=args.reserve_pct, descent_m_s=args.descent_speed,
+                      link_timeout_s=args.link_timeout, lost_giveup_s=args.lost_giveup, return_after_s=returns,
+                      fence=not args.no_fence, live_table=sys.stdout.isatty(), check_home=not args.allow_home_offset,
+                      ready_timeout_s=args.ready_timeout, arm_timeout_s=args.arm_timeout)
+
+
+def flight_recorder(args: argparse.Namespace, plan: FleetPlan):
+    """The flight's Rerun recorder (`flight.rrd` in the plan folder unless `--rrd` / `--no-rrd`),
+    or None when nothing is recorded; rerun is imported only then."""
+    from gcs.cli.commands.plan import recording_path
+
+    rrd = recording_path(args, Path(plan.folder) / "flight.rrd")
+    if rrd is None and args.rerun_connect is None:
+        return None
+    from gcs.recording.flight import FlightRecorder
+
+    recorder = FlightRecorder(rrd, args.rerun_connect, plan, name=f"flight {Path(plan.folder).name}")
+    if args.rerun_connect is not None:
+        from gcs.recording.plan import check_viewer
+
+        check_viewer(args.rerun_connect)
+    return recorder
+
+
+def _bus_from(args: argparse.Namespace) -> dict | None:
+    """The MQTT bus settings (`--mqtt` ...), or None without a bus."""
+    if not args.mqtt:
+        return None
+    from gcs.bus.flight_feed import bus_options
+
+    try:
+        return bus_options(args)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def journal_options(options: FlyOptions) -> dict:
+    """The knobs a resumed flight keeps unless they are given again."""
+    return {name: getattr(options, name) for name in RESUMED_OPTIONS.values()}
+
+
+def _relative(path: Path | None, folder: Path) -> str | None:
+    if path is None:
+        return None
+    try:
+        return str(path.resolve().relative_to(folder.resolve()))
+    except ValueError:
+        return str(path.resolve())
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.resume:
+        return resume(args)
+    if args.online and not getattr(args, "area", None):
+        raise UserError("--online needs --area (the priors of the search map live in the area file)")
+    drains = _pairs(args.sim_drain, "--sim-drain")
+    if args.plan and not Path(args.plan).is_dir() and not getattr(args, "area", None):
+        raise UserError(f"plan folder {args.plan} does not exist "
+                        f"(make one with: gcs plan --area AREA.geojson --out {args.plan})")
+    connections = check_connections(args)
+    signing = signing_from(args)
+    bus = _bus_from(args)
+    if args.plan:
+        check_no_flight_in_progress(Path(args.plan))
+    elif getattr(args, "area", None):
+        from gcs.plans.planning import area_out_dir
+
+        check_no_flight_in_progress(area_out_dir(args))
+    plan = resolve_plan(args)
+    options = options_from(args, plan)
+    recorder = flight_recorder(args, plan)
+    if any(u not in plan.uavs for u in drains):
+        raise UserError("--sim-drain: unknown UAV")
+    online = None
+    if args.online:
+        from gcs.flight.online import observed_search
+        from gcs.plans import planning as area_plan
+
+        setup = area_plan.build_area_search(plan_namespace(args))
+        online = observed_search(setup.search.scenario, setup.search.config, seed=args.seed)
+    sortie = SortieLog(plan)
+    fleet = None
+    if args.sim:
+        # a later sortie's readings draw new noise (planner.campaign.sortie_seed)
+        fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile,
+                          seed=sortie_seed(args.seed, sortie.sortie), pc=args.pc,
+                          pf=args.pf, drain=drains, loss=args.sim_loss,
+                          endurance_s=args.sim_endurance, signing=signing).start()
+        connections = fleet.connection_strings()
+        print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}",
+              flush=True)
+    start = new_start(file_sha256(Path(plan.folder) / "plan.json"), connections, sim=args.sim,
+                      signed=signing is not None, online=args.online, options=journal_options(options),
+                      rrd=_relative(recorder.rrd_path if recorder else None, Path(plan.folder)), recording_id=None)
+    journal = FlightJournal.begin(plan, start, recorder)
+    if recorder is not None and recorder.rrd_path is not None:  # an earlier flight's continuations
+        for stale in recorder.rrd_path.parent.glob(f"{recorder.rrd_path.stem}.resume*{recorder.rrd_path.suffix}"):
+            stale.unlink(missing_ok=True)
+    try:
+        controller = asyncio.run(fly_async(plan, connections, options,
+                                           stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online,
+                                           recorder=recorder, bus=bus, signing=signing, watchers=[journal, sortie]))
+    finally:
+        if fleet is not None:
+            fleet.stop()
+    return _ending(controller, sortie, recorder)
+
+
+def _ending(controller, sortie: SortieLog, recorder) -> int:
+    """The summary and the exit code."""
+    print(render_summary(controller))
+    print(sortie.report())
+    if recorder is not None and recorder.rrd_path is not None:
+        print(f"recording {recorder.rrd_path}")
+    if controller._interrupted:
+        return 130
+    return 0 if all(st.stage is Stage.LANDED for st in controller.status.values()) else 1
+
+
+# ---- taking over a flight whose station died ----------------------------------------------
+
+#: the flags `--resume` takes (anything else belongs to the flight as it was started), and the
+def _from_the_same_ports(connections: list[str], source_ports: dict[str, int]) -> list[str | Connection]:
+    """The links again, each `udpout` sending from the local port it sent from before: PX4 answers
+    only the first address that spoke to it, and the dead station's is the one it knows."""
+    links: list[str | Connection] = []
+    for text in connections:
+        c = parse_connection(text)
+        port = source_ports.get(str(c))
+        links.append(replace(c, source_port=port) if port and c.kind is LinkKind.UDP_OUT else text)
+    return links
+
+
+#: options the journal keeps unless given again (flag: FlyOptions field)
+RESUMED_OPTIONS = {"--cruise-speed": "speed_m_s", "--reserve-pct": "reserve_pct", "--descent-speed": "descent_m_s",
+                   "--link-timeout": "link_timeout_s", "--lost-giveup": "lost_giveup_s",
+                   "--arm-timeout": "arm_timeout_s", "--ready-timeout": "ready_timeout_s", "--no-fence": "fence",
+                   "--allow-home-offset": "check_home"}
+RESUME_FLAGS = {"--resume", "--connect", "--signing-key", "--signing-passphrase", "--mqtt", "--fleet", "--mqtt-station",
+                "--mqtt-telemetry-hz", "--mqtt-ca-file", "--mqtt-tls-insecure", "--return-after", "--stdin-orders",
+                "--no-rrd", "--rerun-connect", "--quiet", *RESUMED_OPTIONS}
+
+
+def _flags_given(args: argparse.Namespace) -> list[str]:
+    return [word.split("=", 1)[0] for word in getattr(args, "argv", []) if word.startswith("--")]
+
+
+def resume(args: argparse.Namespace) -> int:
+    """`gcs fly --resume DIR`: read the journal, reconnect, reattach every vehicle and fly on."""
+    from gcs.flight.journal import JournalError, read_journal
+    from gcs.flight.resume import Resumption
+
+    given = _flags_given(args)
+    foreign = [flag for flag in given if flag not in RESUME_FLAGS]
+    if foreign:
+        raise UserError(f"--resume flies the flight as it was started: leave out {', '.join(dict.fromkeys(foreign))}")
+    folder = Path(args.resume)
+    if not folder.is_dir():
+        raise UserError(f"--resume {folder}: no such folder")
+    try:
+        state = read_journal(folder)
+    except JournalError as exc:
+        raise UserError(f"--resume {folder}: {exc}") from None
+    if state.ended is not None:
+        raise UserError(f"--resume {folder}: no flight in progress there: the flight started {state.start.utc} ended "
+                        f"with its station running ({_end_text(state.ended)})")
+    if state.start.sim:
+        raise UserError(f"--resume {folder}: the flight flew the built-in simulated fleet (--sim), which stopped with "
+                        "its station: nothing is flying")
+    if state.start.online:
+        raise UserError(f"--resume {folder}: an online flight (--online) cannot be taken over: its vehicles hold "
+                        "their last cell in GUIDED until their failsafes bring them home")
+    plan = load_plan_dir(folder)
+    if file_sha256(folder / "plan.json") != state.start.plan_sha256:
+        raise UserError(f"--resume {folder}: plan.json changed since the flight started (it is not the plan flown)")
+    connections = connections_from(args) if args.connect else list(state.start.connections)
+    signing = signing_from(args)
+    if state.start.signed and signing is None:
+        raise UserError(f"--resume {folder}: the flight's links were signed: give --signing-key or "
+                        "--signing-passphrase again")
+    bus = _bus_from(args)
+    options = options_from(args, plan)
+    for flag, name in RESUMED_OPTIONS.items():
+        if flag not in given and name in state.start.options:
+            setattr(options, name, state.start.options[name])
+    recorder, segment = resumed_recorder(args, plan, state)
+    sortie = SortieLog(plan)
+    sortie.restore(state)
+    journal = FlightJournal.reopen(plan, state, connections, segment)
+    resumption = Resumption(plan, state)
+    print(f"resuming the flight started {state.start.utc} in {folder} over {', '.join(connections)}", flush=True)
+    controller = asyncio.run(fly_async(plan, _from_the_same_ports(connections, state.udp_source_ports), options,
+                                       stdin_orders=args.stdin_orders or sys.stdin.isatty(), recorder=recorder,
+                                       bus=bus, signing=signing, watchers=[journal, sortie], resume=resumption))
+    return _ending(controller, sortie, recorder)
+
+
+def _end_text(end: dict) -> str:
+    if end.get("error"):
+        return f"the station failed: {end['error']}"
+    if end.get("interrupted"):
+        return "stopped by the operator"
+    landed, still = end.get("landed", []), end.get("open", [])
+    text = f"{len(landed)} landed"
+    return text + (f", UAV {', '.join(map(str, still))} not landed" if still else "")
+
+
+def resumed_recorder(args: argparse.Namespace, plan: FleetPlan, state):
+    """The recorder of a resumed flight (a further segment of the flight's recording, beside
+    the first, with the event-log lines the earlier segments lack), or None; and the segment's
+    name for the journal."""
+    if args.no_rrd or (state.start.rrd is None and args.rerun_connect is None):
+        return None, None
+    from gcs.recording.flight import FlightRecorder, resumed_recording, segment_path
+
+    folder = Path(plan.folder)
+    rrd = segment = None
+    if state.start.rrd is not None:
+        rrd = segment_path(folder / state.start.rrd, len(state.segments))
+        segment = _relative(rrd, folder)
+    resumed = resumed_recording(state, plan, [folder / name for name in state.segments],
+                                time.time() - state.start.wall_s - state.last_t)
+    recorder = FlightRecorder(rrd, args.rerun_connect, plan, name=f"flight {folder.name}", resumed=resumed)
+    return recorder, segment

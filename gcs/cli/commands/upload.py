@@ -1,0 +1,74 @@
+"""`gcs upload`: send every UAV's mission (plus geofence and rally point) from a `gcs plan
+--area` folder to its vehicle over MAVLink and verify it by reading it back.
+
+UAV N goes to the vehicle whose HEARTBEAT carries MAVLink system id N, on whichever of the
+`--connect` links it is heard (one link for all, or one per UAV). See docs/fly.md."""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+from collections.abc import Sequence
+from pathlib import Path
+
+from gcs.cli.commands.fly import add_connection_arguments, check_connections, start_sim
+from gcs.cli.link_options import signing_from
+from gcs.errors import UserError
+from gcs.flight.controller import FlightController, FlyOptions
+from gcs.flight.journal import check_no_flight_in_progress
+from gcs.links import SigningKey, open_links
+from gcs.plans.plan_folder import FleetPlan, load_plan_dir
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("upload", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
+    add_connection_arguments(p)
+    p.add_argument("--timeout", type=float, default=0.5, help="seconds before a mission message is re-sent")
+    p.add_argument("--connect-timeout", type=float, default=15.0, help="seconds to wait for each vehicle's HEARTBEAT")
+    p.add_argument("--ready-timeout", type=float, default=180.0,
+                   help="seconds to wait for each vehicle's GPS fix, position estimate and home")
+    p.add_argument("--allow-home-offset", action="store_true",
+                   help="upload even when a vehicle's home is more than a cell from its UAV's airport")
+    p.set_defaults(func=run)
+
+
+async def upload_fleet(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, out=None,
+                       signing: SigningKey | None = None) -> FlightController:
+    async with open_links(connections, signing=signing) as links:
+        controller = FlightController(plan, links, options, out)
+        await controller.upload_all()
+    return controller
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.plan:
+        raise UserError("give --plan DIR (a gcs plan --area folder)")
+    connections = check_connections(args)
+    signing = signing_from(args)
+    plan = load_plan_dir(args.plan)
+    if not args.sim:  # an upload goes to vehicles that may be flying that flight
+        check_no_flight_in_progress(Path(args.plan))
+    options = FlyOptions(transfer_timeout_s=args.timeout, connect_timeout_s=args.connect_timeout,
+                         fence=not args.no_fence, fly=False, ready_timeout_s=args.ready_timeout,
+                         check_home=not args.allow_home_offset)
+    fleet = None
+    if args.sim:
+        fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile, loss=args.sim_loss,
+                          signing=signing).start()
+        connections = fleet.connection_strings()
+    try:
+        controller = asyncio.run(upload_fleet(plan, connections, options, signing=signing))
+    finally:
+        if fleet is not None:
+            fleet.stop()
+    ok = 0
+    for uid, st in sorted(controller.status.items()):
+        reports = controller.upload_reports.get(uid)
+        if reports:
+            ok += 1
+            parts = [f"{kind} {r.items} items ({r.resends} re-sends)" for kind, r in reports.items()]
+            print(f"UAV {uid}: verified: {', '.join(parts)}")
+        else:
+            print(f"UAV {uid}: FAILED: {st.note}")
+    print(f"{ok}/{len(controller.status)} vehicles verified")
+    return 0 if ok == len(controller.status) else 1

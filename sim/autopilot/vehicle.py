@@ -1,0 +1,1179 @@
+"""One simulated autopilot: modes, commands, mission execution, battery and sensor.
+
+`SimVehicle` is transport-free: `handle(msg, wall_s)` answers one MAVLink message, `step(dt_s)`
+advances simulated time, `emit()` returns telemetry and events due. The fleet owns the clock
+and the sockets.
+
+The `ardupilot` profile behaves as ArduCopter / ArduPlane 4.7 SITL did when measured (research
+reports `ardupilot_protocol` and `ardupilot_flight`; docs/sim.md lists each behaviour): readiness
+milestones after boot and the arming refusals before them, no telemetry streams on a copter
+until asked, MISSION_START (0, 0) only and resuming where the mission was, the copter's GUIDED,
+arm, MISSION_START launch and auto-disarm, the plane's landing sequence, DO_REPOSITION as
+COMMAND_INT only, BATT_CAPACITY and the arming battery checks. The `px4` profile is
+`sim.autopilot.px4_vehicle.Px4Vehicle` (constructing a SimVehicle with that profile gives one), PX4
+v1.15.3 as measured.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import partial
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from gcs.autopilots.ardupilot_storage import stored_item
+from sim.autopilot import telemetry
+from sim.autopilot.ardupilot import BOOT_TIMES, CAPACITY, MISSION_TEXT_NAMES, BootTimes, boot_refusals, ekf_flags
+from sim.autopilot.ardupilot_mission import ArduPilotMissionProtocol
+from sim.autopilot.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
+from sim.autopilot.modes import Mode, custom_mode_of, mode_from_custom, mode_table
+from sim.autopilot.px4 import BOOT_TIMES as PX4_BOOT_TIMES, Px4BootTimes
+from sim.physics.battery import Battery, BatteryConfig, FailsafeLevel, failsafe_level, failsafe_to_trigger
+from sim.physics.geo import HomePose, LocalFrame
+from sim.physics.kinematics import KinematicLimits, KinematicState, step_toward
+from sim.physics.sensor import DownwardSensor, Observation, SensorConfig, reading_message, reading_text
+
+MAVMessage = mavlink.MAVLink_message
+_FORCE_MAGIC = 21196
+_ABSOLUTE_ALT_FRAMES = frozenset({mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_INT})
+_NAV_COMMANDS = frozenset(
+    {
+        mavlink.MAV_CMD_NAV_WAYPOINT,
+        mavlink.MAV_CMD_NAV_LOITER_UNLIM,
+        mavlink.MAV_CMD_NAV_LOITER_TIME,
+        mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH,
+        mavlink.MAV_CMD_NAV_LAND,
+        mavlink.MAV_CMD_NAV_TAKEOFF,
+    }
+)
+_LAND_SLOW_BELOW_M, _LAND_SLOW_M_S = 10.0, 0.5  # ArduCopter's LAND_ALT_LOW and LAND_SPEED
+# from the take-off command to leaving the ground: ArduCopter 3.25 s after MISSION_START, ArduPlane
+# 2.0 s after arming in AUTO (landed_state TAKEOFF then, flight §2, §3)
+_COPTER_SPOOL_S, _PLANE_ROLL_S = 3.25, 2.0
+_TYPE_DEFAULTS = {
+    # cruise m/s, turn deg/s, climb m/s, descent m/s, acceptance m, RTL altitude m
+    ("ardupilot", "copter"): (10.0, 90.0, 2.5, 1.5, 2.0, 15.0),
+    ("ardupilot", "plane"): (20.0, 20.0, 5.0, 3.0, 90.0, 100.0),
+    # PX4 (px4 §4, §6): MPC_XY_CRUISE 5, 29 m climbed in 14.6 s, 20 m descended in 15 s (then
+    # MPC_LAND_SPEED below 10 m), NAV_ACC_RAD 2, RTL_RETURN_ALT 30; the plane was not flown
+    ("px4", "copter"): (5.0, 90.0, 1.9, 1.35, 2.0, 30.0),
+    ("px4", "plane"): (20.0, 20.0, 5.0, 3.0, 90.0, 30.0),
+}
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class VehicleConfig:
+    """Vehicle behaviour; None fields take the per-type defaults of `_TYPE_DEFAULTS`.
+
+    `boot`: when a vehicle reaches each readiness milestone after boot (None: as measured on
+    SITL for its profile and type, `sim.autopilot.ardupilot.BOOT_TIMES`, `sim.autopilot.px4.BOOT_TIMES`), every
+    time multiplied by `boot_scale` (0: ready at once; tests that are not about start-up use a
+    small scale). `telemetry_hz`: GLOBAL_POSITION_INT, ATTITUDE and VFR_HUD of the px4 profile
+    (None: PX4's 50, 50 and 4 Hz)."""
+
+    vehicle_type: str = "copter"
+    profile: str = "ardupilot"
+    cruise_speed_m_s: float | None = None
+    turn_rate_deg_s: float | None = None
+    climb_rate_m_s: float | None = None
+    descent_rate_m_s: float | None = None
+    acceptance_radius_m: float | None = None
+    rtl_alt_m: float | None = None
+    takeoff_alt_m: float = 10.0
+    telemetry_hz: float | None = None
+    battery: BatteryConfig = field(default_factory=BatteryConfig)
+    sensor: SensorConfig = field(default_factory=SensorConfig)
+    mission_timeout_s: float = 1.0
+    boot: BootTimes | Px4BootTimes | None = None
+    boot_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.vehicle_type not in ("copter", "plane"):
+            raise ValueError(f"vehicle_type must be copter or plane, not {self.vehicle_type!r}")
+        if self.profile not in ("ardupilot", "px4"):
+            raise ValueError(f"profile must be ardupilot or px4, not {self.profile!r}")
+        boot_type = Px4BootTimes if self.profile == "px4" else BootTimes
+        if self.boot is not None and not isinstance(self.boot, boot_type):
+            raise ValueError(f"boot must be a {boot_type.__name__} for the {self.profile} profile")
+        if not self.boot_scale >= 0:
+            raise ValueError(f"boot_scale must be 0 or more, not {self.boot_scale!r}")
+        names = ("cruise_speed_m_s", "turn_rate_deg_s", "climb_rate_m_s", "descent_rate_m_s",
+                 "acceptance_radius_m", "rtl_alt_m")
+        for name, default in zip(names, _TYPE_DEFAULTS[self.profile, self.vehicle_type], strict=True):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, default)
+
+    @property
+    def limits(self) -> KinematicLimits:
+        return KinematicLimits(
+            cruise_speed_m_s=self.cruise_speed_m_s, turn_rate_rad_s=math.radians(self.turn_rate_deg_s),
+            climb_rate_m_s=self.climb_rate_m_s, descent_rate_m_s=self.descent_rate_m_s,
+            can_hover=self.vehicle_type == "copter",
+        )
+
+    @property
+    def boot_times(self) -> BootTimes | Px4BootTimes:
+        table = PX4_BOOT_TIMES if self.profile == "px4" else BOOT_TIMES
+        return (self.boot or table[self.vehicle_type]).scaled(self.boot_scale)
+
+
+@dataclass(frozen=True, slots=True)
+class VehicleState:
+    """True state, for assertions."""
+
+    lat_deg: float
+    lon_deg: float
+    alt_rel_m: float
+    heading_deg: float
+    speed_m_s: float
+    mode: Mode
+    armed: bool
+    landed: bool
+    battery_pct: float
+    mission_seq: int
+    failsafe: FailsafeLevel
+
+
+@dataclass(slots=True)
+class _Goal:
+    target_en: tuple[float, float] | None
+    alt_m: float
+    landing: bool = False
+
+
+class SimVehicle:
+    #: the method answering each message type (looked up on the instance: a profile's own answers)
+    HANDLERS: dict[str, str] = {
+        "COMMAND_LONG": "_on_command", "COMMAND_INT": "_on_command", "SET_MODE": "_on_set_mode",
+        "SET_POSITION_TARGET_GLOBAL_INT": "_on_position_target", "MISSION_SET_CURRENT": "_on_mission_set_current",
+        "REQUEST_DATA_STREAM": "_on_request_data_stream", "PARAM_REQUEST_LIST": "_on_param_request_list",
+        "PARAM_REQUEST_READ": "_on_param_request_read", "PARAM_SET": "_on_param_set", "TIMESYNC": "_on_timesync",
+    }
+
+    def __new__(cls, sysid: int, home: HomePose, config: VehicleConfig | None = None, **kwargs: object) -> SimVehicle:
+        """A px4-profile vehicle is a `sim.autopilot.px4_vehicle.Px4Vehicle`."""
+        if cls is SimVehicle and config is not None and config.profile == "px4":
+            from sim.autopilot.px4_vehicle import Px4Vehicle
+
+            cls = Px4Vehicle
+        return super().__new__(cls)
+
+    def __init__(
+        self,
+        sysid: int,
+        home: HomePose,
+        config: VehicleConfig | None = None,
+        *,
+        frame: LocalFrame | None = None,
+        targets: list[tuple[float, float]] | None = None,
+        seed: int = 0,
+        grid_origin_en: tuple[float, float] | None = None,
+    ) -> None:
+        self.sysid = sysid
+        self.home = home
+        self.config = config = config or VehicleConfig()
+        self.ardupilot = config.profile == "ardupilot"
+        self.copter = config.vehicle_type == "copter"
+        self.boot = config.boot_times
+        self.frame = frame or LocalFrame(home.lat_deg, home.lon_deg)
+        self.limits = config.limits
+        east, north = self.frame.geodetic2en(home.lat_deg, home.lon_deg)
+        self.home_en = (east, north)
+        self.kin = KinematicState(east, north, 0.0, math.radians(home.heading_deg))
+        self.time_s = 0.0
+        self.mode = Mode.MANUAL
+        self.armed = False
+        self.landed = True
+        self.landing = False
+        self.failsafe = FailsafeLevel.NONE
+        self.battery = Battery(config.battery)
+        if self.ardupilot:
+            store = partial(stored_item, fixed_wing=not self.copter)
+            self.mission: MissionProtocol = ArduPilotMissionProtocol(ProtocolConfig(
+                home_item=True, store=store, capacity=dict(CAPACITY[config.vehicle_type]),
+                timeout_s=config.mission_timeout_s))
+        else:
+            self.mission = MissionProtocol(ProtocolConfig(home_item=False, timeout_s=config.mission_timeout_s))
+        # ArduPilot knows its home only some time after boot (`_boot_step`); PX4 here at once
+        self.home_set = not self.ardupilot
+        self.origin: tuple[float, float, float] | None = None  # the EKF origin (ArduPilot), set once
+        if self.home_set:
+            self.mission.set_home(home.lat_deg, home.lon_deg, home.alt_m)
+        self._mission_version = self.mission.versions[MissionType.MISSION]
+        self.mission_seq = 0  # ArduPilot: 0 until a mission starts (item 0 is home)
+        self.mission_complete = False
+        self.reached: list[int] = []
+        self._jumps_done: dict[int, int] = {}
+        self._hold_until_s: float | None = None
+        self._takeoff_alt_m: float | None = None
+        self._target_en: tuple[float, float] | None = None
+        self._target_alt_m = 0.0
+        self._speed_m_s: float | None = None
+        self._rtl_alt_m = 0.0
+        self._auto_armed = False  # ArduCopter: AUTO flies from the ground only after MISSION_START
+        self._nav_item: MissionItem | None = None  # ArduPlane finishes the nav item it started
+        self._disarm_at_s: float | None = None
+        self._lift_at_s: float | None = None
+        self._prearm_report_s = 30.0
+        self._land_from: tuple[float, float, float] | None = None  # plane: where its glide began
+        half = 0.5 * config.sensor.cell_size_m
+        self.sensor = DownwardSensor(config.sensor, self.frame, targets or [], seed=seed, vehicle_id=sysid,
+                                     origin_en=grid_origin_en or (east - half, north - half))
+        self.streams = telemetry.StreamScheduler(telemetry.default_intervals_s(
+            config.telemetry_hz, profile=config.profile, vehicle_type=config.vehicle_type))
+        self.params = self._default_params()
+        self._pending: list[MAVMessage] = []
+
+    def _default_params(self) -> dict[str, float]:
+        cfg = self.config
+        if not self.ardupilot:
+            return {"SYSID_THISMAV": float(self.sysid), "RTL_ALT": cfg.rtl_alt_m * 100.0,
+                    "WPNAV_SPEED": cfg.cruise_speed_m_s * 100.0, "WPNAV_RADIUS": cfg.acceptance_radius_m * 100.0,
+                    "SIM_DRAIN_MULT": 1.0, "SIM_BATT_FAIL": 0.0}
+        # ArduPilot 4.7 names (MAV_SYSID, not SYSID_THISMAV); unknown names get no answer
+        params = {"MAV_SYSID": float(self.sysid)}
+        if self.copter:
+            params |= {"RTL_ALT": cfg.rtl_alt_m * 100.0, "WPNAV_SPEED": cfg.cruise_speed_m_s * 100.0,
+                       "WPNAV_RADIUS": cfg.acceptance_radius_m * 100.0, "DISARM_DELAY": 10.0}
+        else:
+            params |= {"RTL_ALTITUDE": cfg.rtl_alt_m, "WP_RADIUS": cfg.acceptance_radius_m, "RTL_AUTOLAND": 0.0,
+                       "LAND_DISARMDELAY": 20.0}
+        return params | {
+            "MIS_RESTART": 0.0, "BATT_CAPACITY": round(self.battery.capacity_mah), "BATT_ARM_VOLT": 0.0,
+            "BATT_ARM_MAH": 0.0, "BATT_LOW_VOLT": 10.5 if self.copter else 0.0, "SIM_BATT_VOLTAGE": 12.6,
+            "SIM_DRAIN_MULT": 1.0, "SIM_BATT_FAIL": 0.0,
+        }
+
+    # ---- true state and the Python API -------------------------------------------------
+
+    @property
+    def lat_lon_deg(self) -> tuple[float, float]:
+        return self.frame.en2geodetic(self.kin.east_m, self.kin.north_m)
+
+    @property
+    def state(self) -> VehicleState:
+        lat, lon = self.lat_lon_deg
+        return VehicleState(
+            lat, lon, self.kin.alt_m, math.degrees(self.kin.heading_rad) % 360.0, self.kin.speed_m_s,
+            self.mode, self.armed, self.landed, self.battery_pct, self.mission_seq, self.failsafe,
+        )
+
+    @property
+    def observations(self) -> list[Observation]:
+        return self.sensor.observations
+
+    @property
+    def mav_type(self) -> int:
+        return mavlink.MAV_TYPE_FIXED_WING if self.config.vehicle_type == "plane" else mavlink.MAV_TYPE_QUADROTOR
+
+    @property
+    def mav_autopilot(self) -> int:
+        return mavlink.MAV_AUTOPILOT_PX4 if self.config.profile == "px4" else mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA
+
+    @property
+    def custom_mode(self) -> int:
+        return custom_mode_of(self.mode, self.config.profile, self.config.vehicle_type)
+
+    @property
+    def gps_fixed(self) -> bool:
+        return not self.ardupilot or self.time_s >= self.boot.gps_fix_s
+
+    @property
+    def position_known(self) -> bool:
+        """GLOBAL_POSITION_INT carries a position (before: 0, 0)."""
+        return self.gps_fixed
+
+    @property
+    def ekf_flags(self) -> int:
+        return ekf_flags(self.boot, self.time_s) if self.ardupilot else 0x33F
+
+    @property
+    def taking_off(self) -> bool:
+        """Climbing to a take-off altitude: NAV_TAKEOFF in GUIDED or TAKEOFF, or the mission's."""
+        if self._takeoff_alt_m is not None and self.mode in (Mode.GUIDED, Mode.TAKEOFF):
+            return True
+        items = self.mission.items()
+        return self.mode == Mode.AUTO and self._first_seq <= self.mission_seq < len(items) \
+            and items[self.mission_seq].command == mavlink.MAV_CMD_NAV_TAKEOFF
+
+    @property
+    def prearm_ok(self) -> bool:
+        """SYS_STATUS's pre-arm bit: ArduPilot's pre-arm checks pass in the current mode."""
+        return not self._prearm_refusals()
+
+    @property
+    def battery_pct(self) -> float:
+        """The remaining charge the vehicle reports, %."""
+        return self.battery.remaining_pct
+
+    @property
+    def battery_voltage_v(self) -> float:
+        """ArduPilot SITL: a copter's battery stays at SIM_BATT_VOLTAGE; a plane's sags with
+        throttle (12.0 V climbing, 12.26 V cruising, flight §5)."""
+        if not self.ardupilot:
+            return self.battery.voltage_v
+        volts = self.params["SIM_BATT_VOLTAGE"]
+        if self.copter or not self.armed or self.landed:
+            return volts
+        return volts - 0.7 * (0.86 if self.kin.climb_m_s > 0.5 else 0.49)
+
+    @property
+    def mission_total(self) -> int:
+        items = self.mission.items()
+        if self.ardupilot:
+            return max(len(items) - 1, 0)
+        return len(items) if items else 0xFFFF
+
+    @property
+    def mission_state(self) -> int:
+        if self.ardupilot:  # AP_Mission's stopped / running / complete (flight §1)
+            if self.mission_total == 0:
+                return mavlink.MISSION_STATE_NO_MISSION
+            if self.mission_complete:
+                return mavlink.MISSION_STATE_COMPLETE
+            return mavlink.MISSION_STATE_ACTIVE if self.mode == Mode.AUTO else mavlink.MISSION_STATE_NOT_STARTED
+        if not self.mission.items():
+            return mavlink.MISSION_STATE_NO_MISSION
+        if self.mission_complete:
+            return mavlink.MISSION_STATE_COMPLETE
+        if self.mode == Mode.AUTO:
+            return mavlink.MISSION_STATE_ACTIVE
+        return mavlink.MISSION_STATE_NOT_STARTED if self.mission_seq == 0 else mavlink.MISSION_STATE_PAUSED
+
+    def fail_battery(self) -> None:
+        """Immediate battery failure (the critical failsafe follows on the next step)."""
+        self.battery.fail()
+
+    def set_drain_multiplier(self, k: float) -> None:
+        self.battery.drain_multiplier = k
+        self.params["SIM_DRAIN_MULT"] = k
+
+    def arm(self, force: bool = False) -> int:
+        return self._arm(True, force)
+
+    def set_mode(self, mode: Mode) -> int:
+        return self._set_mode(mode)
+
+    def load_mission(self, items: list[MissionItem]) -> None:
+        self.mission.replace(items)
+
+    def statustext(self, text: str, severity: int = mavlink.MAV_SEVERITY_INFO) -> None:
+        self._pending.append(mavlink.MAVLink_statustext_message(severity, text[:50].encode()))
+
+    # ---- messages ----------------------------------------------------------------------
+
+    def handle(self, msg: MAVMessage, wall_s: float) -> list[MAVMessage]:
+        """Answer one incoming message; `wall_s` times the PX4 profile's mission retries
+        (ArduPilot's run on the vehicle's own clock, as SITL's do)."""
+        kind = msg.get_type()
+        target = getattr(msg, "target_system", None)
+        if target not in (None, 0, self.sysid):
+            return []
+        if getattr(msg, "target_component", 0) not in (0, mavlink.MAV_COMP_ID_AUTOPILOT1):
+            return []
+        sender = (msg.get_srcSystem(), msg.get_srcComponent())
+        if kind.startswith("MISSION_") and kind not in ("MISSION_SET_CURRENT",):
+            out = self.mission.handle(msg, self.time_s if self.ardupilot else wall_s)
+            self._check_new_mission()
+            return out
+        handler = self.HANDLERS.get(kind)
+        return getattr(self, handler)(msg, sender) if handler else []
+
+    def poll(self, wall_s: float) -> list[MAVMessage]:
+        return self.mission.poll(self.time_s if self.ardupilot else wall_s)
+
+    def emit(self) -> list[MAVMessage]:
+        """Events since the last call, then the telemetry due now."""
+        out, self._pending = self._pending, []
+        for msg_id in self.streams.due(self.time_s):
+            msg = telemetry.build(msg_id, self)
+            if msg is not None:
+                out.append(msg)
+        return out
+
+    def _check_new_mission(self) -> None:
+        version = self.mission.versions[MissionType.MISSION]
+        if version == self._mission_version:
+            return
+        self._mission_version = version
+        if not self.ardupilot:
+            self._restart_mission()
+            return
+        # ArduPilot writes items as they arrive and keeps its place in the mission (MIS_RESTART
+        # 0); a copter flying AUTO restarts its current command whenever an item at or before it
+        # is replaced and flies whatever is there now; a plane finishes its nav command (flight §4b)
+        writes, self.mission.writes = self.mission.writes, []
+        for mission_type, seq in writes:
+            if mission_type == MissionType.MISSION and self.copter and self.mode == Mode.AUTO \
+                    and seq <= self.mission_seq:
+                self.statustext("Auto mission changed, restarted command", mavlink.MAV_SEVERITY_CRITICAL)
+                self._hold_until_s = None
+
+    def _on_command(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
+        p = (msg.param1, msg.param2, msg.param3, msg.param4)
+        command_int = msg.get_type() == "COMMAND_INT"
+        if command_int:
+            lat, lon = msg.x / 1e7, msg.y / 1e7
+            frame = msg.frame
+        else:
+            lat, lon = msg.param5, msg.param6
+            frame = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT
+        alt = msg.z if command_int else msg.param7
+        if self.ardupilot and msg.command == mavlink.MAV_CMD_DO_REPOSITION and not command_int:
+            result, extra = mavlink.MAV_RESULT_UNSUPPORTED, []  # COMMAND_INT only (flight §7)
+        else:
+            result, extra = self._command(msg.command, p, lat, lon, alt, frame)
+        ack = mavlink.MAVLink_command_ack_message(msg.command, result, 0, 0, sender[0], sender[1])
+        return [ack, *extra]
+
+    def _command(self, cmd: int, p: tuple[float, ...], lat: float, lon: float, alt: float, frame: int
+                 ) -> tuple[int, list[MAVMessage]]:
+        ok, denied = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_DENIED
+        if cmd == mavlink.MAV_CMD_COMPONENT_ARM_DISARM:
+            return self._arm(p[0] > 0.5, p[1] == _FORCE_MAGIC), []
+        if cmd == mavlink.MAV_CMD_DO_SET_MODE:
+            if not int(p[0]) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+                return denied, []
+            custom = int(p[1])
+            if self.config.profile == "px4":
+                custom = (int(p[1]) << 16) | (int(p[2]) << 24)
+            mode = mode_from_custom(custom, self.config.profile, self.config.vehicle_type)
+            return (self._set_mode(mode) if mode else self._mode_refused()), []
+        if cmd == mavlink.MAV_CMD_NAV_TAKEOFF:
+            return self._takeoff(alt), []
+        if cmd == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            return self._set_mode(Mode.RTL), []
+        if cmd == mavlink.MAV_CMD_NAV_LAND:
+            return self._set_mode(Mode.LAND), []
+        if cmd == mavlink.MAV_CMD_MISSION_START:
+            return self._mission_start(p), []
+        if cmd == mavlink.MAV_CMD_DO_LAND_START and self.ardupilot and not self.copter:
+            return (ok if self._start_landing_sequence() else mavlink.MAV_RESULT_FAILED), []
+        if cmd == mavlink.MAV_CMD_DO_REPOSITION:
+            return self._reposition(p, lat, lon, alt, frame), []
+        if cmd == mavlink.MAV_CMD_DO_SET_MISSION_CURRENT:
+            return (ok if self._set_seq(int(p[0])) else denied), []
+        if cmd == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
+            return self._set_interval(int(p[0]), p[1]), []
+        if cmd == mavlink.MAV_CMD_GET_MESSAGE_INTERVAL:
+            interval = self.streams.interval(int(p[0]))
+            us = -1 if interval is None else round(interval * 1e6)
+            return ok, [mavlink.MAVLink_message_interval_message(int(p[0]), us)]
+        if cmd == mavlink.MAV_CMD_REQUEST_MESSAGE:
+            if not self._can_request(int(p[0])):
+                return mavlink.MAV_RESULT_UNSUPPORTED, []
+            reply = self._requested(int(p[0]), p[1])
+            return ok, [reply] if reply else []  # ArduPilot: accepted, nothing sent before home is set
+        if cmd == mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            return ok, [telemetry.autopilot_version(self)]
+        if cmd == mavlink.MAV_CMD_GET_HOME_POSITION:
+            home = telemetry.home_position(self)
+            return (ok, [home]) if home else (mavlink.MAV_RESULT_FAILED, [])
+        return mavlink.MAV_RESULT_UNSUPPORTED, []
+
+    def _can_request(self, msg_id: int) -> bool:
+        return msg_id == mavlink.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED or telemetry.known(msg_id, self)
+
+    def _requested(self, msg_id: int, param2: float) -> MAVMessage | None:
+        if msg_id == mavlink.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED:
+            index = int(param2)
+            obs = self.sensor.observations
+            return self._capture_msg(obs[index]) if 0 <= index < len(obs) else None
+        return telemetry.build(msg_id, self)
+
+    def _set_interval(self, msg_id: int, interval_us: float) -> int:
+        if not telemetry.known(msg_id, self):
+            return mavlink.MAV_RESULT_UNSUPPORTED
+        if interval_us == 0:
+            self.streams.reset_default(msg_id, self.time_s)
+        elif interval_us < 0:
+            self.streams.set_interval(msg_id, None, self.time_s)
+        else:
+            self.streams.set_interval(msg_id, interval_us / 1e6, self.time_s)
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def _on_set_mode(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
+        mode = None
+        if msg.base_mode & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            mode = mode_from_custom(msg.custom_mode, self.config.profile, self.config.vehicle_type)
+        result = self._set_mode(mode) if mode else self._mode_refused()
+        return [mavlink.MAVLink_command_ack_message(mavlink.MAVLINK_MSG_ID_SET_MODE, result, 0, 0, *sender)]
+
+    def _on_position_target(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
+        if self.mode != Mode.GUIDED or self.landed:
+            return []
+        if self.ardupilot and not self.copter:
+            return []  # ArduPlane ignores position targets; it flies DO_REPOSITION (flight §7)
+        if msg.type_mask & 0b111 == 0b111:
+            return []
+        self._target_en = self.frame.geodetic2en(msg.lat_int / 1e7, msg.lon_int / 1e7)
+        self._target_alt_m = self._alt_rel(msg.alt, msg.coordinate_frame)
+        return []
+
+    def _on_mission_set_current(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
+        if not self._set_seq(msg.seq):
+            self.statustext(f"Mission item {msg.seq} does not exist", mavlink.MAV_SEVERITY_WARNING)
+        return [telemetry.mission_current(self)]
+
+    def _on_request_data_stream(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
+        interval = 1.0 / msg.req_message_rate if msg.start_stop and msg.req_message_rate > 0 else None
+        for msg_id in telemetry.DATA_STREAM_GROUPS.get(msg.req_stream_id, ()):
+            self.streams.set_interval(msg_id, interval, self.time_s)
+        return []
+
+    def _on_param_request_list(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
+        return [self._param_value(name) for name in self.params]
+
+    def _on_param_request_read(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
+        names = list(self.params)
+        name = _param_name(msg.param_id)
+        if msg.param_index >= 0:
+            name = names[msg.param_index] if msg.param_index < len(names) else ""
+        return [self._param_value(name)] if name in self.params else []
+
+    def _on_param_set(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
+        name = _param_name(msg.param_id)
+        if name not in self.params:
+            return []
+        self.params[name] = msg.param_value
+        if name == "SIM_DRAIN_MULT":
+            self.battery.drain_multiplier = msg.param_value
+        elif name == "SIM_BATT_FAIL" and msg.param_value > 0:
+            self.fail_battery()
+        elif name == "BATT_CAPACITY" and msg.param_value > 0:
+            self.battery.capacity_mah = msg.param_value  # remaining % follows at once (flight §5)
+        return [self._param_value(name)]
+
+    def _param_value(self, name: str) -> MAVMessage:
+        names = list(self.params)
+        return mavlink.MAVLink_param_value_message(
+            name.encode(), self.params[name], mavlink.MAV_PARAM_TYPE_REAL32, len(names), names.index(name)
+        )
+
+    def _on_timesync(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
+        if msg.tc1 != 0:
+            return []
+        return [mavlink.MAVLink_timesync_message(int(self.time_s * 1e9), msg.ts1)]
+
+    # ---- modes and commands ------------------------------------------------------------
+
+    @property
+    def _rtl_alt_setting_m(self) -> float:
+        if not self.ardupilot:
+            return self.config.rtl_alt_m
+        return self.params["RTL_ALT"] / 100.0 if self.copter else self.params["RTL_ALTITUDE"]
+
+    def _mode_refused(self) -> int:
+        return mavlink.MAV_RESULT_FAILED if self.ardupilot else mavlink.MAV_RESULT_DENIED
+
+    def _prearm_refusals(self) -> list[str]:
+        """ArduPilot's failing pre-arm checks, in its words (flight §1, §6): the boot milestones,
+        the mission the mode needs, the battery. A copter needs the EKF's position only in
+        modes that fly by position."""
+        if not self.ardupilot:
+            return []
+        position_mode = self.mode in (Mode.GUIDED, Mode.AUTO, Mode.LOITER, Mode.RTL, Mode.LAND)
+        reasons = boot_refusals(self.config.vehicle_type, self.boot, self.time_s, needs_position=position_mode)
+        if self.copter and self.mode == Mode.AUTO and self.mission_total == 0:
+            reasons.append("Mode requires mission")
+        if not self.copter and self.params["RTL_AUTOLAND"] == 0 and self._land_start_seq() is not None:
+            reasons.append("DO_LAND_START set and RTL_AUTOLAND disabled")
+        return reasons + self._battery_refusals()
+
+    def _arm_refusals(self) -> list[str]:
+        """Why arming is refused now, one STATUSTEXT each; empty: it arms. ArduCopter's AUTO,
+        RTL and LAND are not armable (checked once the pre-arm checks pass)."""
+        if not self.ardupilot:
+            if failsafe_level(self.battery.remaining_pct, self.config.battery) != FailsafeLevel.NONE:
+                return ["PreArm: Battery below minimum arming level"]
+            if self.mode in (Mode.RTL, Mode.LAND):
+                return ["Arm: Mode not armable"]
+            return []
+        reasons = self._prearm_refusals()
+        if not reasons and self.copter and self.mode in (Mode.AUTO, Mode.RTL, Mode.LAND):
+            reasons.append(f"{self.mode.value} mode not armable")
+        return [f"Arm: {r}" for r in reasons]
+
+    def _battery_refusals(self) -> list[str]:
+        b, p = self.battery, self.params
+        volts = self.battery_voltage_v
+        if 0 < p["BATT_ARM_VOLT"] and volts < p["BATT_ARM_VOLT"]:
+            return ["Battery 1 below minimum arming voltage"]
+        if 0 < p["BATT_ARM_MAH"] and b.remaining_mah < p["BATT_ARM_MAH"]:
+            return ["Battery 1 below minimum arming capacity"]
+        if 0 < p["BATT_LOW_VOLT"] and volts < p["BATT_LOW_VOLT"]:
+            return ["Battery 1 low voltage failsafe"]
+        level = failsafe_level(b.remaining_pct, self.config.battery)
+        if level == FailsafeLevel.CRITICAL:
+            return ["Battery 1 critical capacity failsafe"]
+        if level == FailsafeLevel.LOW:
+            return ["Battery 1 low capacity failsafe"]
+        return []
+
+    def _arm(self, arm: bool, force: bool) -> int:
+        if not arm:
+            if not self.landed and not force:
+                if self.ardupilot:
+                    return mavlink.MAV_RESULT_FAILED  # no text (flight §6)
+                self.statustext("Disarm: vehicle is flying", mavlink.MAV_SEVERITY_WARNING)
+                return mavlink.MAV_RESULT_DENIED
+            self._disarm()
+            return mavlink.MAV_RESULT_ACCEPTED
+        if self.armed:
+            return mavlink.MAV_RESULT_ACCEPTED
+        if not force:
+            refusals = self._arm_refusals()
+            for text in refusals:
+                self.statustext(text, mavlink.MAV_SEVERITY_CRITICAL)
+            if refusals:
+                return mavlink.MAV_RESULT_FAILED if self.ardupilot else mavlink.MAV_RESULT_DENIED
+        self.armed = True
+        self._auto_armed = False
+        if not self.ardupilot:
+            self.statustext("Arming motors")
+            return mavlink.MAV_RESULT_ACCEPTED
+        self.statustext("Arming motors" if self.copter else "Throttle armed")
+        lat, lon = self.lat_lon_deg
+        self._set_home(lat, lon, self.home.alt_m + self.kin.alt_m)  # home is where it arms
+        if self.copter:
+            self._disarm_at_s = self.time_s + self.params["DISARM_DELAY"]  # unless it takes off
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def _clear_flight(self) -> None:
+        """Disarmed: no landing, take-off or pending (auto-)disarm left over."""
+        self.armed = False
+        self.landing = False
+        self._takeoff_alt_m = None
+        self._disarm_at_s = None
+        self._lift_at_s = None
+
+    def _disarm(self) -> None:
+        if self.armed:
+            self.statustext("Disarming motors" if self.copter or not self.ardupilot else "Auto disarmed")
+        self._clear_flight()
+        self._auto_armed = False
+        if self.ardupilot and self.copter and self.mode == Mode.AUTO:
+            # the mission is reset: MISSION_CURRENT 0, then "Mission: 1 Takeoff" (flight §2)
+            self.mission_seq = 0
+            self._pending.append(telemetry.mission_current(self))
+            self._restart_mission()
+            self._announce_item()
+            self._pending.append(telemetry.mission_current(self))
+
+    def _set_home(self, lat_deg: float, lon_deg: float, alt_m: float) -> None:
+        self.home = HomePose(lat_deg, lon_deg, alt_m, self.home.heading_deg)
+        self.home_en = self.frame.geodetic2en(lat_deg, lon_deg)
+        self.mission.set_home(lat_deg, lon_deg, alt_m)
+        self.home_set = True
+        self._pending.append(telemetry.home_position(self))
+
+    def _set_mode(self, mode: Mode | None) -> int:
+        if mode is None or mode not in mode_table(self.config.profile, self.config.vehicle_type):
+            return self._mode_refused()
+        if mode == Mode.AUTO:
+            refused = self._auto_refused()
+            if refused is not None:
+                return refused
+        if self.ardupilot and mode == Mode.RTL and not self.copter and not self.landed:
+            if self.params["RTL_AUTOLAND"] == 2 and self._start_landing_sequence():
+                return mavlink.MAV_RESULT_ACCEPTED  # straight to the runway (flight §3)
+        was_auto = self.mode == Mode.AUTO
+        self.mode = mode
+        self.landing = False
+        self._hold_until_s = None
+        self._land_from = None
+        if mode in (Mode.GUIDED, Mode.LOITER):
+            self._target_en = (self.kin.east_m, self.kin.north_m)
+            self._target_alt_m = self.kin.alt_m
+        elif mode == Mode.RTL:
+            # ArduCopter returns at RTL_ALT or higher; ArduPlane at RTL_ALTITUDE
+            self._rtl_alt_m = self._rtl_alt_setting_m if self.ardupilot and not self.copter \
+                else max(self.kin.alt_m, self._rtl_alt_setting_m)
+        elif mode == Mode.TAKEOFF:
+            self._takeoff_alt_m = self.config.takeoff_alt_m
+        elif mode == Mode.AUTO and (not was_auto or self.mission_complete):
+            self._start_or_resume()
+        if mode != Mode.TAKEOFF and mode != Mode.GUIDED:
+            self._takeoff_alt_m = None
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def _auto_refused(self) -> int | None:
+        """Why AUTO cannot be entered now (None: it can). ArduCopter disarmed takes AUTO even
+        without a mission; armed it needs one, and on the ground it must start with a take-off."""
+        empty = len(self.mission.items()) <= self._first_seq
+        if not self.ardupilot or not self.copter:
+            if empty:
+                self.statustext("Mode change to AUTO failed: no mission", mavlink.MAV_SEVERITY_WARNING)
+                return self._mode_refused()
+            return None
+        if not self.armed:
+            return None
+        if self.landed and not empty and not self._starts_with_takeoff():
+            self.statustext("Auto: Missing Takeoff Cmd", mavlink.MAV_SEVERITY_CRITICAL)
+            empty = True
+        if empty:
+            self.statustext("Mode change to AUTO failed: init failed", mavlink.MAV_SEVERITY_WARNING)
+            return mavlink.MAV_RESULT_FAILED
+        return None
+
+    def _starts_with_takeoff(self) -> bool:
+        items = self.mission.items()
+        seq = max(self.mission_seq, self._first_seq)
+        nav = next((it for it in items[seq:] if it.command in _NAV_COMMANDS), None)
+        return nav is not None and nav.command == mavlink.MAV_CMD_NAV_TAKEOFF
+
+    def _start_or_resume(self) -> None:
+        """AUTO starts the mission where it stands (MIS_RESTART 0: a re-uploaded mission
+        resumes at the current index), from its first item if it never ran or completed."""
+        if self.mission_complete or self.mission_seq < self._first_seq:
+            self._restart_mission()
+        if self.ardupilot:
+            self._announce_item()
+        self._pending.append(telemetry.mission_current(self))
+
+    def _mission_start(self, p: tuple[float, ...]) -> int:
+        if not self.ardupilot:
+            if p[0] > 0:
+                self._set_seq(int(p[0]))
+            return self._set_mode(Mode.AUTO)
+        if p[0] != 0 or p[1] != 0:
+            return mavlink.MAV_RESULT_DENIED  # only (0, 0): DO_SET_MISSION_CURRENT says where (flight §2)
+        if self.mode == Mode.AUTO:  # already running: a completed mission starts again
+            if self.mission_complete:
+                self._start_or_resume()
+            result = mavlink.MAV_RESULT_ACCEPTED
+        else:
+            result = self._set_mode(Mode.AUTO)
+        if result == mavlink.MAV_RESULT_ACCEPTED and self.armed:
+            self._auto_armed = True  # a copter takes off without any throttle
+        return result
+
+    def _land_start_seq(self) -> int | None:
+        return next((it.seq for it in self.mission.items()[1:] if it.command == mavlink.MAV_CMD_DO_LAND_START), None)
+
+    def _start_landing_sequence(self) -> bool:
+        """ArduPlane: AUTO from the first DO_LAND_START of the mission (its RTL with RTL_AUTOLAND
+        2 does this at once, with 1 once home is reached, and MAV_CMD_DO_LAND_START on demand)."""
+        seq = self._land_start_seq()
+        if seq is None:
+            return False
+        self.statustext("Landing sequence start")
+        self.mode = Mode.AUTO
+        self.landing = False
+        self._hold_until_s = None
+        self._takeoff_alt_m = None
+        self._set_seq(seq + 1)
+        self._announce_item()
+        return True
+
+    def _takeoff(self, alt_m: float) -> int:
+        if not self.armed:
+            self.statustext("Takeoff: vehicle is not armed", mavlink.MAV_SEVERITY_WARNING)
+            return self._mode_refused()
+        if self.config.vehicle_type == "plane" or self.config.profile == "px4":
+            self._set_mode(Mode.TAKEOFF)
+        elif self.mode != Mode.GUIDED:
+            self.statustext("Takeoff: requires GUIDED mode", mavlink.MAV_SEVERITY_WARNING)
+            return self._mode_refused()
+        self._takeoff_alt_m = alt_m if alt_m > 0 else self.config.takeoff_alt_m
+        self._target_en, self._target_alt_m = None, self._takeoff_alt_m
+        self._auto_armed = True
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    def _reposition(self, p: tuple[float, ...], lat: float, lon: float, alt: float, frame: int) -> int:
+        change_mode = int(p[1]) & mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE
+        if self.config.profile == "px4":
+            change_mode = True
+        holding = (Mode.GUIDED,) if self.ardupilot else (Mode.GUIDED, Mode.LOITER)
+        if self.mode not in holding and not change_mode:
+            self.statustext("Reposition: requires GUIDED mode", mavlink.MAV_SEVERITY_WARNING)
+            return mavlink.MAV_RESULT_DENIED
+        if self.landed:
+            self.statustext("Reposition: vehicle is landed", mavlink.MAV_SEVERITY_WARNING)
+            return mavlink.MAV_RESULT_DENIED
+        if self.mode not in holding:
+            self._set_mode(Mode.LOITER if self.config.profile == "px4" else Mode.GUIDED)
+        if not (math.isnan(lat) or math.isnan(lon)):
+            self._target_en = self.frame.geodetic2en(lat, lon)
+        if not math.isnan(alt):
+            self._target_alt_m = self._alt_rel(alt, frame)
+        self._speed_m_s = p[0] if p[0] > 0 else None
+        return mavlink.MAV_RESULT_ACCEPTED
+
+    # ---- flight ------------------------------------------------------------------------
+
+    @property
+    def _first_seq(self) -> int:
+        return 1 if self.ardupilot else 0
+
+    def _restart_mission(self) -> None:
+        self.mission_seq = self._first_seq
+        self.mission_complete = False
+        self._jumps_done.clear()
+        self._hold_until_s = None
+        self._nav_item = None
+
+    def _set_seq(self, seq: int) -> bool:
+        if not self._first_seq <= seq < len(self.mission.items()):
+            return False
+        self.mission_seq = seq
+        self.mission_complete = False
+        self._hold_until_s = None
+        self._nav_item = None
+        self._pending.append(telemetry.mission_current(self))
+        return True
+
+    def _alt_rel(self, alt_m: float, frame: int) -> float:
+        absolute = frame in _ABSOLUTE_ALT_FRAMES or (self.ardupilot and frame == mavlink.MAV_FRAME_MISSION)
+        return alt_m - self.home.alt_m if absolute else alt_m
+
+    def step(self, dt_s: float) -> None:
+        """Advance simulated time by dt (seconds; the fleet keeps dt at or under 0.1 s)."""
+        self.time_s += dt_s
+        if self.ardupilot:
+            self._boot_step()
+        self.battery.step(dt_s, flying=self.armed and not self.landed, powered=self.armed or not self.ardupilot,
+                          voltage_v=self.battery_voltage_v)
+        self._check_failsafe()
+        if self._disarm_at_s is not None and self.landed and self.time_s >= self._disarm_at_s:
+            self._disarm()
+        if not self.armed:
+            self.kin.speed_m_s = self.kin.climb_m_s = self.kin.turn_rate_rad_s = 0.0
+            return
+        goal = self._goal()
+        if goal is None:
+            return
+        if self.landed and (goal.landing or goal.alt_m <= 0.5):
+            if goal.landing and not self.ardupilot:
+                self._touchdown()
+            return
+        if self.landed:
+            self._disarm_at_s = None  # taking off
+            if self.ardupilot:  # motors spool up / the plane rolls before it leaves the ground
+                if self._lift_at_s is None:
+                    self._lift_at_s = self.time_s + (_COPTER_SPOOL_S if self.copter else _PLANE_ROLL_S)
+                if self.time_s < self._lift_at_s:
+                    return
+        self._lift_at_s = None
+        self.landed = False
+        self.landing = goal.landing
+        if goal.landing and self.ardupilot and self.copter and self.kin.alt_m < _LAND_SLOW_BELOW_M:
+            goal.alt_m = max(goal.alt_m, self.kin.alt_m - _LAND_SLOW_M_S * dt_s)  # LAND_SPEED (flight §2)
+        step_toward(self.kin, self.limits, dt_s, target_en=goal.target_en, target_alt_m=goal.alt_m,
+                    speed_m_s=self._speed_m_s)
+        if goal.landing and self.kin.alt_m <= 0.0:
+            self._touchdown()
+        elif self.mode == Mode.AUTO:
+            self._check_reached()
+        if self.ardupilot and self.mode == Mode.RTL and not self.copter and self.params["RTL_AUTOLAND"] == 1 \
+                and math.dist(self.home_en, (self.kin.east_m, self.kin.north_m)) <= self.limits.turn_radius_m * 2:
+            self._start_landing_sequence()
+        self._sense()
+
+    def _sense(self) -> None:
+        """The downward sensor's reading of this step, if any."""
+        obs = self.sensor.update(self.kin.east_m, self.kin.north_m, self.kin.alt_m, self.time_s)
+        if obs is not None:
+            self._pending.append(self._capture_msg(obs))
+            if obs.reported:
+                self.statustext(reading_text(obs), mavlink.MAV_SEVERITY_NOTICE)
+
+    def _boot_step(self) -> None:
+        """ArduPilot's start-up: the GPS fix, then home (HOME_POSITION is sent when it is set)
+        and the EKF origin (GPS_GLOBAL_ORIGIN), and "PreArm:" every 30 s while it would
+        refuse to arm (flight §1)."""
+        b, t = self.boot, self.time_s
+        if not self.home_set and t >= b.home_s:
+            self._set_home(self.home.lat_deg, self.home.lon_deg, self.home.alt_m)
+        if self.origin is None and t >= b.origin_s:
+            self.origin = (self.home.lat_deg, self.home.lon_deg, self.home.alt_m)
+            self._pending.append(telemetry.gps_global_origin(self))
+        if t >= self._prearm_report_s:
+            self._prearm_report_s += 30.0
+            refusals = [] if self.armed else self._prearm_refusals()
+            if refusals:
+                self.statustext("PreArm: " + refusals[0], mavlink.MAV_SEVERITY_CRITICAL)
+
+    def _capture_msg(self, obs: Observation) -> MAVMessage:
+        return reading_message(obs, self.config.sensor, self.home.alt_m + self.kin.alt_m, self.kin.alt_m)
+
+    def _check_failsafe(self) -> None:
+        if self.ardupilot and not self.armed:
+            return  # ArduPilot's battery failsafes act only while armed (flight §5)
+        reached = failsafe_level(self.battery.remaining_pct, self.config.battery)
+        trigger = failsafe_to_trigger(self.failsafe, reached)
+        if trigger is None:
+            return
+        self.failsafe = trigger
+        if not self.armed or self.landed:
+            return
+        pct = self.battery.remaining_pct
+        can_land = Mode.LAND in mode_table(self.config.profile, self.config.vehicle_type)
+        action = Mode.RTL if trigger == FailsafeLevel.LOW or not can_land else Mode.LAND
+        if self.ardupilot:
+            level = "low" if trigger == FailsafeLevel.LOW else "critical"
+            self.statustext(f"Battery 1 is {level} {self.battery_voltage_v:.2f}V used "
+                            f"{self.battery.consumed_mah:.0f} mAh", mavlink.MAV_SEVERITY_WARNING)
+            self.statustext("Battery Failsafe", mavlink.MAV_SEVERITY_WARNING)
+        elif trigger == FailsafeLevel.LOW:
+            self.statustext(f"Battery failsafe: low {pct:.0f}%, RTL", mavlink.MAV_SEVERITY_CRITICAL)
+        else:
+            self.statustext(f"Battery failsafe: critical {pct:.0f}%, {action.name}", mavlink.MAV_SEVERITY_EMERGENCY)
+        self._set_mode(action)
+
+    def _touchdown(self) -> None:
+        descent = -self.kin.climb_m_s
+        self.kin.alt_m = 0.0
+        self.kin.speed_m_s = self.kin.climb_m_s = self.kin.turn_rate_rad_s = 0.0
+        was_flying = not self.landed
+        self.landed = True
+        self.landing = self.ardupilot and self.copter  # reported LANDING until it disarms
+        self._land_from = None
+        if not self.ardupilot:
+            if was_flying:
+                self.statustext("Land complete")
+            if self.mode == Mode.AUTO and self.mission_seq < len(self.mission.items()):
+                self._reach(self.mission_seq)
+            self._disarm()
+            return
+        # ArduPilot sends no MISSION_ITEM_REACHED for NAV_LAND (a mission's RTL item is reached
+        # on the ground); a copter disarms 2 s after touching down, a plane LAND_DISARMDELAY
+        # (20 s) after (flight §2, §3)
+        if was_flying:
+            self.statustext(f"SIM Hit ground at {descent:.2f} m/s")
+        items = self.mission.items()
+        if self.mode == Mode.AUTO and self.mission_seq < len(items) \
+                and items[self.mission_seq].command == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            self._reach(self.mission_seq)
+        delay = 2.0 if self.copter else self.params["LAND_DISARMDELAY"]
+        self._disarm_at_s = self.time_s + delay
+
+    def _goal(self) -> _Goal | None:
+        here = (self.kin.east_m, self.kin.north_m)
+        if self._takeoff_alt_m is not None and self.mode in (Mode.GUIDED, Mode.TAKEOFF):
+            if self.kin.alt_m >= self._takeoff_alt_m - 0.5:
+                self._takeoff_alt_m = None
+                if self.mode == Mode.TAKEOFF:
+                    self.mode = Mode.LOITER
+                if self._target_en is None:  # no reposition arrived during the climb
+                    self._target_en, self._target_alt_m = here, self.kin.alt_m
+            else:
+                return _Goal(self._climb_point(), self._takeoff_alt_m)
+        if self.ardupilot and self.copter and self.mode == Mode.LOITER:
+            # SITL has no RC: LOITER's throttle is at its minimum and the copter sinks and lands
+            return None if self.landed else _Goal(None, -1.0, landing=True)
+        if self.mode in (Mode.GUIDED, Mode.LOITER, Mode.TAKEOFF):
+            if self.landed:
+                return None
+            return _Goal(self._hold_or(self._target_en), self._target_alt_m)
+        if self.mode == Mode.LAND:
+            return _Goal(None if self.limits.can_hover else self._hold_or(None), -1.0, landing=True)
+        if self.mode == Mode.RTL:
+            return self._rtl_goal()
+        if self.mode == Mode.AUTO:
+            if self.ardupilot and self.copter and self.landed and not self._auto_armed:
+                return None  # AUTO entered by DO_SET_MODE on the ground: no take-off (flight §2)
+            return self._auto_goal()
+        return None if self.landed else _Goal(None, self.kin.alt_m)
+
+    def _climb_point(self) -> tuple[float, float] | None:
+        """Copters climb vertically; planes climb straight ahead."""
+        if self.limits.can_hover:
+            return None
+        far = 10_000.0
+        return (self.kin.east_m + far * math.sin(self.kin.heading_rad),
+                self.kin.north_m + far * math.cos(self.kin.heading_rad))
+
+    def _hold_or(self, target: tuple[float, float] | None) -> tuple[float, float] | None:
+        """A plane near its target circles (target None) instead of chasing it."""
+        if target is None or self.limits.can_hover:
+            return target
+        if math.dist(target, (self.kin.east_m, self.kin.north_m)) < self.limits.turn_radius_m:
+            return None
+        return target
+
+    def _rtl_goal(self) -> _Goal:
+        dist = math.dist(self.home_en, (self.kin.east_m, self.kin.north_m))
+        radius = self.config.acceptance_radius_m
+        if self.ardupilot and not self.copter:
+            return _Goal(self._hold_or(self.home_en), self._rtl_alt_m)  # ArduPlane circles home (flight §3)
+        if self.landing or dist <= radius:
+            return _Goal(self._touchdown_point(self.home_en), -1.0, landing=True)
+        if self.limits.can_hover and self.kin.alt_m < self._rtl_alt_m - 0.5:
+            return _Goal(None, self._rtl_alt_m)
+        return _Goal(self.home_en, self._rtl_alt_m)
+
+    def _auto_goal(self) -> _Goal | None:
+        items = self.mission.items()
+        for _ in range(len(items) + 1):
+            if self.mission_seq >= len(items):
+                if not self.mission_complete:
+                    self.mission_complete = True
+                    self.statustext(self._finished_text)
+                    self._pending.append(telemetry.mission_current(self))
+                return None if self.landed else _Goal(self._hold_or(None), self.kin.alt_m)
+            item = items[self.mission_seq]
+            if self.ardupilot and not self.copter and self._nav_item is not None \
+                    and self._nav_item.seq == self.mission_seq:
+                item = self._nav_item  # ArduPlane flies the nav item it started, whatever replaced it
+            if item.command == mavlink.MAV_CMD_DO_JUMP:
+                self._do_jump(item)
+                continue
+            if item.command == mavlink.MAV_CMD_DO_CHANGE_SPEED and item.param2 > 0:
+                self._speed_m_s = item.param2
+            if item.command not in _NAV_COMMANDS:
+                self._advance()
+                continue
+            self._nav_item = item
+            return self._nav_goal(item)
+        return None
+
+    _finished_text = "Mission complete"
+
+    def _do_jump(self, item: MissionItem) -> None:
+        done = self._jumps_done.get(item.seq, 0)
+        if item.param2 < 0 or done < item.param2:
+            self._jumps_done[item.seq] = done + 1
+            self.mission_seq = int(item.param1)
+        else:
+            self._advance()
+        self._pending.append(telemetry.mission_current(self))
+
+    def _item_en(self, item: MissionItem) -> tuple[float, float]:
+        if item.x == 0 and item.y == 0:
+            return (self.kin.east_m, self.kin.north_m)
+        return self.frame.geodetic2en(item.x / 1e7, item.y / 1e7)
+
+    def _nav_goal(self, item: MissionItem) -> _Goal:
+        cmd = item.command
+        alt = self._alt_rel(item.z, item.frame)
+        if cmd == mavlink.MAV_CMD_NAV_TAKEOFF:
+            return _Goal(self._climb_point(), alt)
+        if cmd == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            if not self.landing and self._rtl_alt_m <= 0.0:
+                self._rtl_alt_m = max(self.kin.alt_m, self._rtl_alt_setting_m)
+            return self._rtl_goal()
+        if cmd == mavlink.MAV_CMD_NAV_LAND:
+            target = self._item_en(item)
+            if self.ardupilot and not self.copter:
+                return self._glide_goal(target)
+            if self.landing or math.dist(target, (self.kin.east_m, self.kin.north_m)) <= self._radius(item):
+                return _Goal(self._touchdown_point(target), -1.0, landing=True)
+            return _Goal(target, self.kin.alt_m)
+        return _Goal(self._item_en(item), alt)
+
+    def _touchdown_point(self, target: tuple[float, float]) -> tuple[float, float] | None:
+        """Where a vertical landing goes down: an ArduCopter onto the point itself (0.03 m from
+        it, flight §2), the px4 profile where it stands; a plane circles down."""
+        if not self.limits.can_hover:
+            return self._hold_or(None)
+        return target if self.ardupilot else None
+
+    def _glide_goal(self, target: tuple[float, float]) -> _Goal:
+        """ArduPlane's landing: along the runway axis (from the previous waypoint, the approach,
+        to the NAV_LAND point), gliding from the approach altitude to the ground just short of
+        the point (flight §3: touchdowns 5-14 m short, within 0.5 m of the axis)."""
+        here = (self.kin.east_m, self.kin.north_m)
+        if self._land_from is None:
+            self._land_from = (*self._previous_nav_en(here), self.kin.alt_m)
+        x0, y0, alt0 = self._land_from
+        total = math.hypot(target[0] - x0, target[1] - y0)
+        if total < 1.0:  # no axis: straight ahead, down
+            return _Goal(self._climb_point(), -1.0, landing=True)
+        ux, uy = (target[0] - x0) / total, (target[1] - y0) / total
+        along = (here[0] - x0) * ux + (here[1] - y0) * uy
+        left = total - along
+        glide_alt = alt0 * min(max(left / total, 0.0), 1.0)
+        look = along + 2.0 * self.limits.turn_radius_m  # pursue a point ahead on the axis
+        aim = (x0 + ux * look, y0 + uy * look)
+        if left <= self.limits.turn_radius_m:  # over the runway: on down to the ground
+            return _Goal(aim, glide_alt - 0.3, landing=True)
+        return _Goal(aim, glide_alt, landing=True)
+
+    def _previous_nav_en(self, fallback: tuple[float, float]) -> tuple[float, float]:
+        """Where the nav item before the current one is (the approach before NAV_LAND)."""
+        items = self.mission.items()
+        for it in reversed(items[self._first_seq:self.mission_seq]):
+            if it.command in _NAV_COMMANDS and it.command != mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH \
+                    and (it.x, it.y) != (0, 0):
+                return self.frame.geodetic2en(it.x / 1e7, it.y / 1e7)
+        return fallback
+
+    def _radius(self, item: MissionItem) -> float:
+        radius = item.param2 if item.command == mavlink.MAV_CMD_NAV_WAYPOINT and item.param2 > 0 \
+            else self.config.acceptance_radius_m
+        if not self.limits.can_hover:
+            radius = max(radius, self.limits.turn_radius_m)
+        return radius
+
+    def _check_reached(self) -> None:
+        items = self.mission.items()
+        if self.mission_seq >= len(items):
+            return
+        item = self._nav_item if self._nav_item is not None and self._nav_item.seq == self.mission_seq \
+            else items[self.mission_seq]
+        cmd = item.command
+        here = (self.kin.east_m, self.kin.north_m)
+        if cmd == mavlink.MAV_CMD_NAV_TAKEOFF:
+            if self.kin.alt_m >= self._alt_rel(item.z, item.frame) - 0.5:
+                self._reach(item.seq)
+            return
+        if cmd not in (mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME, mavlink.MAV_CMD_NAV_LOITER_UNLIM):
+            return
+        if self._hold_until_s is not None:
+            if self.time_s >= self._hold_until_s:
+                self._hold_until_s = None
+                self._advance()
+            return
+        close = math.dist(self._item_en(item), here) <= self._radius(item)
+        if self.limits.can_hover:
+            close = close and abs(self.kin.alt_m - self._alt_rel(item.z, item.frame)) <= 1.0
+        if not close:
+            return
+        if cmd == mavlink.MAV_CMD_NAV_LOITER_UNLIM:
+            return
+        self._report_reached(item.seq)
+        hold_s = item.param1 if self.limits.can_hover or cmd == mavlink.MAV_CMD_NAV_LOITER_TIME else 0.0
+        if hold_s > 0:
+            self._hold_until_s = self.time_s + hold_s
+        else:
+            self._advance()
+
+    def _report_reached(self, seq: int) -> None:
+        """MISSION_ITEM_REACHED; ArduPlane reports the waypoint before a DO_LAND_START with the
+        DO_LAND_START's number (flight §3)."""
+        reported = seq
+        items = self.mission.items()
+        if self.ardupilot and not self.copter and seq + 1 < len(items) \
+                and items[seq + 1].command == mavlink.MAV_CMD_DO_LAND_START:
+            reported = seq + 1
+        self._pending.append(mavlink.MAVLink_mission_item_reached_message(reported))
+        self.reached.append(reported)
+        if self.ardupilot:
+            self.statustext(f"Reached command #{seq}" if self.copter else f"Reached waypoint #{seq}")
+
+    def _reach(self, seq: int) -> None:
+        self._report_reached(seq)
+        self._advance()
+
+    def _advance(self) -> None:
+        self.mission_seq += 1
+        self._rtl_alt_m = 0.0
+        self._nav_item = None
+        self._pending.append(telemetry.mission_current(self))
+        if self.ardupilot:
+            self._announce_item()
+
+    def _announce_item(self) -> None:
+        """ArduPilot's "Mission: N Takeoff" as each item starts."""
+        items = self.mission.items()
+        if self._first_seq <= self.mission_seq < len(items):
+            cmd = items[self.mission_seq].command
+            self.statustext(f"Mission: {self.mission_seq} {MISSION_TEXT_NAMES.get(cmd, cmd)}")
+
+
+def _param_name(raw: bytes | str) -> str:
+    if isinstance(raw, bytes):
+        raw = raw.decode(errors="replace")
+    return raw.rstrip("\x00")

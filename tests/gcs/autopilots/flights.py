@@ -1,0 +1,173 @@
+"""Helpers for flights on real autopilots: `gcs fly` as the user runs it (its output streamed), and
+the flight read back from its Rerun recording (tracks, stages from the event log), with the
+checks every flight test makes: landed at its own airport, never inside a no-fly cell, stages in
+order."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from gcs.plans.plan_folder import FleetPlan, load_plan_dir
+from gcs.recording.flight import FLIGHT_TIME
+from gcs.recording.plan import read_recording
+
+STAGES = ["preparing", "uploading", "arming", "search"]
+
+
+COPTER_SPEED = ("--cruise-speed", "5")  # ArduCopter's average on 30 m cells: it slows down at every waypoint
+
+
+def fly(plan: Path, connections: list[str] | int, *extra: str, timeout: float = 600,
+        on_line=None, orders: tuple[tuple[str, str, float], ...] = ()) -> subprocess.CompletedProcess:
+    """`gcs fly` on the plan over the links given (a port number: `udpin:127.0.0.1:PORT`);
+    `on_line(line)` sees its output as it comes; `orders`: (text, order, after_s), the operator
+    typing `order` `after_s` seconds after a line with `text` was printed."""
+    if isinstance(connections, int):
+        connections = [f"udpin:127.0.0.1:{connections}"]
+    args = [sys.executable, "-m", "gcs.cli", "fly", "--plan", str(plan), "--rrd", str(plan / "flight.rrd"),
+            *(arg for c in connections for arg in ("--connect", c)), *extra]
+    if orders:
+        args.append("--stdin-orders")
+        pending = list(orders)
+
+        def type_order(order: str) -> None:
+            if process.poll() is None:
+                process.stdin.write(order + "\n")
+                process.stdin.flush()
+
+        def type_orders(line: str, user=on_line) -> None:
+            for entry in list(pending):
+                if entry[0] in line:
+                    pending.remove(entry)
+                    threading.Timer(entry[2], type_order, (entry[1],)).start()
+            if user is not None:
+                user(line)
+
+        on_line = type_orders
+    with subprocess.Popen(args, stdin=subprocess.PIPE if orders else None, stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True) as process:
+        err: list[str] = []
+        reader = threading.Thread(target=lambda: err.append(process.stderr.read()), daemon=True)
+        reader.start()
+        out = []
+        deadline = time.monotonic() + timeout
+        for line in process.stdout:
+            out.append(line)
+            if on_line is not None:
+                on_line(line)
+            if time.monotonic() > deadline:
+                process.kill()
+        process.wait(timeout)
+        reader.join(5)
+    return subprocess.CompletedProcess(args, process.returncode, "".join(out), "".join(err))
+
+
+def fly_with_a_dropout(plan: Path, connections: list[str] | int, relay, uav_id: int, *extra: str,
+                       after_s: float = 3.0, silent_s: float = 10.0) -> subprocess.CompletedProcess:
+    """`fly`, with `relay` (a `tests.peers.relay.UdpRelay`) silent for `silent_s` of wall time from
+    `after_s` after UAV `uav_id` started its search."""
+    searching = threading.Event()
+
+    def drop_out() -> None:
+        if searching.wait(120):
+            time.sleep(after_s)
+            relay.silence()
+            time.sleep(silent_s)
+            relay.restore()
+
+    thread = threading.Thread(target=drop_out, daemon=True)
+    thread.start()
+    def on_line(line: str) -> None:
+        if line.split("] ", 1)[-1].startswith(f"UAV {uav_id}: search"):
+            searching.set()
+
+    done = fly(plan, connections, *extra, on_line=on_line)
+    thread.join(5)
+    return done
+
+
+def bus_events(port: int, fleet: str, events: list, stop: threading.Event) -> threading.Thread:
+    """Every UAV event of `fleet` on the MQTT bus at `port`, appended to `events` until `stop`."""
+    import aiomqtt
+
+    async def listen() -> None:
+        try:
+            async with aiomqtt.Client("127.0.0.1", port, identifier=f"{fleet}-test") as client:
+                await client.subscribe(f"gcs/{fleet}/uav/+/event", qos=1)
+                async for message in client.messages:
+                    events.append(json.loads(message.payload))
+                    if stop.is_set():
+                        return
+        except aiomqtt.MqttError:
+            return  # the broker was stopped at the end of the test
+
+    thread = threading.Thread(target=lambda: asyncio.run(asyncio.wait_for(listen(), 600)), daemon=True)
+    thread.start()
+    return thread
+
+
+def metres(plan: FleetPlan, a, b) -> float:
+    ea, na = plan.local_m(*a)
+    eb, nb = plan.local_m(*b)
+    return math.hypot(ea - eb, na - nb)
+
+
+def _depth_in_no_fly_cell(plan: FleetPlan, lat: float, lon: float) -> float:
+    """How far (m) a position lies inside a no-fly cell (0 when its cell is free)."""
+    east, north = plan.local_m(lat, lon)
+    g = plan.grid
+    x, y = (east - g.east0_m) / g.cell_size_m, (north - g.north0_m) / g.cell_size_m
+    ix, iy = int(math.floor(x)), int(math.floor(y))
+    if not (0 <= ix < g.nx and 0 <= iy < g.ny) or not plan.no_fly[ix, iy]:
+        return 0.0
+    fx, fy = x - ix, y - iy
+    return min(fx, 1 - fx, fy, 1 - fy) * g.cell_size_m
+
+
+_STAGE_NAMES = ("connecting", "preparing", "uploading", "arming", "search", "return", "rtl", "landed", "lost", "failed")
+
+
+def _stage_of(text: str) -> str | None:
+    """The stage an event-log line announces ("arming", "return triggered (reason: battery): return ...")."""
+    if text.startswith("return triggered"):
+        return text.split("): ", 1)[-1].split(" ", 1)[0] if "): " in text else text.split(": ", 1)[1].split(" ")[0]
+    word = text.split(" ", 1)[0]
+    return word if word in _STAGE_NAMES else None
+
+
+def recorded(plan_dir: Path) -> tuple[FleetPlan, dict[int, list], dict[int, list[str]]]:
+    """Each UAV's recorded positions, and its stages in the order the event log announced them."""
+    plan = load_plan_dir(plan_dir)
+    rec = read_recording(plan_dir / "flight.rrd", FLIGHT_TIME)
+    _, lines = rec.column("events", "TextLog:text")
+    tracks, stages = {}, {}
+    for uid in plan.uavs:
+        _, positions = rec.column(f"geo/uav/{uid}", "GeoPoints:positions")
+        tracks[uid] = [tuple(p[0]) for p in positions]
+        prefix = f"UAV {uid}: "
+        said = [_stage_of(line[0][len(prefix):]) for line in lines if line[0].startswith(prefix)]
+        stages[uid] = [stage for stage in said if stage is not None]
+    return plan, tracks, stages
+
+
+def assert_landed_home_and_clear_of_no_fly(plan_dir: Path, max_from_airport_m: float, tolerance_m: float) -> dict:
+    plan, tracks, stages = recorded(plan_dir)
+    landed = {}
+    for uid, task in plan.uavs.items():
+        track = tracks[uid]
+        assert len(track) > 20, f"UAV {uid}: too few recorded positions"
+        assert max(metres(plan, p, task.airport_lat_lon) for p in track) > 2 * plan.cell_size_m  # it went searching
+        landed[uid] = metres(plan, track[-1], task.airport_lat_lon)
+        assert landed[uid] <= max_from_airport_m, f"UAV {uid} landed {landed[uid]:.1f} m from its airport"
+        deepest = max(_depth_in_no_fly_cell(plan, *p) for p in track)
+        assert deepest <= tolerance_m, f"UAV {uid} went {deepest:.1f} m into a no-fly cell"
+        seen = stages[uid]
+        assert seen[:len(STAGES)] == STAGES and seen[-1] == "landed", f"UAV {uid} stages {seen}"
+    return landed

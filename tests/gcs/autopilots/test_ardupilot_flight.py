@@ -1,0 +1,149 @@
+"""`gcs fly` on real ArduCopter and ArduPlane SITL: each vehicle waits until it is ready, flies its
+planned search in AUTO and lands at its own airport (the plane on its runway, after the landing
+approach); a fast-draining battery brings its vehicle home early by fuel while the other keeps
+searching; a vehicle that refuses to arm stays on the ground with ArduPilot's reason while the
+other flies. Each test reads the flight back from its Rerun recording: where each vehicle
+landed, that no recorded position entered a no-fly cell, and that the stages came in order."""
+
+from __future__ import annotations
+
+import json
+import re
+import threading
+from contextlib import ExitStack
+
+import numpy as np
+import pytest
+
+from tests.gcs.autopilots.flights import (
+    COPTER_SPEED,
+    assert_landed_home_and_clear_of_no_fly,
+    bus_events,
+    fly,
+    fly_with_a_dropout,
+    recorded,
+)
+from tests.gcs.bus.helpers import Mosquitto
+from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
+from tests.peers.relay import UdpRelay
+from tests.peers.site import COPTERS, PLANE, Site
+
+pytestmark = pytest.mark.autopilot
+
+def test_a_copter_flies_its_search_and_lands_at_its_airport(tmp_path):
+    site = Site(COPTERS.airports[:1])
+    plan_dir = site.plan(tmp_path)
+    with ArduPilotSitl("copter", home=site.home(0)) as sitl:
+        done = fly(plan_dir, sitl.gcs_port, *COPTER_SPEED)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
+    assert "ready: GPS fix" in done.stdout and "mission verified" in done.stdout
+    landed = assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=3.0, tolerance_m=3.0)
+    assert landed[1] <= 3.0
+    assert "1/1 landed" in done.stdout
+    row = next(line.split() for line in done.stdout.splitlines() if line.startswith("  1 west"))
+    assert row[2] == "landed" and row[5] == "plan"  # it flew its whole search and the plan's own way home
+
+
+def test_the_operators_return_order_brings_the_copter_home_along_its_planned_way(tmp_path):
+    """`r 1` typed 8 s (80 s of the copter's time) into the search: the copter is held, its planned way home is
+    uploaded and flown (not RTL), and it lands at its airport with the order as the reason."""
+    site = Site(COPTERS.airports[:1])
+    plan_dir = site.plan(tmp_path)
+    with ArduPilotSitl("copter", home=site.home(0)) as sitl:
+        done = fly(plan_dir, sitl.gcs_port, *COPTER_SPEED, orders=(("UAV 1: search", "r 1", 8.0),))
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
+    out = done.stdout
+    assert "UAV 1: return ordered (order)" in out and re.search(r"UAV 1: return leg of \d+ waypoints uploaded", out)
+    assert "RTL" not in out.split("UAV 1: return ordered", 1)[1]
+    row = next(line.split() for line in out.splitlines() if line.startswith("  1 west"))
+    assert row[2] == "landed" and row[5] == "order" and float(row[3]) <= 3.0
+
+
+def test_a_plane_takes_off_along_its_runway_searches_and_lands_on_it(tmp_path):
+    plan_dir = PLANE.plan(tmp_path, "--vehicle", "plane", "--approach-m", "400")
+    plan = json.loads((plan_dir / "plan.json").read_text())
+    assert plan["uavs"][0]["approach"] is not None
+    with ArduPilotSitl("plane", home=PLANE.home(0), params={"NAVL1_PERIOD": 10}) as sitl:
+        done = fly(plan_dir, sitl.gcs_port, "--cruise-speed", "22")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
+    assert "RTL_AUTOLAND set to 2" in done.stdout
+    fleet_plan, tracks, _ = recorded(plan_dir)
+    # on the runway: along its axis (north) within the measured stopping distance, close to the line
+    east, north = np.subtract(fleet_plan.local_m(*tracks[1][-1]),
+                              fleet_plan.local_m(*fleet_plan.uavs[1].airport_lat_lon))
+    assert abs(east) <= 5.0 and -30.0 <= north <= 5.0, (east, north)
+    assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=30.0, tolerance_m=15.0)
+
+
+def test_a_fast_draining_battery_brings_its_copter_home_first_and_the_other_searches_on(tmp_path):
+    plan_dir = COPTERS.plan(tmp_path)
+    port = free_udp_port()
+    (tmp_path / "mosquitto").mkdir()
+    broker = Mosquitto(tmp_path / "mosquitto")
+    broker.start()
+    events: list = []
+    stop = threading.Event()
+    try:
+        listener = bus_events(broker.port, "drain", events, stop)
+        with ExitStack() as stack:  # both vehicles push to one UDP port: one link for the fleet
+            stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port))
+            stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(1), sysid=2, gcs_port=port,
+                                              params={"BATT_CAPACITY": 2000}))  # drains 1.65x as fast
+            done = fly(plan_dir, port, *COPTER_SPEED, "--mqtt", f"mqtt://127.0.0.1:{broker.port}", "--fleet", "drain")
+        stop.set()
+        listener.join(5)
+    finally:
+        broker.stop()
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
+    assert "UAV 2: battery" in done.stdout and "the way home needs" in done.stdout
+    at_landing = {int(m.group(1)): int(m.group(2))
+                  for m in re.finditer(r"UAV (\d): landed - battery (\d+)%", done.stdout)}
+    assert at_landing[2] >= 25  # the 30 % reserve, give or take the whole percent ArduPilot reports and the descent
+    landed = assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=3.0, tolerance_m=3.0)
+    assert set(landed) == {1, 2}
+    by_uav: dict[int, list] = {1: [], 2: []}
+    for e in events:
+        by_uav[e["uav"]].append(e)
+    for uid, seq in by_uav.items():
+        assert [e["seq"] for e in seq] == sorted(e["seq"] for e in seq) and seq, f"UAV {uid} events out of order"
+        kinds = [e["kind"] for e in seq]
+        assert "takeoff" in kinds and kinds[-1] == "landed" and kinds.index("takeoff") < kinds.index("landed")
+    returns = [e for e in by_uav[2] if e["kind"] == "return"]
+    assert returns and returns[0]["reason"] == "battery"
+    assert not [e for e in by_uav[1] if e["kind"] == "return"]  # UAV 1 flew its plan's own return
+    land_time = {uid: next(e["t_s"] for e in seq if e["kind"] == "landed") for uid, seq in by_uav.items()}
+    assert land_time[2] < land_time[1]
+
+
+def test_a_vehicle_that_refuses_to_arm_stays_on_the_ground_with_its_reason_while_the_other_flies(tmp_path):
+    plan_dir = COPTERS.plan(tmp_path)
+    port = free_udp_port()
+    with ExitStack() as stack:
+        stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port))
+        stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(1), sysid=2, gcs_port=port,
+                                          params={"BATT_ARM_VOLT": 13.0}))  # the sim battery gives 12.6 V
+        done = fly(plan_dir, port, *COPTER_SPEED, "--no-rrd", "--arm-timeout", "10")
+    assert done.returncode == 1, done.stdout[-3000:] + done.stderr
+    assert "UAV 2: arming refused: Arm: Battery 1 below minimum arming voltage" in done.stdout
+    assert "UAV 2: failed - cannot arm" in done.stdout and "left on the ground" in done.stdout
+    assert "UAV 1: landed" in done.stdout and "1/2 landed" in done.stdout
+
+
+def test_a_vehicle_whose_link_goes_silent_flies_on_by_itself_and_never_stalls_the_other(tmp_path):
+    """UAV 2's radio drops out for 10 s of wall time (100 s at the SITL speed-up) mid-search: the
+    station marks it lost and keeps flying UAV 1; ArduPilot (GCS failsafe off, its default) flies
+    its mission on; when the link comes back the station picks it up again; both land at home."""
+    plan_dir = COPTERS.plan(tmp_path)
+    port = free_udp_port()
+    with UdpRelay(port) as relay, ExitStack() as stack:
+        stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port))
+        stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(1), sysid=2, gcs_port=relay.port))
+
+        done = fly_with_a_dropout(plan_dir, port, relay, 2, *COPTER_SPEED, "--lost-giveup", "60")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
+    assert relay.dropped > 50
+    assert "UAV 2: lost - no telemetry" in done.stdout and "UAV 2: search - link back" in done.stdout
+    assert "UAV 1: lost" not in done.stdout
+    _, _, stages = recorded(plan_dir)
+    assert "lost" in stages[2] and stages[2][-1] == "landed" and "lost" not in stages[1]
+    assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=3.0, tolerance_m=3.0)

@@ -1,0 +1,106 @@
+"""Mission transfer against real ArduCopter and ArduPlane SITL: a planned mission uploads and
+reads back over UDP and TCP, signed and unsigned; refusals (no room, a bad frame) come back as
+one clear line with the vehicle's own words, and a refused list is not left half-replaced."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from gcs.autopilots import Autopilot
+from gcs.autopilots.mission_transfer import MissionTransferError, WireItem, download, upload_verified
+from gcs.links import MavLink, SigningKey, mavlink
+from tests.peers.ardupilot import ArduPilotSitl
+from tests.peers.site import COPTERS, PLANE, Site
+
+pytestmark = pytest.mark.autopilot
+
+SITE = Site(COPTERS.airports[:1])
+SITES = {"copter": SITE, "plane": PLANE}
+KEY = SigningKey.from_passphrase("gcs autopilot tests")
+
+
+def _gcs(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "gcs.cli", *args], capture_output=True, text=True, timeout=timeout)
+
+
+@pytest.fixture(scope="module")
+def plans(tmp_path_factory) -> dict[str, Path]:
+    root = tmp_path_factory.mktemp("site")
+    return {"copter": SITE.plan(root / "copter"), "plane": PLANE.plan(root / "plane", "--vehicle", "plane")}
+
+
+@pytest.mark.parametrize("vehicle", ["copter", "plane"])
+@pytest.mark.parametrize("transport", ["udp", "tcp"])
+def test_planned_mission_uploads_and_reads_back(plans, vehicle, transport):
+    with ArduPilotSitl(vehicle, home=SITES[vehicle].home(0)) as sitl:
+        conn = sitl.udp_connection if transport == "udp" else sitl.tcp_connection
+        done = _gcs("upload", "--plan", str(plans[vehicle]), "--connect", conn, "--connect-timeout", "30")
+    assert done.returncode == 0, done.stdout + done.stderr
+    plan = json.loads((plans[vehicle] / "plan.json").read_text())
+    landing = 3 if vehicle == "plane" else 1  # DO_LAND_START, approach, NAV_LAND; or NAV_LAND
+    items = 1 + 1 + len(plan["uavs"][0]["waypoints"]) + landing  # home, take-off, waypoints, landing
+    assert f"UAV 1: verified: mission {items} items" in done.stdout
+    assert "fence" in done.stdout and "rally 1 items" in done.stdout
+    assert "1/1 vehicles verified" in done.stdout
+
+
+@pytest.mark.parametrize("vehicle", ["copter", "plane"])
+def test_signed_upload_after_provisioning_and_unsigned_station_told_why(plans, vehicle):
+    with ArduPilotSitl(vehicle, home=SITES[vehicle].home(0)) as sitl:
+        provisioned = _gcs("signing", "--connect", sitl.tcp_connection, "--signing-passphrase",
+                           "gcs autopilot tests", "--wait", "15")
+        assert provisioned.returncode == 0, provisioned.stdout + provisioned.stderr
+        # SERIAL0 is ArduPilot's USB port, which it trusts unsigned; the UDP link below must refuse
+        assert f"signs with key {KEY.fingerprint}; this link still accepts unsigned" in provisioned.stdout
+        signed = _gcs("upload", "--plan", str(plans[vehicle]), "--connect", sitl.udp_connection,
+                      "--signing-passphrase", "gcs autopilot tests", "--connect-timeout", "30")
+        assert signed.returncode == 0, signed.stdout + signed.stderr
+        unsigned = _gcs("upload", "--plan", str(plans[vehicle]), "--connect", sitl.udp_connection,
+                        "--connect-timeout", "30")
+        assert unsigned.returncode == 1
+        assert "signs its MAVLink messages" in unsigned.stdout and "--signing-key" in unsigned.stdout
+    assert "UAV 1: verified: mission" in signed.stdout
+
+
+async def _ready(link: MavLink) -> None:
+    """Until ArduPilot has a home (its mission storage is ready then; before, it holds 0 items)."""
+    await link.wait_for(1, "HEARTBEAT", timeout_s=30.0)
+    await link.command(1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_HOME_POSITION, 1e6)
+    assert await link.wait_for(1, "HOME_POSITION", timeout_s=30.0) is not None, "the SITL never set its home"
+
+
+def _waypoints(n: int, frame: int = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT) -> list[WireItem]:
+    lat, lon = SITE.centre
+    home = WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, lat, lon, 0.0)
+    return [home] + [WireItem.at(i, frame, mavlink.MAV_CMD_NAV_WAYPOINT, lat + i * 1e-5, lon, 30.0 + i % 7)
+                     for i in range(1, n)]
+
+
+def test_refusals_are_named_with_the_vehicles_words_and_leave_no_mixed_mission():
+    async def main():
+        with ArduPilotSitl("copter", home=SITE.home(0)) as sitl:
+            async with MavLink(sitl.tcp_connection) as link:
+                await _ready(link)
+                good = _waypoints(6)
+                await upload_verified(link, 1, good, Autopilot.ARDUPILOT)
+                with pytest.raises(MissionTransferError) as full:
+                    await upload_verified(link, 1, _waypoints(700), Autopilot.ARDUPILOT)
+                assert full.value.result == mavlink.MAV_MISSION_NO_SPACE and full.value.capacity == 650
+                assert "700 items sent, the vehicle holds at most 650 items" in str(full.value)
+                assert len(await download(link, 1)) == 6  # refused at the COUNT: the old mission is intact
+
+                bad = _waypoints(6)
+                bad[3] = WireItem.at(3, mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_CMD_NAV_WAYPOINT, 1.0, 2.0, 3.0)
+                with pytest.raises(MissionTransferError) as frame:
+                    await upload_verified(link, 1, bad, Autopilot.ARDUPILOT)
+                assert frame.value.result == mavlink.MAV_MISSION_UNSUPPORTED_FRAME
+                assert "MAV_MISSION_UNSUPPORTED_FRAME" in str(frame.value) and "cleared" in str(frame.value)
+                assert len(await download(link, 1)) <= 1  # at most home: items 1-2 new and 3-5 old were not left
+
+    asyncio.run(main())

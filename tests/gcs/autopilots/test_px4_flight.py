@@ -1,0 +1,148 @@
+"""`gcs upload` and `gcs fly` on real PX4 SITL (v1.15.3, SIH copter), alone and in a mixed fleet
+with an ArduCopter: the mission reads back as PX4 stores it, the copter waits for PX4's pre-arm
+checks, flies its search and lands at its own airport; in the mixed fleet the PX4 battery drains
+fast and brings it home by fuel first while the ArduCopter flies its plan. Flights are read back
+from their Rerun recordings."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+import threading
+
+import pytest
+
+from tests.gcs.autopilots.flights import (
+    COPTER_SPEED,
+    assert_landed_home_and_clear_of_no_fly,
+    bus_events,
+    fly,
+    fly_with_a_dropout,
+    recorded,
+)
+from tests.gcs.bus.helpers import Mosquitto
+from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
+from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
+from tests.peers.relay import UdpRelay
+from tests.peers.site import COPTERS, Site
+
+pytestmark = pytest.mark.autopilot
+
+
+
+def _px4_home(site: Site, index: int) -> tuple[float, float, float]:
+    return site.home(index)[:3]
+
+
+@pytest.mark.parametrize("link", ["udpout", "udpin"])
+def test_a_planned_mission_uploads_to_px4_and_reads_back_as_px4_stores_it(tmp_path, link):
+    """Over the instance's GCS port (`udpout:127.0.0.1:18570+I`), or listening where every PX4
+    SITL sends its telemetry (`udpin:127.0.0.1:14550`, vehicles told apart by system id)."""
+    plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
+    with Px4Sitl(home=_px4_home(COPTERS, 0)) as px4:
+        connection = px4.gcs_connection if link == "udpout" else "udpin:127.0.0.1:14550"
+        done = subprocess.run([sys.executable, "-m", "gcs.cli", "upload", "--plan", str(plan_dir), "--connect",
+                               connection, "--connect-timeout", "30"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "UAV 1: ready: GPS fix" in done.stdout  # PX4's pre-arm checks passed
+    assert re.search(r"UAV 1: verified: mission \d+ items \(0 re-sends\), fence \d+ items", done.stdout)
+
+
+def test_a_px4_copter_flies_its_search_and_lands_at_its_airport(tmp_path):
+    plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
+    with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4:
+        done = fly(plan_dir, [px4.gcs_connection], *COPTER_SPEED)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
+    assert "px4 autopilot" in done.stdout and "1/1 landed" in done.stdout
+    row = next(line.split() for line in done.stdout.splitlines() if line.startswith("  1 west"))
+    assert row[2] == "landed" and row[5] == "plan"
+    assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=3.0, tolerance_m=3.0)
+
+
+def test_a_mixed_fleet_brings_the_fast_draining_px4_home_first(tmp_path):
+    """Both autopilots at one speed-up, so "first" means the same in vehicle time; PX4's battery
+    lasts 300 s of flight (SIM_BAT_DRAIN), far less than its share of the search needs. The bus
+    carries both vehicles' events alike."""
+    plan_dir = COPTERS.plan(tmp_path)
+    port = free_udp_port()
+    (tmp_path / "mosquitto").mkdir()
+    broker = Mosquitto(tmp_path / "mosquitto")
+    broker.start()
+    events: list = []
+    stop = threading.Event()
+    try:
+        listener = bus_events(broker.port, "mixed", events, stop)
+        with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=5), \
+                Px4Sitl(home=_px4_home(COPTERS, 1), sysid=2, speedup=5,
+                        params={"SIM_BAT_DRAIN": 300.0, "SIM_BAT_MIN_PCT": 0.0}) as px4:
+            done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], *COPTER_SPEED,
+                       "--mqtt", f"mqtt://127.0.0.1:{broker.port}", "--fleet", "mixed")
+        stop.set()
+        listener.join(5)
+    finally:
+        broker.stop()
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
+    out = done.stdout
+    assert "UAV 1: preparing - ardupilot autopilot" in out and "UAV 2: preparing - px4 autopilot" in out
+    assert re.search(r"UAV 2: battery \d+% covers [\d.]+ steps, the way home needs", out)
+    rows = {line.split()[0]: line.split() for line in out.splitlines() if re.match(r"^\s+[12] ", line)}
+    assert rows["1"][5] == "plan" and rows["2"][5] == "battery"
+    assert out.index("UAV 2: return - going home (battery)") < out.index("UAV 1: landed")
+    assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=3.0, tolerance_m=3.0)
+    by_uav: dict[int, list] = {1: [], 2: []}
+    for e in events:
+        by_uav[e["uav"]].append(e)
+    for _uid, seq in by_uav.items():
+        kinds = [e["kind"] for e in seq]
+        assert "takeoff" in kinds and kinds[-1] == "landed" and kinds.index("takeoff") < kinds.index("landed"), kinds
+    assert [e["reason"] for e in by_uav[2] if e["kind"] == "return"] == ["battery"]
+    assert not [e for e in by_uav[1] if e["kind"] == "return"]
+
+
+def test_operator_orders_on_a_px4_a_shorter_range_then_home(tmp_path):
+    """The operator's `range 1 N` mid-search (a range of N steps from take-off) makes the trigger
+    send the PX4 home along its planned way as soon as that way no longer fits in it."""
+    plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
+    with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4:
+        done = fly(plan_dir, [px4.gcs_connection], *COPTER_SPEED, "--no-rrd",
+                   orders=(("UAV 1: search", "range 1 12", 0.0),))
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
+    out = done.stdout
+    assert "UAV 1: range set to 12 steps" in out, out[-3000:]
+    assert re.search(r"UAV 1: return - going home \((range|operator)", out), out[-3000:]
+    row = next(line.split() for line in out.splitlines() if line.startswith("  1 west"))
+    assert row[2] == "landed" and float(row[3]) <= 3.0
+
+
+def test_a_px4_that_fails_its_pre_arm_checks_stays_on_the_ground_with_its_reason_while_the_ardupilot_flies(tmp_path):
+    """COM_ARMABLE 0 puts PX4 in its safety configuration: its pre-arm bit stays off, so the
+    station never arms it, names PX4's own reason, and flies the other vehicle."""
+    plan_dir = COPTERS.plan(tmp_path)
+    port = free_udp_port()
+    with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port), \
+            Px4Sitl(home=_px4_home(COPTERS, 1), sysid=2, params={**STEADY_BATTERY, "COM_ARMABLE": 0}) as px4:
+        done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], *COPTER_SPEED, "--no-rrd",
+                   "--ready-timeout", "30")
+    assert done.returncode == 1, done.stdout[-3000:] + done.stderr
+    out = done.stdout
+    assert re.search(r"UAV 2: failed - not ready after 30 s: no PX4's pre-arm checks \(.*safety configuration",
+                     out), out
+    assert "UAV 2: arming" not in out
+    assert "UAV 1: landed" in out and "1/2 landed" in out
+
+
+def test_a_px4_whose_link_goes_silent_flies_its_mission_on_and_is_picked_up_again(tmp_path):
+    """The station's link to PX4 goes through a relay that drops everything for 10 s of wall time
+    (50 s of vehicle time) mid-search: the station marks it lost; PX4 (NAV_DLL_ACT 0, its default)
+    flies its mission on; the station picks it up when the link is back, and it lands at home."""
+    plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
+    with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4, UdpRelay(px4.gcs_port) as relay:
+        done = fly_with_a_dropout(plan_dir, [f"udpout:127.0.0.1:{relay.port}"], relay, 1, *COPTER_SPEED,
+                                  "--lost-giveup", "60")
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
+    assert relay.dropped > 20
+    assert "UAV 1: lost - no telemetry" in done.stdout and "UAV 1: search - link back" in done.stdout
+    _, _, stages = recorded(plan_dir)
+    assert "lost" in stages[1] and stages[1][-1] == "landed"
+    assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=3.0, tolerance_m=3.0)

@@ -1,0 +1,81 @@
+"""`gcs fly --online` on a mixed fleet: an ArduCopter and a PX4 copter, each with `gcs detector`
+attached as a MAVLink camera next to its autopilot (ArduPilot: SERIAL2; PX4: its payload port
+14280+I, which PX4 forwards to the station out of the box). One detector process serves both;
+the planner steers both vehicles cell by cell on one shared map, every reading is folded into it,
+and both land at their own airports."""
+
+from __future__ import annotations
+
+import asyncio
+import signal
+import subprocess
+import sys
+
+import pytest
+
+from gcs.cli import build_parser
+from gcs.flight.controller import FlyOptions
+from gcs.flight.fly import fly_async
+from gcs.flight.online import observed_search
+from gcs.plans.plan_folder import load_plan_dir
+from gcs.plans.planning import build_area_search
+from gcs.telemetry.status import Stage
+from planner.sensor_noise import reading_draw
+from sim.detector import CAMERA_COMPONENT_ID
+from tests.gcs.autopilots.flights import metres
+from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
+from tests.peers.px4 import STEADY_BATTERY, Px4Sitl, free_instance
+from tests.peers.site import Airport, Site
+
+pytestmark = pytest.mark.autopilot
+
+SEED, PC, PF = 3, 0.9, 0.1
+SITE = Site((Airport("west", -225.0, -45.0, "E", 600.0), Airport("south", -45.0, -225.0, "N", 600.0)),
+            targets=((-165.0, -45.0), (-45.0, -165.0)))
+
+
+def test_online_search_on_a_mixed_fleet_with_detectors_folds_both_vehicles_readings(tmp_path):
+    plan_dir = SITE.plan(tmp_path, "--seed", str(SEED), "--altitude", "15")
+    plan = load_plan_dir(plan_dir)
+    ardupilot_camera_port = free_udp_port()
+    px4_instance = free_instance()
+    detector = subprocess.Popen(
+        [sys.executable, "-m", "gcs.cli", "detector", "--plan", str(plan_dir),
+         "--uav", "1", "--connect", f"udpin:127.0.0.1:{ardupilot_camera_port}",
+         "--uav", "2", "--connect", f"udpout:127.0.0.1:{14280 + px4_instance}"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        with ArduPilotSitl("copter", home=SITE.home(0), sysid=1, speedup=5,
+                           serial2=f"udpclient:127.0.0.1:{ardupilot_camera_port}") as ardupilot, \
+                Px4Sitl(home=SITE.home(1)[:3], sysid=2, instance=px4_instance, params=STEADY_BATTERY) as px4:
+            ns = build_parser().parse_args(["plan", "--area", str(tmp_path / "site.geojson"), "--seed", str(SEED),
+                                            "--altitude", "15", "--strategy", "exhaustive"])
+            setup = build_area_search(ns)
+            search = observed_search(setup.search.scenario, setup.search.config, seed=SEED)
+            prior = search.map.tep.copy()
+            controller = asyncio.run(asyncio.wait_for(
+                fly_async(plan, [ardupilot.udp_connection, px4.gcs_connection], FlyOptions(), online=search), 400))
+    finally:
+        detector.send_signal(signal.SIGTERM)
+        try:
+            out, _ = detector.communicate(timeout=10)
+        finally:
+            detector.kill()
+    assert detector.returncode == 0, out
+    targets, folded = set(plan.targets), 0
+    for uid in (1, 2):
+        status = controller.status[uid]
+        assert status.stage is Stage.LANDED, f"UAV {uid}: {status.stage} {status.note}"
+        assert metres(plan, (status.lat_deg, status.lon_deg), plan.uavs[uid].airport_lat_lon) < 3.0
+        assert controller.reading_component[uid] == CAMERA_COMPONENT_ID
+        readings = {d.index: d for d in status.detections}
+        assert len(readings) >= 4 and sorted(readings) == list(range(len(readings))), f"UAV {uid}: {sorted(readings)}"
+        visits: dict = {}
+        for i in sorted(readings):  # each the simulated sensor's draw for this UAV, cell and visit
+            cell = plan.cell_of(readings[i].lat_deg, readings[i].lon_deg)
+            visit = visits[cell] = visits.get(cell, -1) + 1
+            assert readings[i].hit == (reading_draw(SEED, uid, *cell, visit) < (PC if cell in targets else PF))
+        folded += len(readings)
+        assert f"UAV {uid}: {len(readings)} readings" in out
+    assert int(search.map.visits.sum()) == folded  # every reading of both vehicles in the one map
+    assert (search.map.tep != prior).any()

@@ -1,0 +1,88 @@
+"""`gcs plan` from the outside: a real process, its output files and its exit codes."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from gcs.plans.plan_file import validate_plan_dict
+
+
+def gcs(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "gcs.cli", *args], capture_output=True, text=True, cwd=cwd)
+
+
+def test_plan_writes_a_valid_closed_plan(tmp_path):
+    out = tmp_path / "plan.json"
+    run = gcs("plan", "--scenario", "paper", "--seed", "7", "--np", "3", "--oc", "3", "--range", "90",
+              "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    data = json.loads(out.read_text())
+    validate_plan_dict(data)
+    assert data["grid"] == {**data["grid"], "nx": 50, "ny": 50}
+    assert len(data["grid"]["no_fly"]) == 16 * 11 + 11 * 11
+    assert [u["airport"] for u in data["uavs"]] == [[1, 20], [20, 50], [27, 1], [50, 26]]
+    for u in data["uavs"]:
+        traj = u["trajectory"]
+        assert traj[0]["step"] == 0 and [traj[0]["x"], traj[0]["y"]] == u["airport"]
+        assert [traj[-1]["x"], traj[-1]["y"]] == u["airport"]
+        assert len(traj) - 1 == u["search_steps"] + u["return_steps"] <= 90
+        assert {p["stage"] for p in traj} <= {"search", "return"}
+    assert data["summary"]["targets"] == 10
+    assert "targets found" in run.stdout and "UAV" in run.stdout
+
+
+def test_a_folder_out_gets_plan_json_and_same_seed_same_file(tmp_path):
+    for folder in ("a", "b"):
+        run = gcs("plan", "--np", "2", "--range", "60", "--seed", "3", "--out", str(tmp_path / folder), "--quiet")
+        assert run.returncode == 0
+    a, b = (tmp_path / "a" / "plan.json").read_text(), (tmp_path / "b" / "plan.json").read_text()
+    assert a == b
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--scenario", "moon"], "unknown scenario"),
+    (["--np", "0"], "Np must be at least 1"),
+    (["--range", "2"], "too short to leave"),
+    (["--oc", "6"], "unknown orientation constraint"),
+    (["--strategy", "magic"], "unknown search strategy"),
+    (["--return", "teleport"], "unknown return planner"),
+    (["--np", "five"], "invalid int value"),
+    (["--pc", "0.05", "--pf", "0.1"], "pf < pc"),
+])
+def test_bad_arguments_give_one_line_exit_2_and_no_file(tmp_path, args, message):
+    out = tmp_path / "plan.json"
+    run = gcs("plan", *args, "--out", str(out))
+    assert run.returncode == 2
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and message in lines[0]
+    assert "Traceback" not in run.stderr
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_plan_records_the_run_and_draws_a_picture_by_default(tmp_path):
+    from PIL import Image
+
+    from gcs.recording.plan import read_recording
+
+    out = tmp_path / "run" / "plan.json"
+    run = gcs("plan", "--np", "3", "--range", "70", "--seed", "2", "--out", str(out), "--quiet")
+    assert run.returncode == 0, run.stderr
+    data = json.loads(out.read_text())
+    tables = read_recording(out.with_suffix(".rrd"))
+    for u in data["uavs"]:
+        state = tables.temporal[f"uav/{u['id']}/state"].to_pydict()
+        assert state["step"] == [p["step"] for p in u["trajectory"]]
+        assert [v[0] for v in state["x"]] == [p["x"] for p in u["trajectory"]]
+        assert [v[0] for v in state["stage"]] == [p["stage"] for p in u["trajectory"]]
+    with Image.open(out.with_suffix(".png")) as picture:
+        assert picture.size == (1400, 1000)
+        assert len(np.unique(np.asarray(picture.convert("RGB")).reshape(-1, 3), axis=0)) > 50
+
+
+def test_no_rrd_writes_no_recording(tmp_path):
+    out = tmp_path / "plan.json"
+    assert gcs("plan", "--np", "2", "--range", "40", "--no-rrd", "--out", str(out), "--quiet").returncode == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.json", "plan.png"]

@@ -1,0 +1,55 @@
+"""Fixtures: one area plan made through the plan command's code path, and flights of it
+against the simulated fleet on free loopback ports."""
+
+from __future__ import annotations
+
+import asyncio
+from pathlib import Path
+
+import pytest
+
+from gcs.cli import main
+from gcs.cli.commands.fly import start_sim
+from gcs.flight.controller import FlightController, FlyOptions
+from gcs.flight.fly import fly_async
+from gcs.plans.plan_folder import FleetPlan, load_plan_dir
+
+ROOT = Path(__file__).resolve().parents[3]
+SPEEDUP = 60.0
+
+
+@pytest.fixture(scope="session")
+def plan_dir(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("plan") / "paper"
+    assert main(["plan", "--area", str(ROOT / "missions" / "paper.geojson"), "--seed", "0", "--strategy", "exhaustive",
+                 "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+@pytest.fixture
+def plan(plan_dir) -> FleetPlan:
+    return load_plan_dir(plan_dir)
+
+
+def fast_options(**overrides) -> FlyOptions:
+    base = dict(tick_s=0.01, transfer_timeout_s=0.1, command_timeout_s=0.2, link_timeout_s=1.0, lost_giveup_s=1.0,
+                connect_timeout_s=5.0, arm_timeout_s=5.0)
+    base.update(overrides)
+    return FlyOptions(**base)
+
+
+def fly(plan: FleetPlan, options: FlyOptions | None = None, *, during=None, listeners=(), watchers=(),
+        **sim) -> tuple[FlightController, object]:
+    """Fly `plan` against a fresh simulated fleet; `during(fleet)` runs once it is up."""
+    sim.setdefault("speedup", SPEEDUP)
+    fleet = start_sim(plan, **sim).start()
+    try:
+        if during is not None:
+            during(fleet)
+        controller = asyncio.run(asyncio.wait_for(
+            fly_async(plan, fleet.connection_strings(), options or fast_options(), listeners=listeners,
+                      watchers=watchers), 120))
+    finally:
+        fleet.stop()
+    assert not fleet.errors, fleet.errors
+    return controller, fleet
