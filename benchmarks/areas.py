@@ -135,10 +135,8 @@ def _can_leave(table: np.ndarray, cell: tuple[int, int], heading: int, steps: in
     return first_step_feasible(table, OC3.successors, blocked, (cell[0], cell[1], heading), 0, steps)
 
 
-def mission_scenario(name: str, extra: list[str] | None = None) -> Scenario:
+def mission_scenario(name: str) -> Scenario:
     """The scenario `gcs plan --area missions/<name>.geojson` plans (its default options)."""
-    from gcs.cli import build_parser
     from gcs.plans.planning import build_area_search
 
-    args = build_parser().parse_args(["plan", "--area", str(ROOT / "missions" / f"{name}.geojson"), *(extra or [])])
-    return build_area_search(args).search.scenario
+    return build_area_search(ROOT / "missions" / f"{name}.geojson").search.scenario

@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from gcs.cli import build_parser  # noqa: E402
+from gcs.plans.options import AreaOptions, SearchOptions  # noqa: E402
 from gcs.plans.planning import area_outputs, build_area_search, write_outputs  # noqa: E402
 
 LARGE = ROOT / "missions" / "large.geojson"
@@ -36,16 +36,15 @@ def _with_uavs(doc: dict, count: int) -> dict:
     return {**doc, "features": kept}
 
 
-def phases(area_path: Path, out: Path, extra: list[str]) -> dict[str, float]:
-    args = build_parser().parse_args(["plan", "--area", str(area_path), "--out", str(out), "--quiet", *extra])
+def phases(area_path: Path, out: Path, area: AreaOptions, search: SearchOptions) -> dict[str, float]:
     t0 = time.perf_counter()
-    setup = build_area_search(args)
+    setup = build_area_search(area_path, area, search)
     t1 = time.perf_counter()
     for _ in setup.search.run():
         pass
     plan = setup.search.plan()
     t2 = time.perf_counter()
-    write_outputs(out, area_outputs(setup, plan, args.seed, args.speed_m_s))
+    write_outputs(out, area_outputs(setup, plan, search.seed, area.speed_m_s))
     t3 = time.perf_counter()
     g = setup.area.grid
     steps = sum(len(u.trajectory) - 1 for u in plan.uavs)
@@ -59,6 +58,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer configurations")
     opts = parser.parse_args()
     extra = ["--strategy", opts.strategy] if opts.strategy else []
+    search = SearchOptions(strategy=opts.strategy) if opts.strategy else SearchOptions()
     doc = json.loads(LARGE.read_text())
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -79,7 +79,7 @@ def main() -> None:
         for size, count in runs:
             path = tmp / f"large_{count}.geojson"
             path.write_text(json.dumps(_with_uavs(doc, count)))
-            r = phases(path, tmp / f"out_{size}_{count}", ["--cell-size", str(size), *extra])
+            r = phases(path, tmp / f"out_{size}_{count}", AreaOptions(cell_size_m=size), search)
             print(f"{r['grid']:>9} {r['cells']:>7} {r['uavs']:>4} {r['uav_steps']:>9} {r['setup']:>8.2f} "
                   f"{r['search']:>8.2f} {r['outputs']:>9.2f} {r['total']:>8.2f} "
                   f"{1000 * r['search'] / max(r['uav_steps'], 1):>11.2f}")

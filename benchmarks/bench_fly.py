@@ -27,11 +27,11 @@ sys.path.insert(0, str(ROOT))
 
 from gcs.autopilots import Autopilot  # noqa: E402
 from gcs.cli import main as gcs_main  # noqa: E402
-from gcs.cli.commands.fly import start_sim  # noqa: E402
 from gcs.cli.commands.upload import upload_fleet  # noqa: E402
 from gcs.flight.controller import FlightController, FlyOptions  # noqa: E402
 from gcs.links import MavLink  # noqa: E402
 from gcs.plans.plan_folder import FleetPlan, load_plan_dir  # noqa: E402
+from sim.plan_fleet import fleet_for_plan  # noqa: E402
 
 
 def make_plan() -> FleetPlan:
@@ -57,7 +57,7 @@ def bench_upload(plan: FleetPlan, runs: int, loss: float) -> tuple[list[float], 
     alone (mission + fence + rally, each uploaded and read back)."""
     times, transfers = [], []
     for r in range(runs):
-        fleet = start_sim(plan, speedup=1.0, loss=loss, seed=r).start()
+        fleet = fleet_for_plan(plan, speedup=1.0, loss=loss, seed=r).start()
         try:
             opts = FlyOptions(fly=False, transfer_timeout_s=0.05 if loss else 0.5)
             start = time.perf_counter()
@@ -91,7 +91,7 @@ async def _loop(plan: FleetPlan, connections: list[str], seconds: float) -> Flig
 
 def bench_loop(plan: FleetPlan, n: int, seconds: float) -> tuple[FlightController, float]:
     fleet_plan = cloned(plan, n)
-    fleet = start_sim(fleet_plan, speedup=5.0).start()
+    fleet = fleet_for_plan(fleet_plan, speedup=5.0).start()
     try:
         start = time.perf_counter()
         controller = asyncio.run(_loop(fleet_plan, fleet.connection_strings(), seconds))

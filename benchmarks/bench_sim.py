@@ -1,6 +1,8 @@
-"""How many simulated vehicles one process serves in real time, and 200-item upload time.
+"""How many simulated vehicles one process serves in real time, what a flying vehicle costs, and
+200-item upload time.
 
     python benchmarks/bench_sim.py [--counts 1,10,25,50,75,100] [--seconds 5] [--hz 10]
+                                   [--flight 50] [--flight-seconds 60]
 
 For each fleet size the simulator runs in this process at speedup 1; a separate receiver process
 (so decoding does not steal the simulator's CPU) says hello to every vehicle from one UDP socket,
@@ -9,11 +11,19 @@ asks each for position, attitude and HUD at --hz and the status messages at 1 Hz
 and counts GLOBAL_POSITION_INT datagrams by reading the MAVLink 2 header. Reported: achieved
 position rate per vehicle, total datagrams per second, simulated/real time ratio, and the process
 CPU share.
+
+--flight N (repeatable as a list; "" for none) steps N copters flying a mission in AUTO in this
+process, without sockets, exactly as the fleet's tick does (`step`, then `emit` with the same
+streams asked for): what the simulator itself costs per vehicle and tick while vehicles fly
+(kinematics, mission logic, local-frame conversions, sensor, message building). Reported: CPU
+microseconds per vehicle-tick (the median of 5 runs) and how many flying vehicles that leaves
+room for in real time at the fleet's 20 ms tick.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import multiprocessing as mp
 import os
 import socket
@@ -27,7 +37,7 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim import FleetOptions, HomePose, MissionItem, SimFleet, VehicleConfig, homes_for
+from sim import FleetOptions, HomePose, MissionItem, Mode, SimFleet, VehicleConfig, homes_for
 from tests.sim.mission_client import MissionClient
 
 HOME = HomePose(-35.363261, 149.165230, 584.0, 0.0)
@@ -95,6 +105,59 @@ def bench_fleet(n: int, seconds: float, hz: float) -> dict:
     }
 
 
+def _square_mission(home: HomePose, side_m: float = 200.0) -> list[MissionItem]:
+    """Home, take-off to 30 m, a square of `side_m` north-east of home, then round again for ever."""
+    m_per_deg = 111_319.49
+    corners = [(0.0, side_m), (side_m, side_m), (side_m, 0.0), (0.0, 0.0)]
+    items = [MissionItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_WAYPOINT),
+             MissionItem(seq=1, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, command=mavlink.MAV_CMD_NAV_TAKEOFF,
+                         z=30.0)]
+    for east, north in corners:
+        lat = home.lat_deg + north / m_per_deg
+        lon = home.lon_deg + east / (m_per_deg * math.cos(math.radians(home.lat_deg)))
+        items.append(MissionItem(seq=len(items), frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                                 command=mavlink.MAV_CMD_NAV_WAYPOINT, x=round(lat * 1e7), y=round(lon * 1e7), z=30.0))
+    items.append(MissionItem(seq=len(items), frame=mavlink.MAV_FRAME_MISSION, command=mavlink.MAV_CMD_DO_JUMP,
+                             param1=2, param2=-1))
+    return items
+
+
+def bench_flight(n: int, seconds: float, hz: float, runs: int = 5) -> dict:
+    """`n` copters flying `_square_mission` in AUTO, stepped `seconds` of vehicle time per run at
+    the fleet's tick, telemetry asked for as in `bench_fleet`."""
+    options = FleetOptions(base_port=0)
+    fleet = SimFleet(homes_for(n, [HOME], spacing_m=50.0), VehicleConfig(boot_scale=0.0, telemetry_hz=hz), options)
+    vehicles = fleet.vehicles
+    for v in vehicles:
+        v.load_mission(_square_mission(v.home))
+        for msg_id in FAST + SLOW:
+            interval_us = 1e6 / (hz if msg_id in FAST else 1.0)
+            v.handle(mavlink.MAVLink_command_long_message(v.sysid, 1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
+                                                          msg_id, interval_us, 0, 0, 0, 0, 0), 0.0)
+        v.step(options.tick_s)  # home and EKF origin (no start-up delays)
+        assert v.set_mode(Mode.GUIDED) == mavlink.MAV_RESULT_ACCEPTED and v.arm() == mavlink.MAV_RESULT_ACCEPTED
+        start = v.handle(mavlink.MAVLink_command_long_message(v.sysid, 1, mavlink.MAV_CMD_MISSION_START, 0,
+                                                              0, 0, 0, 0, 0, 0, 0), 0.0)
+        assert start[0].result == mavlink.MAV_RESULT_ACCEPTED
+    ticks = round(seconds / options.tick_s)
+
+    def run() -> tuple[float, int]:
+        sent = 0
+        cpu0 = time.process_time()
+        for _ in range(ticks):
+            for v in vehicles:
+                v.step(options.tick_s)
+                sent += len(v.emit())
+        return time.process_time() - cpu0, sent
+
+    run()  # take off and settle into the square
+    results = [run() for _ in range(runs)]
+    assert all(v.state.alt_rel_m > 25.0 and v.state.mode == Mode.AUTO for v in vehicles), "not flying the mission"
+    us = statistics.median(cpu for cpu, _ in results) / (ticks * n) * 1e6
+    return {"vehicles": n, "us_per_vehicle_tick": us, "messages_s": results[-1][1] / seconds / n,
+            "real_time_capacity": options.tick_s * 1e6 / us}
+
+
 def bench_upload(repeats: int = 5, items_n: int = 200) -> list[float]:
     from pymavlink import mavutil
 
@@ -121,17 +184,35 @@ def main() -> None:
     parser.add_argument("--counts", default="1,10,25,50,75,100")
     parser.add_argument("--seconds", type=float, default=5.0)
     parser.add_argument("--hz", type=float, default=10.0)
+    parser.add_argument("--flight", default="50", help="flying fleet sizes stepped without sockets (\"\": none)")
+    parser.add_argument("--flight-seconds", type=float, default=60.0, help="vehicle seconds per run")
     args = parser.parse_args()
-    print(f"telemetry target: GLOBAL_POSITION_INT/ATTITUDE/VFR_HUD at {args.hz:g} Hz per vehicle, speedup 1")
-    print(f"{'vehicles':>8} {'pos Hz mean':>11} {'pos Hz min':>10} {'datagrams/s':>11} {'sim/real':>8} {'CPU':>5}")
-    for n in (int(c) for c in args.counts.split(",")):
-        r = bench_fleet(n, args.seconds, args.hz)
-        print(f"{r['vehicles']:>8} {r['pos_hz_mean']:>11.2f} {r['pos_hz_min']:>10.2f} {r['datagrams_s']:>11.0f} "
-              f"{r['sim_over_real']:>8.3f} {r['cpu_share']:>5.0%}", flush=True)
+    counts = [int(c) for c in args.counts.split(",") if c]
+    flights = [int(c) for c in args.flight.split(",") if c]
+    if counts:
+        _bench_fleets(counts, args.seconds, args.hz)
+    if flights:
+        print(f"flying copters in AUTO, stepped without sockets ({args.flight_seconds:g} s of vehicle time per run, "
+              f"median of 5 runs)")
+        print(f"{'vehicles':>8} {'µs CPU per vehicle-tick':>23} {'messages/s per vehicle':>22} "
+              f"{'flying vehicles in real time':>28}")
+        for n in flights:
+            r = bench_flight(n, args.flight_seconds, args.hz)
+            print(f"{r['vehicles']:>8} {r['us_per_vehicle_tick']:>23.1f} {r['messages_s']:>22.1f} "
+                  f"{r['real_time_capacity']:>28.0f}", flush=True)
     times = bench_upload()
     print("200-item mission upload over loopback (pymavlink MissionClient): "
           f"median {statistics.median(times) * 1000:.1f} ms, min {min(times) * 1000:.1f} ms, "
           f"max {max(times) * 1000:.1f} ms over {len(times)} runs")
+
+
+def _bench_fleets(counts: list[int], seconds: float, hz: float) -> None:
+    print(f"telemetry target: GLOBAL_POSITION_INT/ATTITUDE/VFR_HUD at {hz:g} Hz per vehicle, speedup 1")
+    print(f"{'vehicles':>8} {'pos Hz mean':>11} {'pos Hz min':>10} {'datagrams/s':>11} {'sim/real':>8} {'CPU':>5}")
+    for n in counts:
+        r = bench_fleet(n, seconds, hz)
+        print(f"{r['vehicles']:>8} {r['pos_hz_mean']:>11.2f} {r['pos_hz_min']:>10.2f} {r['datagrams_s']:>11.0f} "
+              f"{r['sim_over_real']:>8.3f} {r['cpu_share']:>5.0%}", flush=True)
 
 
 if __name__ == "__main__":

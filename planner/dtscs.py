@@ -20,7 +20,7 @@ from planner.horizon import Flyer, HorizonValue, block_size, horizon_window, tea
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
 from planner.plan import Plan, ReturnReason, Stage, TargetOutcome, TrajectoryPoint, UavPlan
 from planner.range_check import check_return
-from planner.return_exact import follow_table, return_table, space_time_return
+from planner.return_exact import follow_table, return_around_reservations, return_table
 from planner.return_st import st_return
 from planner.reward import RewardWeights, airport_reward_map
 from planner.scenario import Scenario, UavSpec
@@ -260,7 +260,8 @@ class ClosedSearch:
         path = follow_table(uav.table, pose, self.successors, self.map.no_fly)
         if not any((start_step + 1 + i, c[0], c[1]) in reserved for i, c in enumerate(path)):
             return path
-        return space_time_return(uav.table, pose, start_step, budget, self.successors, self.map.no_fly, reserved)
+        return return_around_reservations(uav.table, pose, start_step, budget, self.successors, self.map.no_fly,
+                                          reserved)
 
     def _ways_home(self, exclude: int) -> dict[int, list[tuple[int, int]]]:
         """Every other flying UAV's way home from now on: committed returns and searchers' plans."""

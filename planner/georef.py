@@ -5,7 +5,14 @@ Planning happens in metres on a flat frame; WGS84 latitude/longitude appear only
 centred on the area: distances and bearings from the centre are exact, and across a 20 km area
 the scale error stays below 1e-5, far under a cell. It is a true 2-D map projection, so
 geodetic -> local -> geodetic round trips to the projection library's precision (micrometres),
-unlike a tangent-plane ENU frame, which would need the height as a third coordinate.
+unlike a tangent-plane ENU frame, which would need the height as a third coordinate. Against
+pymap3d's `geodetic2enu` (a tangent plane) it differs by d^3 / (6 R^2) at d metres from the
+centre: 4 micrometres at 1 km, 1.4 mm at 7 km.
+
+The same frame serves the planner (arrays: `geodetic2local`, `local2geodetic`) and the
+simulator (one point per call, many times per tick: `geodetic2en`, `en2geodetic`, floats in and
+out through pyproj's single-point path). Both convert with one pair of transformers per origin,
+built once per process.
 
 Cells are (x, y), x east and y north, 0-based; cell (x, y) covers
 [east0 + x*size, east0 + (x+1)*size) x [north0 + y*size, north0 + (y+1)*size)."""
@@ -14,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 import pyproj
@@ -42,11 +49,22 @@ class LocalFrame:
 
     @cached_property
     def _forward(self) -> pyproj.Transformer:
-        return pyproj.Transformer.from_crs("EPSG:4326", pyproj.CRS.from_proj4(self.proj_string), always_xy=True)
+        return _transformers(self.proj_string)[0]
 
     @cached_property
     def _inverse(self) -> pyproj.Transformer:
-        return pyproj.Transformer.from_crs(pyproj.CRS.from_proj4(self.proj_string), "EPSG:4326", always_xy=True)
+        return _transformers(self.proj_string)[1]
+
+    def geodetic2en(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
+        """(east_m, north_m) of one WGS84 point: numbers in, floats out (pyproj's single-point
+        path, the simulator's per-tick conversions)."""
+        east, north = self._forward.transform(lon_deg, lat_deg)
+        return east, north
+
+    def en2geodetic(self, east_m: float, north_m: float) -> tuple[float, float]:
+        """(lat_deg, lon_deg) of one local point: numbers in, floats out."""
+        lon, lat = self._inverse.transform(east_m, north_m)
+        return lat, lon
 
     def geodetic2local(self, lat_deg: ArrayLike, lon_deg: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(east_m, north_m) of WGS84 points."""
@@ -66,6 +84,16 @@ class LocalFrame:
     def local2lonlat_coords(self, coords: np.ndarray) -> np.ndarray:
         lon, lat = self._inverse.transform(coords[:, 0], coords[:, 1])
         return np.column_stack([lon, lat])
+
+
+@lru_cache(maxsize=64)
+def _transformers(proj_string: str) -> tuple[pyproj.Transformer, pyproj.Transformer]:
+    """WGS84 lon/lat -> local and back for one frame; building a pair takes tens of milliseconds,
+    so frames with the same origin (every simulated vehicle of a fleet, a plan reloaded) share one.
+    pyproj's Transformer is thread-safe (the simulator's fleet runs on its own thread)."""
+    local = pyproj.CRS.from_proj4(proj_string)
+    return (pyproj.Transformer.from_crs("EPSG:4326", local, always_xy=True),
+            pyproj.Transformer.from_crs(local, "EPSG:4326", always_xy=True))
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,11 @@ constraint, by shortest-path search over (cell, heading) states.
 
 The paper (Section 1) notes that A* over cells cannot honour the OC; over (cell, heading) states
 it can, and a reverse breadth-first search from the airport gives, for every pose, the number of
-steps home. That table makes the DTSCS range check of eq. (23)-(24) a look-up."""
+steps home. That table makes the DTSCS range check of eq. (23)-(24) a look-up.
+
+`return_around_reservations` is the same lowest-cost return when other UAVs hold cells at given
+steps: an A* over (cell, heading, step) that steps around their reservations, with the table as its
+heuristic. (Not to be confused with the paper's search-tracking (ST) return, `planner.return_st`.)"""
 
 from __future__ import annotations
 
@@ -104,9 +108,9 @@ def follow_table(table: np.ndarray, pose: tuple[int, int, int], successors: np.n
     return [tuple(r) for r in rows.tolist()]
 
 
-def space_time_return(table: np.ndarray, pose: tuple[int, int, int], start_step: int, budget: int,
-                      successors: np.ndarray, blocked: np.ndarray,
-                      reserved: set[tuple[int, int, int]]) -> list[tuple[int, int, int]] | None:
+def return_around_reservations(table: np.ndarray, pose: tuple[int, int, int], start_step: int, budget: int,
+                               successors: np.ndarray, blocked: np.ndarray,
+                               reserved: set[tuple[int, int, int]]) -> list[tuple[int, int, int]] | None:
     """The lowest-cost path home from `pose` at `start_step` that never stands on a cell
     reserved by another vehicle at the same step (`reserved` holds (step, x, y)), in at most
     `budget` steps. A* over (cell, heading, step) with the exact table as its heuristic, so it

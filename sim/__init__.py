@@ -1,13 +1,21 @@
-"""Kinematic software-in-the-loop vehicles that speak MAVLink 2 over UDP (see docs/sim.md)."""
+"""Kinematic software-in-the-loop vehicles that speak MAVLink 2 over UDP (see docs/sim.md).
 
+`sim.autopilot` is each vehicle's MAVLink behaviour (protocol, modes, missions, parameters,
+telemetry), `sim.physics` the airframe it flies (motion, battery, sensor); the fleet
+(`sim.fleet`) and its UDP links (`sim.vehicle_link`) run them. `LocalFrame` is the planner's
+(`planner.georef`), re-exported here.
+"""
+
+from planner.georef import LocalFrame
 from sim.autopilot.ardupilot import BootTimes
+from sim.autopilot.failsafe import FailsafeLevel
 from sim.autopilot.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
 from sim.autopilot.modes import Mode
 from sim.autopilot.px4 import Px4BootTimes
 from sim.autopilot.vehicle import SimVehicle, VehicleConfig, VehicleState
 from sim.fleet import FleetOptions, SimFleet, homes_for
-from sim.physics.battery import BatteryConfig, FailsafeLevel
-from sim.physics.geo import HomePose, LocalFrame
+from sim.physics.airframe import HomePose
+from sim.physics.battery import BatteryConfig
 from sim.physics.sensor import Observation, SensorConfig
 from sim.vehicle_link import LinkFaults, signing_key_from
 

@@ -14,7 +14,7 @@ The world is the one `gcs fly --sim` simulates (`World`): the fleet frame at the
 airport, the plan's grid as the sensor grid, the plan's targets; the sensor is `sim.physics.sensor`'s
 `DownwardSensor` with the noise of `planner.sensor_noise` per (seed, UAV, cell, visit). So on
 one seed the detector reports what the simulated vehicle flying the same track reports, with
-the same CAMERA_IMAGE_CAPTURED (`sim.physics.sensor.reading_message`; image indices from 0) and
+the same CAMERA_IMAGE_CAPTURED (`sim.autopilot.telemetry.reading_message`; image indices from 0) and
 STATUSTEXT for a positive reading, and answers MAV_CMD_REQUEST_MESSAGE(263, index) for a lost
 one with COMMAND_ACK and the reading again.
 
@@ -32,8 +32,9 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from gcs.links import AUTOPILOT_COMPONENT_ID, CommandError, LinkError, MavLink, MAVMessage, SigningKey, mavlink
-from sim.physics.geo import LocalFrame
-from sim.physics.sensor import DownwardSensor, Observation, SensorConfig, reading_message, reading_text
+from planner.georef import LocalFrame
+from sim.autopilot.telemetry import reading_message, reading_text
+from sim.physics.sensor import DownwardSensor, Observation, SensorConfig
 
 if TYPE_CHECKING:
     from gcs.plans.plan_folder import FleetPlan

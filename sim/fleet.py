@@ -19,9 +19,10 @@ from typing import Any
 
 from gcs.links.connection import Connection, LinkKind, parse_connection
 from gcs.links.transport import LinkStatus, open_transport
+from planner.georef import LocalFrame
 from sim.autopilot.px4_vehicle import Px4Vehicle
 from sim.autopilot.vehicle import SimVehicle, VehicleConfig
-from sim.physics.geo import HomePose, LocalFrame
+from sim.physics.airframe import HomePose
 from sim.vehicle_link import Address, LinkFaults, VehicleLink
 
 MAX_STEP_S = 0.1

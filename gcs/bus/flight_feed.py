@@ -5,7 +5,9 @@ is the few lines `gcs fly --mqtt` needs:
 
     async with attach_bus(controller, args.mqtt, fleet=args.fleet):
         await controller.run()
-"""
+
+and `BusFeed` the same as a watcher of `gcs.flight.fly.fly_async` (`bus=BusFeed(**bus_options(args))`):
+the bus depends on the flight, never the other way round."""
 
 from __future__ import annotations
 
@@ -24,7 +26,7 @@ from gcs.flight.events import FlightEvent, LinkChanged, ReadingReceived, StageCh
 if TYPE_CHECKING:
     from gcs.flight.controller import FlightController
 
-__all__ = ["FlightFeed", "add_bus_arguments", "attach_bus", "bus_options"]
+__all__ = ["BusFeed", "FlightFeed", "add_bus_arguments", "attach_bus", "bus_options"]
 
 _EVENT_OF_STAGE = {"return": "return", "rtl": "rtl", "landed": "landed", "lost": "link_lost", "failed": "failed"}
 _FINAL = ("landed", "failed")
@@ -169,3 +171,20 @@ async def attach_bus(controller: FlightController, broker, *, fleet: str, statio
                 with contextlib.suppress(TimeoutError):
                     await bus.drain(2.0)
                 await asyncio.sleep(min(0.5, bus.state_period_s))  # the final retained states
+
+
+class BusFeed:
+    """A flight's fleet bus, as `fly_async` takes it (`bus=`, or among its `watchers`): the
+    settings of `attach_bus` (the keywords `bus_options` returns), entered on `attach`."""
+
+    def __init__(self, broker, *, fleet: str, station: str = "gcs", telemetry_hz: float = 2.0, **bus_kwargs) -> None:
+        self.broker = broker
+        self.fleet = fleet
+        self.station = station
+        self.telemetry_hz = telemetry_hz
+        self.bus_kwargs = bus_kwargs
+
+    def attach(self, controller: FlightController) -> contextlib.AbstractAsyncContextManager[FlightFeed]:
+        """`attach_bus(controller, ...)` with these settings."""
+        return attach_bus(controller, self.broker, fleet=self.fleet, station=self.station,
+                          telemetry_hz=self.telemetry_hz, **self.bus_kwargs)

@@ -16,7 +16,41 @@ from gcs.cli.commands import COMMANDS, command_module
 from gcs.errors import UserError
 
 
+def _noting(base: type[argparse.Action]) -> type[argparse.Action]:
+    """`base`, also noting in the parsed namespace's `given` that its option was given on the
+    command line: `given` maps the destination to the option's first spelling (`np_steps` ->
+    `--np`), so a command can tell given options from defaults without parsing again."""
+    class Noting(base):  # type: ignore[valid-type, misc]
+        def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                     values: str | Sequence[Any] | None, option_string: str | None = None) -> None:
+            super().__call__(parser, namespace, values, option_string)
+            if self.option_strings:
+                namespace.given = {**getattr(namespace, "given", {}), self.dest: self.option_strings[0]}
+
+    Noting.__name__ = Noting.__qualname__ = base.__name__
+    return Noting
+
+
+_NOTED = ("store", "store_const", "store_true", "store_false", "append", "append_const", "count", "extend")
+_NOTING: dict[type[argparse.Action], type[argparse.Action]] = {}
+
+#: `argparse.BooleanOptionalAction` (`--x` / `--no-x`), noting its option as given.
+BooleanOption = _noting(argparse.BooleanOptionalAction)
+
+
+def given_options(args: argparse.Namespace) -> dict[str, str]:
+    """The options given on the command line (not left at their defaults): destination ->
+    the option's first spelling."""
+    return dict(getattr(args, "given", {}))
+
+
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        for name in (None, *_NOTED):
+            base = self._registry_get("action", name)
+            self.register("action", name, _NOTING.setdefault(base, _noting(base)))
+
     def error(self, message: str) -> None:  # type: ignore[override]  # one clear line, exit 2, no usage dump
         raise UserError(f"{self.prog}: {message}")
 

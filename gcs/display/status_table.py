@@ -1,9 +1,16 @@
-"""Terminal rendering of the fleet: the live status table and the end-of-flight summary.
-Pure text from the controller's state; the caller decides where and how often to print."""
+"""Terminal rendering of the fleet: the live status table and the end-of-flight summary, pure
+text from the controller's state; and `LiveTable`, which redraws the table on a terminal while
+a flight runs. The flight never imports this module: whoever starts the flight gives it a
+`LiveTable` (as the controller's output channel and as a watcher)."""
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import math
+import sys
+from collections import deque
+from collections.abc import AsyncIterator, Callable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -11,7 +18,9 @@ if TYPE_CHECKING:
     from gcs.plans.plan_folder import FleetPlan
     from gcs.telemetry.status import VehicleStatus
 
-__all__ = ["render_summary", "render_table", "targets_found"]
+__all__ = ["LiveTable", "render_summary", "render_table", "targets_found"]
+
+CLEAR_SCREEN = "\x1b[H\x1b[2J"
 
 
 def _num(value: float | None, fmt: str, none: str = "-") -> str:
@@ -86,3 +95,57 @@ def render_summary(controller: FlightController) -> str:
     rows.append(f"{landed}/{len(controller.status)} landed; targets found {len(found)}/{len(plan.targets)}, "
                 f"positive readings elsewhere {false_alarms}")
     return "\n".join(rows)
+
+
+def _to_stdout(text: str) -> None:
+    sys.stdout.write(text)
+    sys.stdout.flush()
+
+
+class LiveTable:
+    """The fleet's table on a terminal, redrawn every `every_s` while a flight runs, with the
+    controller's last `lines` lines under it:
+
+        table = LiveTable()
+        await fly_async(plan, connections, options, out=table.line, watchers=[table])
+
+    `line` is the controller's output channel (`FlightController(out=...)`); `attach(controller)`
+    draws while the block runs and once more, the final state, as it ends. A line said while
+    the table is not drawn (before, after) is also printed as it comes."""
+
+    def __init__(self, every_s: float = 0.5, *, lines: int = 8, write: Callable[[str], None] | None = None) -> None:
+        self.every_s = every_s
+        self.recent: deque[str] = deque(maxlen=lines)
+        self.write = write or _to_stdout
+        self.drawing = False
+
+    def line(self, text: str) -> None:
+        """One line from the controller: shown under the table."""
+        self.recent.append(text)
+        if not self.drawing:
+            self.write(text + "\n")
+
+    def draw(self, controller: FlightController) -> None:
+        """Clear the screen, then the table and the recent lines."""
+        self.write(CLEAR_SCREEN + render_table(controller) + "\n\n" + "\n".join(self.recent) + "\n")
+
+    @contextlib.asynccontextmanager
+    async def attach(self, controller: FlightController) -> AsyncIterator[LiveTable]:
+        """Redraw every `every_s` while the block runs, and the final state when it ends."""
+        async def redraw() -> None:
+            while True:
+                self.draw(controller)
+                await asyncio.sleep(self.every_s)
+
+        self.drawing = True
+        task = asyncio.create_task(redraw(), name="live-table")
+        try:
+            yield self
+        finally:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+            try:
+                self.draw(controller)
+            finally:
+                self.drawing = False

@@ -4,16 +4,21 @@ covers the planned search (the live DTSCS return trigger, docs/fly.md).
 
 `FlightController` publishes what happens as `FlightEvent`s (`subscribe`): stage changes, take-
 offs, flight-mode changes and sensor readings, the moment the controller sees them; the Rerun
-recorder and the MQTT feed listen, and sample only the telemetry. `fly_async` wires links,
-listeners and the online planner around one controller."""
+recorder and the MQTT feed listen, and sample only the telemetry. What it has to tell the
+operator goes, as stamped lines, to one output channel (`out`, `say`); it draws nothing itself
+(the live table is `gcs.display.status_table.LiveTable`, given by whoever starts the flight).
+`gcs.flight.fly.fly_async` wires links, listeners and the online planner around one controller.
+
+Besides its own loop (`run`), the controller offers what the flight modules that drive the
+vehicles beside it need (the online planner, a resumed flight): `set_stage`, `update_stage`,
+`mark_lost`, `claim` / `release`, `take_orders`, `recover_readings`, `wait_until`, `spawn`,
+`emit`, `interrupted`."""
 
 from __future__ import annotations
 
 import asyncio
 import math
-import sys
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -21,7 +26,6 @@ import numpy as np
 
 from gcs.autopilots import Autopilot
 from gcs.autopilots.mission_transfer import MissionTransferError, MissionType, upload_verified
-from gcs.display.status_table import render_table
 from gcs.errors import UserError
 from gcs.flight.events import (
     FlightEvent,
@@ -65,8 +69,8 @@ class FlyOptions:
     transfer_timeout_s: float = 0.5
     command_timeout_s: float = 0.5
     tick_s: float = 0.05
-    table_every_s: float = 0.5
-    live_table: bool = False
+    # the live table: drawn by `gcs.display.status_table.LiveTable`, never by the controller;
+    # `fly_async` still honours these two for callers that give no `out` (see its docstring)
     fence: bool = True
     return_after_s: dict[int, float] = field(default_factory=dict)
     fly: bool = True
@@ -97,7 +101,6 @@ class FlightController:
         self._busy: set[int] = set()
         self._stay_on_ground: set[int] = set()
         self._last_recovery = 0.0
-        self.recent: deque[str] = deque(maxlen=8)
         self._tasks: set[asyncio.Task] = set()
         self._lost_since: dict[int, float] = {}
         self._stage_before_loss: dict[int, Stage] = {}
@@ -129,16 +132,16 @@ class FlightController:
         readings, airborne, mode = len(status.detections), status.airborne_seen, status.mode_name
         status.update(msg, time.monotonic())
         if status.airborne_seen and not airborne:
-            self._emit(TookOff(uid, status.rel_alt_m, status.mode_name))
+            self.emit(TookOff(uid, status.rel_alt_m, status.mode_name))
         if status.mode_name != mode:
-            self._emit(ModeChanged(uid, mode, status.mode_name))
+            self.emit(ModeChanged(uid, mode, status.mode_name))
         for detection in status.detections[readings:]:
-            self._emit(ReadingReceived(uid, detection))
+            self.emit(ReadingReceived(uid, detection))
 
     def _on_link_status(self, link: MavLink, status: LinkStatus) -> None:
         uids = tuple(sorted(uid for uid, heard_on in self.link_of.items() if heard_on is link))
         self.say(None, f"{status}{' - UAV ' + ', '.join(map(str, uids)) if uids else ''}")
-        self._emit(LinkChanged(status, uids))
+        self.emit(LinkChanged(status, uids))
 
     # ---- listeners ---------------------------------------------------------------------
 
@@ -149,7 +152,9 @@ class FlightController:
         self._listeners.append(listener)
         return lambda: self._listeners.remove(listener) if listener in self._listeners else None
 
-    def _emit(self, event: FlightEvent) -> None:
+    def emit(self, event: FlightEvent) -> None:
+        """Hand `event` to every listener now: the controller's own events, and those of the
+        modules that drive vehicles beside it (`Reattached` from a resumed flight)."""
         now = time.monotonic()
         for listener in list(self._listeners):
             try:
@@ -160,15 +165,14 @@ class FlightController:
                                f"({type(exc).__name__}: {exc})")
 
     def say(self, uid: int | None, text: str) -> None:
+        """Tell the operator: one line, stamped with the flight time (and the UAV), to `out`, the
+        controller's only output channel."""
         stamp = f"[{time.monotonic() - self.t0:6.1f}s]"
-        line = f"{stamp} UAV {uid}: {text}" if uid is not None else f"{stamp} {text}"
-        if self.options.live_table:
-            self.recent.append(line)  # shown under the live table
-        else:
-            self.out(line)
+        self.out(f"{stamp} UAV {uid}: {text}" if uid is not None else f"{stamp} {text}")
 
-    def _recover_readings(self, now: float) -> None:
-        """Ask again (MAV_CMD_REQUEST_MESSAGE, param2 = image index) for readings lost on the link."""
+    def recover_readings(self, now: float) -> None:
+        """Ask again (MAV_CMD_REQUEST_MESSAGE, param2 = image index) for readings lost on the link;
+        at most once a second, whoever calls it."""
         if now - self._last_recovery < 1.0:
             return
         self._last_recovery = now
@@ -182,14 +186,17 @@ class FlightController:
                     uid, component, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED,
                     index, 0, 0, 0, 0, 0))
 
-    def _set_stage(self, uid: int, stage: Stage, note: str = "") -> None:
+
+    def set_stage(self, uid: int, stage: Stage, note: str = "") -> None:
+        """Move a vehicle to `stage` (`note`, when given, is kept even if the stage stays): said,
+        and a `StageChanged` for the listeners, when the stage changes."""
         st, before = self.status[uid], self.status[uid].stage
         if note:
             st.note = note
         if before is not stage:
             st.stage = stage
             self.say(uid, f"{stage.value}{' - ' + note if note else ''}")
-            self._emit(StageChanged(uid, before, stage, note))
+            self.emit(StageChanged(uid, before, stage, note))
 
     # ---- operator ------------------------------------------------------------------------
 
@@ -214,9 +221,32 @@ class FlightController:
         """Ctrl-C: bring everyone home, then stop."""
         self._interrupted = True
 
+    @property
+    def interrupted(self) -> bool:
+        """The operator stopped the flight (`interrupt`, Ctrl-C): every vehicle is brought home,
+        and loops driving vehicles beside the controller stop."""
+        return self._interrupted
+
+    def take_orders(self) -> list[tuple[int, str]]:
+        """The return orders (UAV, reason) given since the last call, now the caller's to carry
+        out (the controller's `tick`, or the online planner, which makes its own returns)."""
+        orders, self._orders = self._orders, []
+        return orders
+
+    def claim(self, uid: int) -> None:
+        """Another task commands this vehicle (an upload, a return, a reattachment): until
+        `release`, the loop neither advances its track nor evaluates its return trigger, and an
+        autopilot RTL or LAND is not taken for the autopilot's own return."""
+        self._busy.add(uid)
+
+    def release(self, uid: int) -> None:
+        """End a `claim`: the loop watches the vehicle again."""
+        self._busy.discard(uid)
+
     # ---- preparation ---------------------------------------------------------------------
 
-    async def _wait(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
+    async def wait_until(self, predicate: Callable[[], bool], timeout_s: float) -> bool:
+        """Poll `predicate` (every 20 ms) until it holds: True; False after `timeout_s`."""
         end = time.monotonic() + timeout_s
         while not predicate():
             if time.monotonic() > end:
@@ -260,19 +290,19 @@ class FlightController:
         (unless `mission` is False). False (and stage FAILED with a clear note) when anything
         cannot be done."""
         opts, st, task = self.options, self.status[uid], self.plan.uavs[uid]
-        self._set_stage(uid, Stage.CONNECTING)
-        if not await self._wait(lambda: st.autopilot is not None, opts.connect_timeout_s):
+        self.set_stage(uid, Stage.CONNECTING)
+        if not await self.wait_until(lambda: st.autopilot is not None, opts.connect_timeout_s):
             links = ", ".join(link.name for link in self.links)
-            self._set_stage(uid, Stage.FAILED, f"no HEARTBEAT from system id {uid} within {opts.connect_timeout_s:g} s "
-                                               f"on {links}")
+            self.set_stage(uid, Stage.FAILED, f"no HEARTBEAT from system id {uid} within {opts.connect_timeout_s:g} s "
+                                              f"on {links}")
             return False
         link = self.link_of[uid]
         if link.signing is None and uid in link.signing_systems:
-            self._set_stage(uid, Stage.FAILED, f"vehicle {uid} signs its MAVLink messages and will refuse ours: give "
-                                               "the station its key (--signing-key or --signing-passphrase)")
+            self.set_stage(uid, Stage.FAILED, f"vehicle {uid} signs its MAVLink messages and will refuse ours: give "
+                                              "the station its key (--signing-key or --signing-passphrase)")
             return False
-        self._set_stage(uid, Stage.PREPARING, f"{st.autopilot.value} autopilot")
-        await self._request_streams(uid)
+        self.set_stage(uid, Stage.PREPARING, f"{st.autopilot.value} autopilot")
+        await self.request_streams(uid)
         if not await self._wait_ready(uid):
             return False
         if not self._home_matches(uid):
@@ -285,21 +315,21 @@ class FlightController:
                 self.say(uid, f"warning: {name} not confirmed; the autopilot may refuse to arm")
         if not mission:
             return True
-        self._set_stage(uid, Stage.UPLOADING)
+        self.set_stage(uid, Stage.UPLOADING)
         autopilot = st.autopilot
         try:
             items = task.mission_wire(autopilot)
         except ValueError as exc:
-            self._set_stage(uid, Stage.FAILED, f"mission not uploaded: {exc}")
+            self.set_stage(uid, Stage.FAILED, f"mission not uploaded: {exc}")
             return False
         try:
             report = await upload_verified(link, uid, items, autopilot, timeout_s=opts.transfer_timeout_s,
                                            fixed_wing=st.fixed_wing)
         except MissionTransferError as exc:
-            self._set_stage(uid, Stage.FAILED, f"mission {exc}")
+            self.set_stage(uid, Stage.FAILED, f"mission {exc}")
             return False
         self.upload_reports[uid] = {"mission": report}
-        self._emit(MissionUploaded(uid, "search"))
+        self.emit(MissionUploaded(uid, "search"))
         extra = []
         if opts.fence:
             for kind, items in ((MissionType.FENCE, task.fence_wire()), (MissionType.RALLY, task.rally_wire())):
@@ -316,7 +346,9 @@ class FlightController:
                       f"({report.resends} re-sends{', legacy MISSION_REQUEST used' if report.legacy_requests else ''})")
         return True
 
-    async def _request_streams(self, uid: int) -> None:
+    async def request_streams(self, uid: int) -> None:
+        """Ask the vehicle for the telemetry its autopilot needs (`Autopilot.streams_hz`); a
+        stream it refuses is noted in `unsupported_streams` and said."""
         st = self.status[uid]
         for msg_id, hz in st.autopilot.streams_hz().items():
             try:
@@ -336,12 +368,12 @@ class FlightController:
             if now != shown:
                 shown = now
                 said = f" - autopilot: {st.last_text}" if st.last_text else ""
-                self._set_stage(uid, Stage.PREPARING, f"waiting for {', '.join(missing)}{said}")
+                self.set_stage(uid, Stage.PREPARING, f"waiting for {', '.join(missing)}{said}")
                 self.say(uid, f"waiting for {', '.join(missing)}{said}")
             if time.monotonic() > end:
                 autopilot = f" ({st.last_text})" if st.last_text else ""
-                self._set_stage(uid, Stage.FAILED, f"not ready after {self.options.ready_timeout_s:g} s: no "
-                                                   f"{', '.join(missing)}{autopilot}")
+                self.set_stage(uid, Stage.FAILED, f"not ready after {self.options.ready_timeout_s:g} s: no "
+                                                  f"{', '.join(missing)}{autopilot}")
                 return False
             await asyncio.sleep(0.05)
         self.say(uid, "ready: " + ", ".join(part for part in (
@@ -364,8 +396,8 @@ class FlightController:
         if not self.options.check_home:
             self.say(uid, f"warning: {what}; flying anyway (--allow-home-offset)")
             return True
-        self._set_stage(uid, Stage.FAILED, f"{what}: is system id {uid} the right vehicle? (--allow-home-offset "
-                                           "flies anyway)")
+        self.set_stage(uid, Stage.FAILED, f"{what}: is system id {uid} the right vehicle? (--allow-home-offset "
+                                          "flies anyway)")
         return False
 
     async def launch(self, uid: int) -> bool:
@@ -376,19 +408,19 @@ class FlightController:
         but could not be started is disarmed again: nothing is left armed on the ground."""
         opts, st = self.options, self.status[uid]
         autopilot = st.autopilot or Autopilot.GENERIC
-        self._set_stage(uid, Stage.ARMING)
+        self.set_stage(uid, Stage.ARMING)
         mode = autopilot.arm_mode(st.fixed_wing)
         if mode is not None:
             try:
                 await self.set_mode(uid, mode)
             except CommandError as exc:
-                self._set_stage(uid, Stage.FAILED, f"cannot switch to {mode} to arm: {exc}{_said(st)}")
+                self.set_stage(uid, Stage.FAILED, f"cannot switch to {mode} to arm: {exc}{_said(st)}")
                 return False
         end = time.monotonic() + opts.arm_timeout_s
         reasons: list[str] = []
         while True:
             if self._ordered_home(uid):
-                self._set_stage(uid, Stage.LANDED, "kept on the ground: return ordered before take-off")
+                self.set_stage(uid, Stage.LANDED, "kept on the ground: return ordered before take-off")
                 return False
             try:
                 await self.command(uid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
@@ -396,7 +428,7 @@ class FlightController:
             except CommandError as exc:
                 reason = st.last_text or str(exc)
                 if exc.result not in REFUSED_FOR_NOW or time.monotonic() > end:
-                    self._set_stage(uid, Stage.FAILED, f"cannot arm: {exc}{_said(st)}; left on the ground")
+                    self.set_stage(uid, Stage.FAILED, f"cannot arm: {exc}{_said(st)}; left on the ground")
                     return False
                 if reason not in reasons:
                     reasons.append(reason)
@@ -410,10 +442,10 @@ class FlightController:
                 await self._start_mission(uid)
             except CommandError as exc:
                 disarmed = await self.disarm(uid)
-                self._set_stage(uid, Stage.FAILED, f"cannot start the mission: {exc}{_said(st)}; "
-                                                   + ("disarmed again" if disarmed else "COULD NOT DISARM: check it"))
+                self.set_stage(uid, Stage.FAILED, f"cannot start the mission: {exc}{_said(st)}; "
+                                                  + ("disarmed again" if disarmed else "COULD NOT DISARM: check it"))
                 return False
-        self._set_stage(uid, Stage.SEARCH, "mission started")
+        self.set_stage(uid, Stage.SEARCH, "mission started")
         return True
 
     async def _start_mission(self, uid: int, patience_s: float = 3.0) -> None:
@@ -439,7 +471,7 @@ class FlightController:
         comes home like any other)."""
         if not await self.disarm(uid):
             return False
-        self._set_stage(uid, Stage.LANDED, "kept on the ground: return ordered before take-off")
+        self.set_stage(uid, Stage.LANDED, "kept on the ground: return ordered before take-off")
         return True
 
     async def disarm(self, uid: int) -> bool:
@@ -451,15 +483,17 @@ class FlightController:
             return False
         return True
 
-    async def _prepare_and_launch(self, uid: int) -> None:
-        self._busy.add(uid)
+    async def prepare_and_launch(self, uid: int) -> None:
+        """`prepare`, then (unless `options.fly` is off) `launch`, the vehicle claimed meanwhile;
+        a link failure leaves it FAILED."""
+        self.claim(uid)
         try:
             if await self.prepare(uid) and self.options.fly:
                 await self.launch(uid)
         except LinkError as exc:
-            self._set_stage(uid, Stage.FAILED, str(exc))
+            self.set_stage(uid, Stage.FAILED, str(exc))
         finally:
-            self._busy.discard(uid)
+            self.release(uid)
 
     async def upload_all(self) -> dict[int, bool]:
         """Prepare every vehicle concurrently; True where the upload verified."""
@@ -467,7 +501,7 @@ class FlightController:
         out = {}
         for uid, res in zip(self.plan.uavs, results):
             if isinstance(res, BaseException):
-                self._set_stage(uid, Stage.FAILED, str(res))
+                self.set_stage(uid, Stage.FAILED, str(res))
                 res = False
             out[uid] = bool(res)
         return out
@@ -505,8 +539,8 @@ class FlightController:
                 return  # not launched yet: launch() sees it and keeps it on the ground
             if await self._keep_on_ground(uid):
                 return  # started, still on the ground: disarmed there; else it is lifting off
-        self._set_stage(uid, Stage.RETURN, f"going home ({reason})")
-        self._busy.add(uid)
+        self.set_stage(uid, Stage.RETURN, f"going home ({reason})")
+        self.claim(uid)
         started = time.monotonic()
         try:
             leg = self.return_leg(uid)
@@ -514,7 +548,7 @@ class FlightController:
             await self.set_mode(uid, autopilot.hold_mode(st.fixed_wing))
             await upload_verified(self.link_of[uid], uid, task.return_wire(autopilot, leg), autopilot,
                                   timeout_s=self.options.transfer_timeout_s, fixed_wing=st.fixed_wing)
-            self._emit(MissionUploaded(uid, "return", tuple(leg)))
+            self.emit(MissionUploaded(uid, "return", tuple(leg)))
             if autopilot.restart_needs_current_item():
                 await self.command(uid, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, autopilot.first_mission_seq())
             await self._start_mission(uid)
@@ -525,7 +559,7 @@ class FlightController:
                           "flies straight home and ignores the planned path")
             await self.rtl(uid)
         finally:
-            self._busy.discard(uid)
+            self.release(uid)
 
     async def rtl(self, uid: int) -> bool:
         try:
@@ -533,10 +567,12 @@ class FlightController:
         except LinkError as exc:
             self.say(uid, f"RTL not acknowledged: {exc}")
             return False
-        self._set_stage(uid, Stage.RTL, "autopilot RTL")
+        self.set_stage(uid, Stage.RTL, "autopilot RTL")
         return True
 
-    def _spawn(self, coro) -> None:
+    def spawn(self, coro) -> None:
+        """Run `coro` as a task the controller owns: cancelled when the flight is stopped
+        (`bring_everyone_home`) or stops waiting for lost vehicles."""
         task = asyncio.create_task(coro)
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
@@ -585,26 +621,32 @@ class FlightController:
         st.margin = check.margin
         return check.must_return
 
-    def _update_stage(self, uid: int, now: float) -> None:
+    def mark_lost(self, uid: int, note: str, now: float, before: Stage | None = None) -> None:
+        """Stage LOST from `now` (monotonic): heard again, the vehicle gets `before` back (by
+        default the stage it has now); past `lost_giveup_s` the flight stops waiting for it."""
+        self._stage_before_loss[uid] = before if before is not None else self.status[uid].stage
+        self._lost_since[uid] = now
+        self.set_stage(uid, Stage.LOST, note)
+
+    def update_stage(self, uid: int, now: float) -> None:
+        """The stage the telemetry implies: LOST after `link_timeout_s` of silence and back when
+        heard, LANDED once down after flying, RTL when the autopilot turned home by itself."""
         st = self.status[uid]
         if st.last_heard_s is not None and st.stage not in FINAL_STAGES:
             silent = now - st.last_heard_s > self.options.link_timeout_s
             if silent and st.stage is not Stage.LOST:
-                self._stage_before_loss[uid] = st.stage
-                self._lost_since[uid] = now
-                self._set_stage(uid, Stage.LOST, f"no telemetry for {self.options.link_timeout_s:g} s; "
-                                                 "the others carry on")
+                self.mark_lost(uid, f"no telemetry for {self.options.link_timeout_s:g} s; the others carry on", now)
             elif not silent and st.stage is Stage.LOST:
                 self._lost_since.pop(uid, None)
-                self._set_stage(uid, self._stage_before_loss.pop(uid, Stage.SEARCH), "link back")
+                self.set_stage(uid, self._stage_before_loss.pop(uid, Stage.SEARCH), "link back")
         if st.stage in (Stage.SEARCH, Stage.RETURN, Stage.RTL) and st.airborne_seen and not st.airborne \
                 and (not st.armed or st.landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND):
             st.battery_at_landing = st.battery_pct
-            self._set_stage(uid, Stage.LANDED, f"battery {st.battery_pct:.0f}%" if st.battery_pct is not None else "")
+            self.set_stage(uid, Stage.LANDED, f"battery {st.battery_pct:.0f}%" if st.battery_pct is not None else "")
         elif st.stage is Stage.SEARCH and st.mode_name in ("RTL", "LAND") and uid not in self._busy:
             st.return_reason = "autopilot"
-            self._set_stage(uid, Stage.RTL,
-                            f"autopilot switched to {st.mode_name} ({st.last_text or 'no reason given'})")
+            self.set_stage(uid, Stage.RTL,
+                           f"autopilot switched to {st.mode_name} ({st.last_text or 'no reason given'})")
 
     def finished(self, now: float) -> bool:
         for uid, st in self.status.items():
@@ -622,13 +664,12 @@ class FlightController:
             if elapsed >= after:
                 del self.options.return_after_s[uid]
                 self._orders.append((uid, "order"))
-        orders, self._orders = self._orders, []
-        for uid, reason in orders:
+        for uid, reason in self.take_orders():
             self.say(uid, f"return ordered ({reason})")
-            self._spawn(self.send_home(uid, reason))
-        self._recover_readings(now)
+            self.spawn(self.send_home(uid, reason))
+        self.recover_readings(now)
         for uid in self.status:
-            self._update_stage(uid, now)
+            self.update_stage(uid, now)
             if uid in self._busy:
                 continue
             self._advance_track(uid)
@@ -638,14 +679,13 @@ class FlightController:
                 if self._range_by_order.get(uid):
                     self.say(uid, f"the ordered range of {self.operator_range[uid]} steps leaves {st.range_left:.1f}, "
                                   + needs)
-                    self._spawn(self.send_home(uid, "range"))
+                    self.spawn(self.send_home(uid, "range"))
                 else:
                     self.say(uid, f"battery {st.battery_pct:.0f}% covers {st.range_left:.1f} steps, " + needs)
-                    self._spawn(self.send_home(uid, "battery"))
+                    self.spawn(self.send_home(uid, "battery"))
 
     async def monitor(self) -> None:
         """Run the GCS loop until all vehicles have landed (or failed, or stayed lost)."""
-        last_table = 0.0
         while True:
             start = time.monotonic()
             if self._interrupted:
@@ -653,10 +693,6 @@ class FlightController:
                 return
             self.tick(start)
             self.loop_latency_s.append(time.monotonic() - start)
-            if self.options.live_table and start - last_table >= self.options.table_every_s:
-                last_table = start
-                sys.stdout.write("\x1b[H\x1b[2J" + render_table(self) + "\n\n" + "\n".join(self.recent) + "\n")
-                sys.stdout.flush()
             if self.finished(start):
                 await self._give_up_on_lost(start)
                 return
@@ -706,7 +742,7 @@ class FlightController:
         """Prepare and launch every vehicle concurrently, monitor until the end, and leave no
         vehicle armed on the ground."""
         for uid in self.plan.uavs:
-            self._spawn(self._prepare_and_launch(uid))
+            self.spawn(self.prepare_and_launch(uid))
         await self.monitor()
         await self.make_safe()
 

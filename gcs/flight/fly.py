@@ -1,12 +1,16 @@
-"""`fly_async`: one flight wired together: the links, one `FlightController`, its listeners
-(recorder, MQTT bus, journal, sortie log), operator orders, and the online planner or a resumed
-flight when asked for."""
+"""`fly_async`: one flight wired together: the links, one `FlightController`, its listeners and
+watchers (recorder, MQTT bus, journal, sortie log, live table), operator orders, and the online
+planner or a resumed flight when asked for.
+
+The flight imports none of what watches it: the caller builds the recorder
+(`gcs.recording.flight.FlightRecorder`), the bus feed (`gcs.bus.flight_feed.BusFeed`) and the
+terminal's live table (`gcs.display.status_table.LiveTable`) and hands them in."""
 
 from __future__ import annotations
 
 import asyncio
 import signal
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from contextlib import AsyncExitStack
 
 from gcs.flight.controller import FlightAborted, FlightController, FlyOptions
@@ -18,29 +22,30 @@ from gcs.plans.plan_folder import FleetPlan
 
 
 async def fly_async(plan: FleetPlan, connections: Sequence[str | Connection], options: FlyOptions,
-                    stdin_orders: bool = False, online=None, recorder=None, bus: dict | None = None,
+                    stdin_orders: bool = False, online=None, recorder=None, bus=None,
                     listeners: Sequence[FlightListener] = (), signing: SigningKey | None = None,
-                    watchers: Sequence = (), resume=None) -> FlightController:
+                    watchers: Sequence = (), resume=None,
+                    out: Callable[[str], None] | None = None) -> FlightController:
     """Fly the plan (or, with `online` an observed search, search with the planner in the loop);
-    `recorder` (a `gcs.recording.flight.FlightRecorder`) records it; `bus` (keywords of
-    `gcs.bus.flight_feed.attach_bus`) shares it over MQTT; `listeners` get every `FlightEvent`;
-    `watchers` (e.g. `gcs.flight.sortie.SortieLog`) are held, as the recorder is, by their
-    `attach(controller)` for the whole flight and see how it ends;
+    `recorder` (a `gcs.recording.flight.FlightRecorder`) records it; `bus` (a
+    `gcs.bus.flight_feed.BusFeed`) shares it over MQTT; `listeners` get every `FlightEvent`;
+    `watchers` (e.g. `gcs.flight.sortie.SortieLog`, `gcs.display.status_table.LiveTable`) are
+    held, as the bus and the recorder are (in that order, before them), by their
+    `attach(controller)` for the whole flight and see how it ends; `out` takes the controller's
+    lines (default: printed; `LiveTable.line` shows them under the table);
     with `signing` every link signs what it sends and refuses unsigned traffic;
     `resume` (a `gcs.flight.resume.Resumption`) takes over a flight whose station died: its
     `restore(controller)` runs before anything listens, its `run(controller)` instead of
     `controller.run()`."""
     async with AsyncExitStack() as stack:
         links = await stack.enter_async_context(open_links(connections, signing=signing))
-        controller = FlightController(plan, links, options)
+        controller = FlightController(plan, links, options, out)
         if resume is not None:
             resume.restore(controller)
         for listener in listeners:
             controller.subscribe(listener)
         if bus is not None:
-            from gcs.bus.flight_feed import attach_bus
-
-            await stack.enter_async_context(attach_bus(controller, **bus))
+            await stack.enter_async_context(bus.attach(controller))
         if recorder is not None:
             await stack.enter_async_context(recorder.attach(controller))
         for watcher in watchers:
@@ -72,5 +77,4 @@ async def fly_async(plan: FleetPlan, connections: Sequence[str | Connection], op
             except (NotImplementedError, RuntimeError):
                 pass
     return controller
-
 

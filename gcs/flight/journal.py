@@ -415,7 +415,7 @@ class FlightJournal:
         try:
             open_ends = sorted(uid for uid, st in controller.status.items() if st.stage not in FINAL_STAGES)
             self.write("end", landed=[uid for uid, st in sorted(controller.status.items()) if st.stage is Stage.LANDED],
-                       open=open_ends, interrupted=controller._interrupted,
+                       open=open_ends, interrupted=controller.interrupted,
                        error=None if failure is None else f"{type(failure).__name__}: {failure}")
         finally:
             self.close()

@@ -98,7 +98,7 @@ class OnlineFlight:
         c, st, task = self.c, self.c.status[uid], self.plan.uavs[uid]
         if not await c.prepare(uid, mission=False):
             return False
-        c._set_stage(uid, Stage.ARMING)
+        c.set_stage(uid, Stage.ARMING)
         try:
             await c.set_mode(uid, "GUIDED")
             end = time.monotonic() + c.options.arm_timeout_s
@@ -114,12 +114,12 @@ class OnlineFlight:
             _, takeoff_alt = st.autopilot.command_altitude(task.altitude_m, st.home[2] if st.home else 0.0)
             await c.command(uid, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, takeoff_alt)
         except LinkError as exc:
-            c._set_stage(uid, Stage.FAILED, f"take-off: {exc}")
+            c.set_stage(uid, Stage.FAILED, f"take-off: {exc}")
             return False
-        if not await c._wait(lambda: st.rel_alt_m >= task.altitude_m - 1.0, 120.0):
-            c._set_stage(uid, Stage.FAILED, "did not reach its altitude")
+        if not await c.wait_until(lambda: st.rel_alt_m >= task.altitude_m - 1.0, 120.0):
+            c.set_stage(uid, Stage.FAILED, "did not reach its altitude")
             return False
-        c._set_stage(uid, Stage.SEARCH, "online search")
+        c.set_stage(uid, Stage.SEARCH, "online search")
         self.targets[uid] = self.plan.cell_lat_lon(*task.airport_cell)  # step 0: over the airport cell
         self.expected[uid] = (task.airport_cell, 0)  # read on the way up, or on reaching its centre
         return True
@@ -198,7 +198,7 @@ class OnlineFlight:
         c = self.c
         now = time.monotonic()
         end, reading_end = now + self.step_timeout_s, None
-        while not c._interrupted and now < end:
+        while not c.interrupted and now < end:
             waiting = [uid for uid in uids if not self._has_reading(uid)]
             if not waiting:
                 break
@@ -206,7 +206,7 @@ class OnlineFlight:
                 reading_end = reading_end or now + self.reading_timeout_s
                 if now >= reading_end:
                     break
-                c._recover_readings(now)
+                c.recover_readings(now)
             for uid in waiting:
                 if not self._arrived(uid):
                     self._steer(uid)
@@ -245,20 +245,19 @@ class OnlineFlight:
         flying = {uid for uid, good in zip(self.plan.uavs, ok) if good}
         at_airport: set[int] = set()
         landing_tasks = []
-        while not c._interrupted:
+        while not c.interrupted:
             await self._fly_step(flying | at_airport)
             landing_tasks += [asyncio.create_task(self._land(uid)) for uid in at_airport]
             at_airport.clear()
             if search.done:
                 break
             start = time.monotonic()
-            c._recover_readings(start)
+            c.recover_readings(start)
             self._fold_readings()
-            for uid, reason in c._orders:
+            for uid, reason in c.take_orders():
                 if uid in flying:
                     search.order_return(uid)
                     c.status[uid].return_reason = reason
-            c._orders.clear()
             self._battery_range()
             for uid in flying:  # the cell it reported is where it is; telemetry may be a sample behind
                 if uid in self.reported:
@@ -271,7 +270,7 @@ class OnlineFlight:
                 if st.stage in FINAL_STAGES:
                     continue  # never took off (failed, or ordered home on the ground)
                 st.return_reason = st.return_reason or {"range_cut": "battery"}.get(ev.reason.value, ev.reason.value)
-                c._set_stage(ev.uav_id, Stage.RETURN, f"going home ({ev.reason.value})")
+                c.set_stage(ev.uav_id, Stage.RETURN, f"going home ({ev.reason.value})")
             for uid in list(flying):
                 x, y, _, stage = record.poses[uid]
                 if uid not in self.targets or self.plan.cell_of(*self.targets[uid]) != (x, y):
@@ -283,16 +282,16 @@ class OnlineFlight:
                     at_airport.add(uid)
             c.loop_latency_s.append(time.monotonic() - start)
             for uid in self.plan.uavs:
-                c._update_stage(uid, time.monotonic())
-        if c._interrupted:
+                c.update_stage(uid, time.monotonic())
+        if c.interrupted:
             await c.bring_everyone_home()
             return
         await asyncio.gather(*landing_tasks)
         end = time.monotonic() + 300.0
-        while not c.finished(time.monotonic()) and time.monotonic() < end and not c._interrupted:
+        while not c.finished(time.monotonic()) and time.monotonic() < end and not c.interrupted:
             for uid in self.plan.uavs:
-                c._update_stage(uid, time.monotonic())
+                c.update_stage(uid, time.monotonic())
             await asyncio.sleep(c.options.tick_s)
-        if c._interrupted:
+        if c.interrupted:
             await c.bring_everyone_home()
         self._fold_readings()

@@ -18,24 +18,29 @@ from __future__ import annotations
 import asyncio
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gcs.autopilots import Autopilot, compare_items
 from gcs.autopilots.mission_transfer import MissionTransferError, MissionType, download, renumber
+from gcs.errors import UserError
 from gcs.flight.events import Reattached
-from gcs.flight.journal import JournalState, VehicleRecord
+from gcs.flight.journal import JournalError, JournalState, VehicleRecord, read_journal
 from gcs.links import LinkError, mavlink
-from gcs.plans.plan_folder import FleetPlan, UavTask
+from gcs.links.connection import Connection, LinkKind, parse_connection
+from gcs.plans.belief_file import file_sha256
+from gcs.plans.plan_folder import FleetPlan, UavTask, load_plan_dir
 from gcs.telemetry.status import FINAL_STAGES, Stage
 
 if TYPE_CHECKING:
     from gcs.flight.controller import FlightController
 
-__all__ = ["Action", "Decision", "Found", "Resumption", "decide", "track_index_on_board"]
+__all__ = ["Action", "Decision", "Found", "Resumption", "decide", "links_from_the_same_ports", "resumable_flight",
+           "track_index_on_board"]
 
 MISSION_MODES = frozenset({"AUTO", "MISSION", "TAKEOFF"})
 AUTOPILOT_RETURN_MODES = frozenset({"RTL", "LAND", "SMART_RTL", "QRTL", "QLAND"})
@@ -188,36 +193,34 @@ class Resumption:
             if c.status[uid].stage in FINAL_STAGES:
                 c.say(uid, f"{c.status[uid].stage.value} before the restart")
             else:
-                c._spawn(self._reattach(c, uid))
+                c.spawn(self._reattach(c, uid))
         await c.monitor()
         await c.make_safe()
-        if not c._interrupted:
+        if not c.interrupted:
             await self._catch_up_readings(c)
 
     # ---- one vehicle ---------------------------------------------------------------------
 
     async def _reattach(self, c: FlightController, uid: int) -> None:
         st, record = c.status[uid], self._record(uid)
-        c._busy.add(uid)
+        c.claim(uid)
         try:
-            if not await c._wait(lambda: st.autopilot is not None, c.options.connect_timeout_s):
+            if not await c.wait_until(lambda: st.autopilot is not None, c.options.connect_timeout_s):
                 links = ", ".join(link.name for link in c.links)
-                c._lost_since[uid] = time.monotonic()
-                c._stage_before_loss[uid] = Stage.CONNECTING
-                c._set_stage(uid, Stage.LOST, f"did not answer after the restart: no HEARTBEAT from system id {uid} "
-                                              f"within {c.options.connect_timeout_s:g} s on {links}; it flies on by "
-                                              "itself, its autopilot's failsafes are the backstop")
-                await c._wait(lambda: st.stage is not Stage.LOST, math.inf)
-            await c._request_streams(uid)
+                c.mark_lost(uid, f"did not answer after the restart: no HEARTBEAT from system id {uid} within "
+                                 f"{c.options.connect_timeout_s:g} s on {links}; it flies on by itself, its "
+                                 "autopilot's failsafes are the backstop", time.monotonic(), before=Stage.CONNECTING)
+                await c.wait_until(lambda: st.stage is not Stage.LOST, math.inf)
+            await c.request_streams(uid)
             await self._look(c, uid)
             on_board = await self._on_board(c, uid, record) if st.armed or st.airborne else None
             found = Found(st.armed, st.airborne, st.mode_name, on_board)
             decision = self.decisions[uid] = decide(record, found)
             await self._act(c, uid, record, decision)
         except LinkError as exc:
-            c._set_stage(uid, Stage.LOST if st.airborne_seen else Stage.FAILED, f"reattaching: {exc}")
+            c.set_stage(uid, Stage.LOST if st.airborne_seen else Stage.FAILED, f"reattaching: {exc}")
         finally:
-            c._busy.discard(uid)
+            c.release(uid)
 
     async def _look(self, c: FlightController, uid: int) -> None:
         """Wait (up to `look_timeout_s`) until the vehicle has sent each message the decision
@@ -270,18 +273,18 @@ class Resumption:
         c.say(uid, f"reattached: {found}")
         if action in (Action.LANDED, Action.KEEP_ON_GROUND):
             st.stage = record.flying_stage if record.flying_stage is not Stage.CONNECTING else Stage.SEARCH
-            c._emit(Reattached(uid, st.stage, found))
+            c.emit(Reattached(uid, st.stage, found))
             st.battery_at_landing = st.battery_pct
-            c._set_stage(uid, Stage.LANDED, "while the station was away" if action is Action.LANDED
-                         else "kept on the ground: return ordered before take-off")
+            c.set_stage(uid, Stage.LANDED, "while the station was away" if action is Action.LANDED
+                        else "kept on the ground: return ordered before take-off")
             return
         if action in (Action.LAUNCH, Action.RELAUNCH):
-            c._emit(Reattached(uid, Stage.CONNECTING, found))
+            c.emit(Reattached(uid, Stage.CONNECTING, found))
             if action is Action.RELAUNCH and not await c.disarm(uid):
-                c._set_stage(uid, Stage.FAILED, "armed on the ground and would not disarm: check it")
+                c.set_stage(uid, Stage.FAILED, "armed on the ground and would not disarm: check it")
                 return
-            c._busy.discard(uid)
-            await c._prepare_and_launch(uid)
+            c.release(uid)
+            await c.prepare_and_launch(uid)
             return
         st.airborne_seen = st.airborne_seen or st.airborne
         if decision.stage is Stage.SEARCH and st.has_position:
@@ -290,9 +293,9 @@ class Resumption:
                                                   (st.lat_deg, st.lon_deg), st.track_index)
             st.steps_flown = float(st.track_index)
         st.stage = decision.stage
-        c._emit(Reattached(uid, decision.stage, found))
+        c.emit(Reattached(uid, decision.stage, found))
         if action is Action.SEND_HOME:
-            c._busy.discard(uid)
+            c.release(uid)
             await c.send_home(uid, decision.return_reason or "resume")
 
     # ---- readings taken while the station was away ------------------------------------------
@@ -318,9 +321,56 @@ class Resumption:
                     uid, component, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED,
                     index, 0, 0, 0, 0, 0))
             count = len(st.detection_indices)
-            await c._wait(lambda wanted=wanted: all(i in st.detection_indices for i in wanted), 1.0)
+            await c.wait_until(lambda wanted=wanted: all(i in st.detection_indices for i in wanted), 1.0)
             if len(st.detection_indices) == count:
                 break
         recovered = len(st.detection_indices) - before
         if recovered:
             c.say(uid, f"{recovered} readings taken while the station was away asked for and received")
+
+
+def resumable_flight(folder: Path) -> tuple[JournalState, FleetPlan]:
+    """The journal and plan of the flight in progress in `folder`; UserError saying why there is
+    none to take over (no folder or journal, ended, simulated, online, or the plan changed)."""
+    if not folder.is_dir():
+        raise UserError(f"--resume {folder}: no such folder")
+    try:
+        state = read_journal(folder)
+    except JournalError as exc:
+        raise UserError(f"--resume {folder}: {exc}") from None
+    if state.ended is not None:
+        raise UserError(f"--resume {folder}: no flight in progress there: the flight started {state.start.utc} ended "
+                        f"with its station running ({_end_text(state.ended)})")
+    if state.start.sim:
+        raise UserError(f"--resume {folder}: the flight flew the built-in simulated fleet (--sim), which stopped with "
+                        "its station: nothing is flying")
+    if state.start.online:
+        raise UserError(f"--resume {folder}: an online flight (--online) cannot be taken over: its vehicles hold "
+                        "their last cell in GUIDED until their failsafes bring them home")
+    plan = load_plan_dir(folder)
+    if file_sha256(folder / "plan.json") != state.start.plan_sha256:
+        raise UserError(f"--resume {folder}: plan.json changed since the flight started (it is not the plan flown)")
+    return state, plan
+
+
+def _end_text(end: dict) -> str:
+    if end.get("error"):
+        return f"the station failed: {end['error']}"
+    if end.get("interrupted"):
+        return "stopped by the operator"
+    landed, still = end.get("landed", []), end.get("open", [])
+    text = f"{len(landed)} landed"
+    return text + (f", UAV {', '.join(map(str, still))} not landed" if still else "")
+
+
+def links_from_the_same_ports(connections: list[str], source_ports: dict[str, int]) -> list[str | Connection]:
+    """The links again, each `udpout` sending from the local port it sent from before: PX4 answers
+    only the first address that spoke to it, and the dead station's is the one it knows."""
+    links: list[str | Connection] = []
+    for text in connections:
+        c = parse_connection(text)
+        port = source_ports.get(str(c))
+        links.append(replace(c, source_port=port) if port and c.kind is LinkKind.UDP_OUT else text)
+    return links
+
+

@@ -28,23 +28,26 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import hashlib
 import json
 import math
 from collections.abc import AsyncIterator
 from dataclasses import dataclass
 from datetime import UTC, datetime
-from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import jsonschema
 import numpy as np
 
 from gcs.atomic import staged_outputs
+from gcs.plans.belief_file import (
+    BELIEF_FILE,
+    SCHEMA_VERSION,
+    SORTIE_FILE,
+    belief_from_dict,
+    belief_to_dict,
+    file_sha256,
+)
 from planner.campaign import Belief
-from planner.environment import SearchMap
 
 if TYPE_CHECKING:  # the flight modules load pymavlink: `gcs plan --continue` needs none of them
     from gcs.flight.controller import FlightController
@@ -53,62 +56,10 @@ if TYPE_CHECKING:  # the flight modules load pymavlink: `gcs plan --continue` ne
     from gcs.plans.plan_folder import FleetPlan
     from gcs.telemetry.status import Detection
 
-__all__ = ["BELIEF_FILE", "DETECTIONS_FILE", "SORTIE_FILE", "TRACKS_FILE", "SortieLog", "belief_from_dict",
-           "belief_to_dict", "file_sha256", "validate_belief_dict", "validate_sortie_dict"]
+__all__ = ["DETECTIONS_FILE", "TRACKS_FILE", "SortieLog"]
 
-BELIEF_FILE = "belief.json"
-SORTIE_FILE = "sortie.json"
 TRACKS_FILE = "tracks.geojson"
 DETECTIONS_FILE = "detections.geojson"
-SCHEMA_VERSION = 1
-
-
-def file_sha256(path: str | Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
-@lru_cache(maxsize=1)
-def sortie_schema() -> dict:
-    return json.loads(resources.files("gcs").joinpath("schemas/sortie.schema.json").read_text())
-
-
-def validate_sortie_dict(data: dict) -> None:
-    """Raise jsonschema.ValidationError when `data` is not a sortie record."""
-    jsonschema.validate(data, sortie_schema())
-
-
-def validate_belief_dict(data: dict) -> None:
-    """Raise jsonschema.ValidationError when `data` is not a belief map (belief.json)."""
-    schema = sortie_schema()
-    jsonschema.validate(data, {"$ref": "#/$defs/belief", "$defs": schema["$defs"]})
-
-
-def belief_to_dict(belief: Belief, source: str) -> dict:
-    """`belief.json`: the belief a sortie is planned from (and a sortie record's posterior):
-    TEP, EU, the campaign's first prior `p0` and `looks`, the campaign's readings per cell so
-    far. `source` says where it came from: `prior`, `flight` (a flown sortie's readings),
-    `predicted` (a planned sortie that reports nothing, `planner.campaign.predicted_after`)."""
-    m = belief.search_map
-    return {"schema_version": SCHEMA_VERSION, "sortie": belief.sortie, "source": source, "nx": m.shape[0],
-            "ny": m.shape[1], "tep": m.tep.tolist(), "eu": m.eu.tolist(), "p0": belief.p0.tolist(),
-            "looks": belief.looks.tolist()}
-
-
-def belief_from_dict(data: dict, no_fly: np.ndarray) -> Belief:
-    """The `Belief` of a `belief.json` (or a sortie record's posterior); ValueError when it is not one."""
-    try:
-        tep, eu, p0, looks = (np.asarray(data[k], dtype=float) for k in ("tep", "eu", "p0", "looks"))
-        sortie = int(data["sortie"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ValueError(f"not a belief map ({type(exc).__name__}: {exc})") from None
-    if not all(np.all(np.isfinite(a)) for a in (tep, eu, p0)):
-        raise ValueError("TEP, EU and P0 must be numbers")
-    if not np.all(np.isfinite(looks)) or np.any(looks != np.round(looks)):
-        raise ValueError("looks must be whole numbers")
-    if tep.shape != no_fly.shape:
-        raise ValueError(f"the belief is a {'x'.join(map(str, tep.shape))} grid, the plan's {no_fly.shape[0]}x"
-                         f"{no_fly.shape[1]}")
-    return Belief(SearchMap(tep, eu, no_fly), p0, looks.astype(np.int64), sortie)
 
 
 @dataclass(frozen=True, slots=True)
@@ -232,7 +183,7 @@ class SortieLog:
             if isinstance(failure, (KeyboardInterrupt, asyncio.CancelledError)):
                 return False, "the flight was interrupted"
             return False, f"the flight ended with an error ({type(failure).__name__}: {failure})"
-        if controller._interrupted:
+        if controller.interrupted:
             return False, "the flight was stopped by the operator (Ctrl-C): every vehicle was sent home"
         from gcs.telemetry.status import FINAL_STAGES
 

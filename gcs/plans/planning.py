@@ -1,12 +1,13 @@
-"""`gcs plan --area`: area file -> grid and scenario -> closed search -> mission files (run by
-`gcs.plans.campaign.run_area`, which also plans later sorties).
+"""Planning, from options to a closed search and its files: a built-in scenario's search
+(`build_scenario_search`), and for a real area, area file -> grid and scenario -> closed search
+(`build_area_search`) -> mission files (`area_outputs`, `write_outputs`). `gcs.plans.make` runs
+them for `gcs plan` and `gcs fly --area`; `gcs.plans.campaign` plans later sorties.
 
 Bad input raises `UserError` before anything is written; the outputs are staged and published
 together (`gcs.atomic.staged_outputs`), so a failed run leaves the output folder as it was."""
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 from dataclasses import dataclass, replace
@@ -23,10 +24,10 @@ from gcs.missions.paths import paths_geojson
 from gcs.missions.qgc_plan import qgc_plan
 from gcs.missions.wpl import wpl_text
 from gcs.plans.area_file import AreaFile, read_area_file
+from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, SearchOptions
 from gcs.plans.plan_file import plan_to_dict
 from planner.area_grid import (
     DIAGONAL,
-    MAX_CELLS,
     AreaGrid,
     PriorCells,
     airport_cell,
@@ -40,45 +41,7 @@ from planner.environment import Sensor
 from planner.horizon import HorizonValue
 from planner.motion import constraint_by_name
 from planner.plan import Plan
-from planner.scenario import Scenario, UavSpec
-
-DEFAULT_CELL_SIZE_M = 50.0
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("area planning (--area)")
-    g.add_argument("--area", metavar="GEOJSON", default=None,
-                   help="plan over a GeoJSON search area (docs/areas.md) instead of a built-in scenario")
-    g.add_argument("--cell-size", dest="cell_size_m", metavar="METRES", type=float, default=None,
-                   help=f"grid cell side (default: the file's cell_size_m, else {DEFAULT_CELL_SIZE_M:g})")
-    g.add_argument("--speed", dest="speed_m_s", metavar="M/S", type=float, default=12.0, help="cruise speed")
-    g.add_argument("--range-m", dest="range_m", metavar="METRES", type=float, default=None,
-                   help="range of airports that give neither range_m nor endurance_s (overrides --endurance)")
-    g.add_argument("--endurance", dest="endurance_s", metavar="SECONDS", type=float, default=900.0,
-                   help="endurance of airports that give neither range_m nor endurance_s")
-    g.add_argument("--altitude", dest="altitude_m", metavar="METRES", type=float, default=50.0,
-                   help="the lowest altitude layer, above the airport (or the ground with --terrain-follow)")
-    g.add_argument("--altitude-step", dest="altitude_step_m", metavar="METRES", type=float, default=10.0,
-                   help="vertical spacing of the altitude layers: UAVs fly one layer each, between --altitude and "
-                        "--ceiling (an airport's altitude_m overrides)")
-    g.add_argument("--ceiling", dest="ceiling_m", metavar="METRES", type=float, default=120.0,
-                   help="highest flight altitude allowed (120 m is the legal ceiling in the EU and the US)")
-    g.add_argument("--terrain-follow", action="store_true",
-                   help="fly the search at its altitude above the ground below (MAV_FRAME_GLOBAL_TERRAIN_ALT_INT; "
-                        "the autopilot needs terrain data or a rangefinder)")
-    g.add_argument("--vehicle", choices=[v.value for v in Vehicle], default=Vehicle.COPTER.value,
-                   help="copter: take-off and NAV_LAND at the airport; plane: take-off along the runway (the "
-                        "airport's heading) and a landing approach lined up with it")
-    g.add_argument("--approach-m", dest="approach_m", metavar="METRES", type=float, default=500.0,
-                   help="plane: length of the final approach on the runway axis (shortened to 250 m where the "
-                        "area leaves no room); twice this is kept out of the search range")
-    g.add_argument("--approach-alt", dest="approach_alt_m", metavar="METRES", type=float, default=30.0,
-                   help="plane: altitude above the airport at the start of the final approach")
-    g.add_argument("--margin", dest="margin_m", metavar="METRES", type=float, default=0.0,
-                   help="safety buffer: shrink the area and grow the no-fly zones by this much")
-    g.add_argument("--default-tep", type=float, default=0.5, help="target probability outside prior regions")
-    g.add_argument("--default-eu", type=float, default=0.5, help="uncertainty outside prior regions")
-    g.add_argument("--max-cells", type=int, default=MAX_CELLS, help="refuse grids with more cells than this")
+from planner.scenario import SCENARIOS, Scenario, UavSpec
 
 
 @dataclass
@@ -170,58 +133,90 @@ def altitude_layers(explicit: list[float | None], floor_m: float, step_m: float,
     return AltitudeLayers(altitudes, layer, levels)
 
 
-def build_area_search(args: argparse.Namespace, belief: Belief | None = None) -> AreaSetup:
-    """The area, airports, ranges and closed search of `args`; with `belief`, the search of that
-    belief instead of the area's prior (a later sortie of a campaign, `gcs.plans.campaign`)."""
-    source = read_area_file(args.area)
-    cell = _positive(args.cell_size_m or source.cell_size_m or DEFAULT_CELL_SIZE_M, "--cell-size")
-    speed = _positive(args.speed_m_s, "--speed")
-    _positive(args.endurance_s, "--endurance")
-    if args.range_m is not None:
-        _positive(args.range_m, "--range-m")
-    approach = ApproachOptions(_positive(args.approach_m, "--approach-m"),
-                               _positive(args.approach_alt_m, "--approach-alt"), min(250.0, args.approach_m))
-    landing_m = 2 * approach.distance_m if args.vehicle == Vehicle.PLANE.value else 0.0
+def mission_config(search: SearchOptions, horizon: bool) -> MissionConfig:
+    """The closed search's configuration; `horizon` is the horizon value's default (on for an
+    area, off for a built-in scenario) when `search.horizon_value` is None. ValueError when a
+    name or number is not one the planner knows."""
+    return MissionConfig(np_steps=search.np_steps, oc=constraint_by_name(search.oc), strategy=search.strategy,
+                         return_planner=search.return_planner, reserve_steps=search.reserve,
+                         range_aware_search=search.range_aware_search,
+                         horizon=HorizonValue() if _default(search.horizon_value, horizon) else None)
+
+
+def _default(value: bool | None, default: bool) -> bool:
+    return default if value is None else value
+
+
+def build_scenario_search(scenario: str = "paper", search: SearchOptions | None = None) -> ClosedSearch:
+    """The closed search of built-in scenario `scenario` (`planner.scenario.SCENARIOS`) under
+    `search` (None: the defaults); bad values raise UserError."""
+    search = search or SearchOptions()
+    if scenario not in SCENARIOS:
+        raise UserError(f"unknown scenario {scenario!r} (choose from {', '.join(SCENARIOS)})")
     try:
-        area = build_area_grid(source.area, list(source.no_fly), cell, args.margin_m, args.max_cells)
+        sensor = Sensor(search.pc, search.pf, search.footprint)
+        config = mission_config(search, horizon=False)
+        if search.range_steps < 1:
+            raise ValueError(f"range must be at least 1 step, got {search.range_steps}")
+        built = SCENARIOS[scenario](seed=search.seed, range_steps=search.range_steps, sensor=sensor)
+        return ClosedSearch(built, config, seed=search.seed)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+def build_area_search(area_file: str | Path, area: AreaOptions | None = None, search: SearchOptions | None = None,
+                      belief: Belief | None = None) -> AreaSetup:
+    """The area, airports, ranges and closed search of `area_file` under the options (None: the
+    defaults); with `belief`, the search of that belief instead of the area's prior (a later
+    sortie of a campaign, `gcs.plans.campaign`). Bad input raises UserError naming the option or
+    the file."""
+    area, search = area or AreaOptions(), search or SearchOptions()
+    source = read_area_file(area_file)
+    cell = _positive(area.cell_size_m or source.cell_size_m or DEFAULT_CELL_SIZE_M, "--cell-size")
+    speed = _positive(area.speed_m_s, "--speed")
+    _positive(area.endurance_s, "--endurance")
+    if area.range_m is not None:
+        _positive(area.range_m, "--range-m")
+    approach = ApproachOptions(_positive(area.approach_m, "--approach-m"),
+                               _positive(area.approach_alt_m, "--approach-alt"), min(250.0, area.approach_m))
+    vehicle = Vehicle(area.vehicle)
+    landing_m = 2 * approach.distance_m if vehicle is Vehicle.PLANE else 0.0
+    try:
+        grid = build_area_grid(source.area, list(source.no_fly), cell, area.margin_m, area.max_cells)
         uavs, ranges_m = [], {}
         for ap in source.airports:
             uav_id = ap.index + 1
             label = f"airport {ap.name!r} (UAV {uav_id})"
-            east, north = area.point_m(ap.lon_deg, ap.lat_deg)
-            x, y = airport_cell(area, east, north, label)
+            east, north = grid.point_m(ap.lon_deg, ap.lat_deg)
+            x, y = airport_cell(grid, east, north, label)
             range_m = (ap.range_m or (ap.endurance_s * speed if ap.endurance_s else None)
-                       or args.range_m or args.endurance_s * speed)
-            ce, cn = area.grid.centre_m(x, y)
+                       or area.range_m or area.endurance_s * speed)
+            ce, cn = grid.grid.centre_m(x, y)
             to_cell_m = float(math.hypot(ce - east, cn - north))
             steps = steps_for_range(range_m - 2 * to_cell_m - landing_m, cell)
             if steps < 2:
                 raise ValueError(f"{label}: range {range_m:.0f} m is {max(steps, 0)} steps of {cell * DIAGONAL:.1f} m; "
                                  f"it cannot leave its airport and come back")
             if landing_m:
-                landing_approach(area, (east, north), ap.heading * 45.0, np.array([east, north]), approach, label)
+                landing_approach(grid, (east, north), ap.heading * 45.0, np.array([east, north]), approach, label)
             uavs.append(UavSpec(uav_id, (x, y), ap.heading, steps))
             ranges_m[uav_id] = range_m
-        layers = altitude_layers([ap.altitude_m for ap in source.airports], args.altitude_m, args.altitude_step_m,
-                                 args.ceiling_m)
+        layers = altitude_layers([ap.altitude_m for ap in source.airports], area.altitude_m, area.altitude_step_m,
+                                 area.ceiling_m)
         targets = []
         for t in source.targets:
-            east, north = area.point_m(t.lon_deg, t.lat_deg)
-            if not area.area_m.covers(Point(east, north)):
+            east, north = grid.point_m(t.lon_deg, t.lat_deg)
+            if not grid.area_m.covers(Point(east, north)):
                 raise ValueError(f"target {t.name!r} at lon {t.lon_deg}, lat {t.lat_deg} is outside the area")
             targets.append((east, north))
-        priors = [PriorCells(area.to_local(p.geometry), p.tep, p.eu) for p in source.priors]
-        sensor = Sensor(args.pc, args.pf, args.footprint)
-        scenario = area_scenario(source.name, area, priors, uavs, targets, args.default_tep, args.default_eu, sensor)
-        config = MissionConfig(np_steps=args.np_steps, oc=constraint_by_name(args.oc), strategy=args.strategy,
-                               return_planner=args.return_planner, reserve_steps=args.reserve,
-                               range_aware_search=args.range_aware_search,
-                               horizon=None if getattr(args, "horizon_value", None) is False else HorizonValue())
-        search = _search(scenario, config, args.seed, belief)
+        priors = [PriorCells(grid.to_local(p.geometry), p.tep, p.eu) for p in source.priors]
+        sensor = Sensor(search.pc, search.pf, search.footprint)
+        scenario = area_scenario(source.name, grid, priors, uavs, targets, area.default_tep, area.default_eu, sensor)
+        closed = _search(scenario, mission_config(search, horizon=True), search.seed, belief)
     except ValueError as exc:
-        raise UserError(f"{args.area}: {exc}") from None
-    reference = AltitudeReference.TERRAIN if args.terrain_follow else AltitudeReference.HOME
-    return AreaSetup(source, area, search, ranges_m, layers, Vehicle(args.vehicle), reference, approach, belief)
+        raise UserError(f"{area_file}: {exc}") from None
+    reference = AltitudeReference.TERRAIN if area.terrain_follow else AltitudeReference.HOME
+    return AreaSetup(source, grid, closed, ranges_m, layers, vehicle, reference, approach, belief)
 
 
 def _rings_lat_lon(geometry) -> tuple[list, list]:
@@ -293,34 +288,14 @@ def write_outputs(out_dir: Path, files: dict[str, str]) -> None:
         raise
 
 
-def area_out_dir(args: argparse.Namespace) -> Path:
-    if args.out is None:
-        return Path("runs") / Path(args.area).stem
-    out = Path(args.out)
-    if out.suffix == ".json":
-        raise UserError(f"--out {args.out}: --area writes several files; give a folder")
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {args.out}: exists and is not a folder")
-    return out
-
-
-def mission_table(setup: AreaSetup, plan: Plan, files: dict[str, str]) -> str:
-    data = json.loads(files["plan.json"])
-    rows = [f"{'UAV':>3}  {'name':<16} {'alt m':>6} {'layer':>5} {'range m':>8} {'path m':>8} {'waypoints':>9}"]
-    for u in data["uavs"]:
-        layer = u.get("altitude_layer")
-        rows.append(f"{u['id']:>3}  {u['name'][:16]:<16} {u['altitude_m']:>6.0f} {layer or '-':>5} "
-                    f"{u['range_m']:>8.0f} {u['length_m']:>8.0f} {len(u['waypoints']):>9}")
-    layers = setup.layers
-    above = "the ground below" if setup.altitude_reference is AltitudeReference.TERRAIN else "each airport"
-    if layers.levels_m:
-        rows.append(f"altitude layers {layers.levels_m[0]:g}-{layers.levels_m[-1]:g} m above {above} "
-                    f"({len(layers.levels_m)} layers)")
-    for level, uavs in sorted(layers.shared.items()):
-        rows.append(f"UAVs {', '.join(map(str, uavs))} share layer {level} ({layers.levels_m[level - 1]:g} m): "
-                    "the plan keeps them out of each other's cells; raise --ceiling or lower --altitude-step to part "
-                    "them")
-    g = setup.area.grid
-    rows.append(f"grid {g.nx}x{g.ny} cells of {g.cell_size_m:g} m, {int(setup.area.free.sum())} searchable, "
-                f"{setup.area.edge_blocked} blocked at edges")
-    return "\n".join(rows)
+def area_out_dir(area_file: str | Path, out: str | Path | None = None) -> Path:
+    """The folder an area plan is written to: `out`, else runs/<area file name>; UserError when
+    `out` names a file."""
+    if out is None:
+        return Path("runs") / Path(area_file).stem
+    path = Path(out)
+    if path.suffix == ".json":
+        raise UserError(f"--out {out}: --area writes several files; give a folder")
+    if path.exists() and not path.is_dir():
+        raise UserError(f"--out {out}: exists and is not a folder")
+    return path

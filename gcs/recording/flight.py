@@ -44,7 +44,7 @@ import rerun.blueprint as rrb
 from gcs.display.overview import uav_colour
 from gcs.flight.events import FlightEvent, ReadingReceived
 from gcs.flight.watch import EventLine, event_lines, watching
-from gcs.recording.plan import FLUSH_TIMEOUT_S, GEO_STRING, _lighter, _Rows, open_stream
+from gcs.recording.plan import GEO_STRING, EntityRows, flush_rows, lighter, open_stream
 
 if TYPE_CHECKING:
 
@@ -99,7 +99,7 @@ class FlightRecorder:
         self.flush_interval_s = flush_interval_s if flush_interval_s is not None else (1.0 if connect else 5.0)
         self.rec: rr.RecordingStream | None = None
         self.t0 = time.monotonic()
-        self._rows: dict[str, _Rows] = {}
+        self._rows: dict[str, EntityRows] = {}
         self._last_sample: dict[int, float] = {}
         self._last_geo: dict[int, tuple[float, float]] = {}
         self._planned_return: set[int] = set()
@@ -182,16 +182,16 @@ class FlightRecorder:
                     self._event(time.monotonic(), None, f"flight interrupted ({what})", "ERROR")
                     raise
         finally:
-            if controller._interrupted:
+            if controller.interrupted:
                 self._event(time.monotonic(), None, "interrupted by the operator: RTL commanded", "WARN")
             self.close()
 
     # -- what is logged -----------------------------------------------------------------------
 
-    def _row(self, path: str, columns: Callable, **strips) -> _Rows:
+    def _row(self, path: str, columns: Callable, **strips) -> EntityRows:
         rows = self._rows.get(path)
         if rows is None:
-            rows = self._rows[path] = _Rows(columns, strips, _flight_columns)
+            rows = self._rows[path] = EntityRows(columns, strips, _flight_columns)
         return rows
 
     def _add(self, path: str, columns: Callable, now: float, n: int, strips: dict | None = None, **fields) -> None:
@@ -220,7 +220,7 @@ class FlightRecorder:
             strings, colours = [search], [colour]
             if back:
                 strings.append([search[-1], *back] if search else back)
-                colours.append(_lighter(colour))
+                colours.append(lighter(colour))
             self.rec.log(f"geo/plan/{uid}", rr.GeoLineStrings(lat_lon=strings, colors=colours,
                                                               radii=rr.Radius.ui_points(1.0)), static=True)
             self.rec.log(f"geo/uav/{uid}", rr.GeoPoints.from_fields(radii=[rr.Radius.ui_points(7.0)], colors=[colour]),
@@ -256,7 +256,7 @@ class FlightRecorder:
             if before is not None and before != here:
                 colour = uav_colour(sorted(self.plan.uavs).index(uid))
                 if st.stage.value in _RETURN_STAGES:
-                    colour = _lighter(colour)
+                    colour = lighter(colour)
                 self._add(f"geo/uav/{uid}/trail", rr.GeoLineStrings.columns, now, 1,
                           strips={"line_strings": GEO_STRING},
                           line_strings=[np.array((before, here))], colors=[colour])
@@ -293,14 +293,7 @@ class FlightRecorder:
     def _flush(self) -> None:
         if self.rec is None:
             return
-        for path, rows in self._rows.items():
-            rows.send(self.rec, path)
-        try:
-            self.rec.flush(timeout_sec=FLUSH_TIMEOUT_S)
-        except RuntimeError as exc:  # a viewer that went away must not stop the flight
-            if not self._sink_failed:
-                print(f"warning: Rerun: {exc}; the flight goes on", flush=True)
-            self._sink_failed = True
+        self._sink_failed = flush_rows(self.rec, self._rows, "flight", self._sink_failed)
         self._last_flush = time.monotonic()
 
 

@@ -69,7 +69,8 @@ RETURN_REASON_TEXT = {
 }
 
 
-def _lighter(colour: tuple[int, int, int], amount: float = 0.55) -> tuple[int, int, int]:
+def lighter(colour: tuple[int, int, int], amount: float = 0.55) -> tuple[int, int, int]:
+    """`colour` moved `amount` of the way to white: a UAV's way home, drawn beside its search."""
     return tuple(int(c + (255 - c) * amount) for c in colour)  # type: ignore[return-value]
 
 
@@ -127,8 +128,9 @@ def step_columns(times: list) -> list:
     return [rr.TimeColumn(TIMELINE, sequence=times)]
 
 
-class _Rows:
-    """Rows of one entity waiting to be sent column-wise. Each row holds n instances of every
+class EntityRows:
+    """Rows of one entity waiting to be sent column-wise (the plan's and the flight's
+    recorders batch their rows in these). Each row holds n instances of every
     field it sets (n may be 0: the entity shows nothing at that step). Fields named in
     `strips` hold lists of (m, 2) arrays, one per instance, sent as one Arrow array.
     `time_columns` turns the rows' times (as given to `add`) into Rerun time columns."""
@@ -200,11 +202,11 @@ class _Track:
     position: tuple[float, float] | None = None
     geo: tuple[float, float] | None = None
     landed: bool = False
-    rows: dict[str, _Rows] = field(default_factory=dict)
+    rows: dict[str, EntityRows] = field(default_factory=dict)
 
     @property
     def return_colour(self) -> tuple[int, int, int]:
-        return _lighter(self.colour)
+        return lighter(self.colour)
 
 
 class PlanRecorder:
@@ -237,7 +239,7 @@ class PlanRecorder:
         self.nx, self.ny = scenario.search_map.shape
         self._available = float(scenario.success_prior[~scenario.search_map.no_fly].sum())
         self.rec: rr.RecordingStream | None = None
-        self._rows: dict[str, _Rows | _MapRows] = {}
+        self._rows: dict[str, EntityRows | _MapRows] = {}
         self._tracks: dict[int, _Track] = {}
         self._found: list[tuple[int, int, str]] = []
         self._detections: list[tuple[int, int]] = []
@@ -295,10 +297,10 @@ class PlanRecorder:
 
     # -- what is logged -----------------------------------------------------------------------
 
-    def _row(self, path: str, columns: Callable, **strips: pa.DataType) -> _Rows:
+    def _row(self, path: str, columns: Callable, **strips: pa.DataType) -> EntityRows:
         rows = self._rows.get(path)
         if rows is None:
-            rows = self._rows[path] = _Rows(columns, strips)
+            rows = self._rows[path] = EntityRows(columns, strips)
         return rows
 
     def _static(self, path: str, archetype) -> None:
@@ -411,10 +413,10 @@ class PlanRecorder:
         out[1:, 1] = self.ny - 0.5 - cells[:, 1]
         return out
 
-    def _track_rows(self, track: _Track) -> dict[str, _Rows]:
+    def _track_rows(self, track: _Track) -> dict[str, EntityRows]:
         """The rows of one UAV's entities, registered for flushing."""
         uid, base = track.uav_id, f"world/uav/{track.uav_id}"
-        rows: dict[str, _Rows] = {
+        rows: dict[str, EntityRows] = {
             "pose": self._row(base, _pose_columns),
             "trail": self._row(f"{base}/trail", rr.LineStrips2D.columns, strips=STRIP_2D),
             "plan": self._row(f"{base}/plan", rr.LineStrips2D.columns, strips=STRIP_2D),
@@ -553,15 +555,22 @@ class PlanRecorder:
     def _flush(self) -> None:
         if self.rec is None:
             return
-        for path, rows in self._rows.items():
-            rows.send(self.rec, path)
-        try:
-            self.rec.flush(timeout_sec=FLUSH_TIMEOUT_S)
-        except RuntimeError as exc:  # a viewer that went away must not stop the run
-            if not self._sink_failed:
-                print(f"warning: Rerun: {exc}; the run goes on", file=sys.stderr)
-            self._sink_failed = True
+        self._sink_failed = flush_rows(self.rec, self._rows, "run", self._sink_failed)
         self._last_flush = time.monotonic()
+
+
+def flush_rows(rec: rr.RecordingStream, rows: dict[str, EntityRows | _MapRows], what: str, warned: bool) -> bool:
+    """Send the buffered rows and flush the stream; a viewer that went away must not stop the
+    `what` (run, flight): a warning on stderr, once. Returns whether it has been given."""
+    for path, buffered in rows.items():
+        buffered.send(rec, path)
+    try:
+        rec.flush(timeout_sec=FLUSH_TIMEOUT_S)
+    except RuntimeError as exc:
+        if not warned:
+            print(f"warning: Rerun: {exc}; the {what} goes on", file=sys.stderr, flush=True)
+        return True
+    return warned
 
 
 def open_stream(rrd_path: Path | None, connect: str | None, name: str, blueprint,

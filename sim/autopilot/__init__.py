@@ -1,2 +1,2 @@
-"""The simulated vehicle's MAVLink behaviour: the protocol, modes, mission storage and
-telemetry of each autopilot profile (ArduPilot, PX4)."""
+"""The simulated vehicle's MAVLink behaviour: the protocol, modes, mission storage, failsafes
+and telemetry of each autopilot profile (ArduPilot, PX4), flying a `sim.physics` airframe."""

@@ -22,8 +22,8 @@ from dataclasses import dataclass, fields
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.px4_storage import stored_item
+from planner.georef import LocalFrame
 from sim.autopilot.mission_protocol import MissionItem, MissionType
-from sim.physics.geo import LocalFrame
 
 # ---- readiness after boot (§3) ----------------------------------------------------------------
 

@@ -28,13 +28,13 @@ from dataclasses import dataclass
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim.autopilot import px4, telemetry
+from sim.autopilot.failsafe import FailsafeLevel, failsafe_to_trigger
 from sim.autopilot.mission_protocol import MissionItem, MissionType, ProtocolConfig
 from sim.autopilot.modes import Mode, mode_table
 from sim.autopilot.px4_mission import Px4MissionProtocol, px4_texts
-from sim.autopilot.vehicle import MAVMessage, SimVehicle, VehicleConfig, _Goal, _param_name
-from sim.physics.battery import FailsafeLevel, failsafe_to_trigger
-from sim.physics.geo import HomePose
-from sim.physics.kinematics import step_toward
+from sim.autopilot.vehicle import MAVMessage, SimVehicle, VehicleConfig, param_name
+from sim.physics.airframe import Goal, HomePose
+from sim.physics.battery import SihBattery
 
 ACCEPTED, REJECTED = mavlink.MAV_RESULT_ACCEPTED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED, UNSUPPORTED, FAILED = mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_UNSUPPORTED, mavlink.MAV_RESULT_FAILED
@@ -89,8 +89,6 @@ class Px4Vehicle(SimVehicle):
         self.mode = Mode.LOITER  # PX4 boots in Hold
         self.seq_unset = False  # MISSION_CURRENT 65535: an upload flagged no current item
         self.navigator_running = False
-        self.charge = 1.0  # SIH's state of charge
-        self.battery_failed = False
         self._text_id = 0
         self._start_on_arm = False  # a MISSION_START whose arming was refused: the next arm starts
         self._flew_mission = False
@@ -107,6 +105,9 @@ class Px4Vehicle(SimVehicle):
         self._land_reported: int | None = None
         self._frame_text_s = 0.0
         self._dt_s = 0.0
+
+    def _new_battery(self) -> SihBattery:
+        return SihBattery()
 
     def _default_params(self) -> dict[str, float]:
         defaults = px4.default_params(self.config.vehicle_type, self.sysid)
@@ -157,7 +158,7 @@ class Px4Vehicle(SimVehicle):
 
     @property
     def battery_voltage_v(self) -> float:
-        return px4.battery_voltage_v(self.charge)
+        return px4.battery_voltage_v(self.airframe.battery.charge)
 
     @property
     def battery_pct(self) -> float:
@@ -183,12 +184,11 @@ class Px4Vehicle(SimVehicle):
     # ---- the Python API ---------------------------------------------------------------------
 
     def fail_battery(self) -> None:
-        self.battery_failed = True
-        self.charge = 0.0
+        self.airframe.battery.fail()
 
     def set_drain_multiplier(self, k: float) -> None:
         """The SIH drain times k (a simulator extra; PX4's own knob is SIM_BAT_DRAIN)."""
-        self.battery.drain_multiplier = k
+        self.airframe.battery.drain_multiplier = k
 
     def load_mission(self, items: list[MissionItem]) -> None:
         self.mission.replace(items)
@@ -338,7 +338,7 @@ class Px4Vehicle(SimVehicle):
         return []
 
     def _on_param_set(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
-        name = _param_name(msg.param_id)
+        name = param_name(msg.param_id)
         if name not in self.params:
             return []
         value = px4.decode_param(msg.param_value, msg.param_type)
@@ -382,7 +382,7 @@ class Px4Vehicle(SimVehicle):
         self.failsafe = FailsafeLevel.NONE
         self._flew_mission = False
         if self.landed:
-            lat, lon = self.lat_lon_deg
+            lat, lon = self.airframe.lat_lon_deg
             self._set_home(lat, lon, self.home.alt_m)  # home is where it arms (§3)
             if self.params["COM_DISARM_PRFLT"] > 0:
                 self._disarm_at_s = self.time_s + self.params["COM_DISARM_PRFLT"] + _PREFLIGHT_DISARM_EXTRA_S
@@ -399,8 +399,7 @@ class Px4Vehicle(SimVehicle):
         self._after_hold = None
         self._rtl = None
         self.failsafe = FailsafeLevel.NONE
-        if not self.battery_failed:
-            self.charge = 1.0  # SIH's battery is full again once disarmed (§7)
+        self.airframe.battery.refill()  # SIH's battery is full again once disarmed (§7)
         if self._mode_after_disarm is not None:
             self.mode, self._mode_after_disarm = self._mode_after_disarm, None
 
@@ -435,9 +434,9 @@ class Px4Vehicle(SimVehicle):
         self._after_hold = None
         self._rtl = None
         self._speed_m_s = None
-        here = (self.kin.east_m, self.kin.north_m)
+        here = self.airframe.position_en
         if mode in (Mode.LOITER, Mode.GUIDED):
-            self._target_en, self._target_alt_m = here, self.kin.alt_m
+            self._target_en, self._target_alt_m = here, self.airframe.kin.alt_m
             if mode == Mode.GUIDED and self._setpoint is not None:
                 self._target_en, self._target_alt_m = self._setpoint
                 self._speed_m_s = self.params["MPC_XY_VEL_MAX"]
@@ -515,7 +514,7 @@ class Px4Vehicle(SimVehicle):
             self.statustext(f"Using default takeoff altitude: {height:.1f} m")
         else:
             height = alt_amsl - self.home.alt_m
-        if height <= self.kin.alt_m:
+        if height <= self.airframe.kin.alt_m:
             self.statustext("Already higher than takeoff altitude", CRITICAL)
             return ACCEPTED
         self._enter(Mode.TAKEOFF)
@@ -539,14 +538,14 @@ class Px4Vehicle(SimVehicle):
         if not math.isnan(alt_amsl):
             self._target_alt_m = alt_amsl - self.home.alt_m
             if self._target_alt_m <= 0:
-                self._target_en = (self.kin.east_m, self.kin.north_m)
+                self._target_en = self.airframe.position_en
         self._speed_m_s = p[0] if p[0] > 0 else None
         return result
 
     # ---- RTL (§6) ---------------------------------------------------------------------------
 
     def _start_rtl(self) -> None:
-        here = (self.kin.east_m, self.kin.north_m)
+        here = self.airframe.position_en
         rally = self.mission.items(MissionType.RALLY)
         frames = self.mission.sent_frames[MissionType.RALLY]
         options = [(self.home_en, 0.0, 0)]
@@ -555,10 +554,10 @@ class Px4Vehicle(SimVehicle):
             broken = frame if frame in (mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT) else 0
             options.append((self.frame.geodetic2en(item.x / 1e7, item.y / 1e7), alt, broken))
         dest_en, dest_alt, broken = min(options, key=lambda o: math.dist(o[0], here))
-        ret = max(self.kin.alt_m, dest_alt + self.params["RTL_RETURN_ALT"])
+        ret = max(self.airframe.kin.alt_m, dest_alt + self.params["RTL_RETURN_ALT"])
         self._rtl = _Rtl(dest_en, dest_alt, ret, broken=broken)
         self._rtl_alt_m = ret
-        amsl = self.home.alt_m + self.kin.alt_m
+        amsl = self.home.alt_m + self.airframe.kin.alt_m
         if broken == mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT:
             self.statustext("RTL: start return at -2147483648 m (0 m above destination)")
         elif broken:
@@ -567,36 +566,36 @@ class Px4Vehicle(SimVehicle):
             self.statustext(f"RTL: start return at {self.home.alt_m + ret:.0f} m ({ret - dest_alt:.0f} m above "
                             "destination)")
 
-    def _rtl_goal(self) -> _Goal:
+    def _rtl_goal(self) -> Goal:
         r = self._rtl
         if r is None or not self.copter:
             return super()._rtl_goal()
-        here = (self.kin.east_m, self.kin.north_m)
+        here = self.airframe.position_en
         if r.broken == mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT:
-            return _Goal(None, self.kin.alt_m + 100.0)  # climbs without end (§6 T3)
+            return Goal(None, self.airframe.kin.alt_m + 100.0)  # climbs without end (§6 T3)
         if r.broken:
             far = 10_000.0  # flies off at its altitude (§6 T6)
-            heading = self.kin.heading_rad
-            return _Goal((here[0] + far * math.sin(heading), here[1] + far * math.cos(heading)), self.kin.alt_m)
+            heading = self.airframe.kin.heading_rad
+            return Goal((here[0] + far * math.sin(heading), here[1] + far * math.cos(heading)), self.airframe.kin.alt_m)
         if r.phase == "climb":
-            if self.kin.alt_m < r.return_alt_m - 0.5:
-                return _Goal(None, r.return_alt_m)
+            if self.airframe.kin.alt_m < r.return_alt_m - 0.5:
+                return Goal(None, r.return_alt_m)
             r.phase = "return"
         if r.phase == "return":
             if math.dist(here, r.dest_en) > self.config.acceptance_radius_m:
-                return _Goal(r.dest_en, r.return_alt_m)
+                return Goal(r.dest_en, r.return_alt_m)
             r.phase = "descend"
         if r.phase == "descend":
             low = r.dest_alt_m + self.params["RTL_DESCEND_ALT"]
-            if self.kin.alt_m > low + 0.5:
-                return _Goal(r.dest_en, low)
+            if self.airframe.kin.alt_m > low + 0.5:
+                return Goal(r.dest_en, low)
             r.phase = "land"
             self.statustext("RTL: land at destination")
-        return _Goal(None, -1.0, landing=True)
+        return Goal(None, -1.0, landing=True)
 
     # ---- flight -----------------------------------------------------------------------------
 
-    def _nav_goal(self, item: MissionItem) -> _Goal:
+    def _nav_goal(self, item: MissionItem) -> Goal:
         """PX4 reports a NAV_LAND reached over its point, before it descends (§4); a mission's
         NAV_RETURN_TO_LAUNCH flies PX4's RTL."""
         cmd = item.command
@@ -606,42 +605,42 @@ class Px4Vehicle(SimVehicle):
             return self._rtl_goal()
         if cmd == mavlink.MAV_CMD_NAV_LAND and self.copter:
             target = self._item_en(item)
-            here = (self.kin.east_m, self.kin.north_m)
+            here = self.airframe.position_en
             if self.landing or math.dist(target, here) <= self._radius(item):
                 if self._land_reported != item.seq:
                     self._land_reported = item.seq
                     self._report_reached(item.seq)
-                return _Goal(target, -1.0, landing=True)  # onto the point on the way down (§4: 0.1-0.8 m)
-            return _Goal(target, self.kin.alt_m)
+                return Goal(target, -1.0, landing=True)  # onto the point on the way down (§4: 0.1-0.8 m)
+            return Goal(target, self.airframe.kin.alt_m)
         return super()._nav_goal(item)
 
     _finished_text = "Mission finished, loitering"
 
-    def _goal(self) -> _Goal | None:
-        alt = self.kin.alt_m
+    def _goal(self) -> Goal | None:
+        alt = self.airframe.kin.alt_m
         if self.mode == Mode.TAKEOFF:
             if self._takeoff_alt_m is not None:
                 if alt < self._takeoff_alt_m - 0.5:
-                    return _Goal(self._climb_point(), self._takeoff_alt_m)
+                    return Goal(self._climb_point(), self._takeoff_alt_m)
                 self._takeoff_alt_m = None
                 self._enter(Mode.LOITER)
-            return None if self.landed else _Goal(self._hold_or(None), alt)
+            return None if self.landed else Goal(self._hold_or(None), alt)
         if self.mode in (Mode.LOITER, Mode.GUIDED):
             if self.landed:
                 return None
             if self._target_alt_m <= 0:
-                return _Goal(None, -1.0, landing=True)
-            return _Goal(self._hold_or(self._target_en), self._target_alt_m)
+                return Goal(None, -1.0, landing=True)
+            return Goal(self._hold_or(self._target_en), self._target_alt_m)
         if self.mode == Mode.POSCTL:
-            return None if self.landed else _Goal(None, alt - _POSCTL_SINK_M_S * self._dt_s, landing=True)
+            return None if self.landed else Goal(None, alt - _POSCTL_SINK_M_S * self._dt_s, landing=True)
         if self.mode == Mode.LAND:
-            return None if self.landed else _Goal(None if self.limits.can_hover else self._hold_or(None), -1.0,
+            return None if self.landed else Goal(None if self.airframe.limits.can_hover else self._hold_or(None), -1.0,
                                                   landing=True)
         if self.mode == Mode.RTL:
             return None if self.landed else self._rtl_goal()
         if self.mode == Mode.AUTO:
             return self._auto_goal()
-        return None if self.landed else _Goal(None, alt)
+        return None if self.landed else Goal(None, alt)
 
     def step(self, dt_s: float) -> None:
         """Advance simulated time by dt (seconds; the fleet keeps dt at or under 0.1 s)."""
@@ -663,7 +662,7 @@ class Px4Vehicle(SimVehicle):
         if self._disarm_at_s is not None and self.landed and self.time_s >= self._disarm_at_s:
             self._disarm(self._disarm_reason)
         if not self.armed:
-            self.kin.speed_m_s = self.kin.climb_m_s = self.kin.turn_rate_rad_s = 0.0
+            self.airframe.stop()
             return
         goal = self._goal()
         if goal is None:
@@ -680,11 +679,11 @@ class Px4Vehicle(SimVehicle):
             self.landed = False
             self.statustext("Takeoff detected")
         self.landing = goal.landing
-        if goal.landing and self.copter and self.kin.alt_m <= _LAND_SLOW_BELOW_M:
-            goal.alt_m = max(goal.alt_m, self.kin.alt_m - self.params["MPC_LAND_SPEED"] * dt_s)
-        step_toward(self.kin, self.limits, dt_s, target_en=goal.target_en, target_alt_m=goal.alt_m,
-                    speed_m_s=self._speed_m_s)
-        if goal.landing and self.kin.alt_m <= 0.0:
+        body = self.airframe
+        if goal.landing and self.copter and body.kin.alt_m <= _LAND_SLOW_BELOW_M:
+            goal.alt_m = max(goal.alt_m, body.kin.alt_m - self.params["MPC_LAND_SPEED"] * dt_s)
+        body.step(dt_s, goal, self._speed_m_s)
+        if goal.landing and body.kin.alt_m <= 0.0:
             self._touchdown()
         elif self.mode == Mode.AUTO:
             self._check_reached()
@@ -693,8 +692,7 @@ class Px4Vehicle(SimVehicle):
     def _touchdown(self) -> None:
         """"Landing detected"; a mission's landing ends it and disarms at once, any other
         landing 3.5 s later (and the mode reads MISSION again if the flight flew one)."""
-        self.kin.alt_m = 0.0
-        self.kin.speed_m_s = self.kin.climb_m_s = self.kin.turn_rate_rad_s = 0.0
+        self.airframe.touch_down()
         self.landed = True
         self.landing = False
         self.statustext("Landing detected")
@@ -723,11 +721,10 @@ class Px4Vehicle(SimVehicle):
             self._navigator_cycle()
 
     def _battery_step(self, dt_s: float) -> None:
-        if not self.armed:
-            return
-        floor = 0.0 if self.battery_failed else self.params["SIM_BAT_MIN_PCT"] / 100.0
-        rate = self.battery.drain_multiplier / max(self.params["SIM_BAT_DRAIN"], 1e-3)
-        self.charge = max(self.charge - rate * dt_s, floor)
+        """SIH drains its battery only while armed (§7)."""
+        if self.armed:
+            self.airframe.battery.step(dt_s, drain_s=self.params["SIM_BAT_DRAIN"],
+                                       floor_fraction=self.params["SIM_BAT_MIN_PCT"] / 100.0)
 
     def _check_failsafe(self) -> None:
         """COM_LOW_BAT_ACT (§7): 2 holds 5 s at critical, then lands; 3 returns instead, and

@@ -10,6 +10,10 @@ Defaults per profile: an ArduCopter streams nothing but HEARTBEAT until a statio
 §3: position and attitude 50 Hz, GPS 5 Hz, HUD 4 Hz, status 1 Hz, battery, home and estimator
 0.5 Hz), position, attitude and HUD at `telemetry_hz` when given. Before its GPS fix (ArduPilot)
 or its position estimate (PX4) a vehicle reports position 0, 0.
+
+`reading_message` and `reading_text` are a reading of the downward sensor on the wire (docs/sim.md,
+"The detection message"), for every sender of readings: the simulated vehicles and
+`sim/detector.py`.
 """
 
 from __future__ import annotations
@@ -20,8 +24,9 @@ from typing import TYPE_CHECKING
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim.autopilot import px4
+from sim.autopilot.failsafe import FailsafeLevel
 from sim.autopilot.modes import Mode
-from sim.physics.battery import FailsafeLevel
+from sim.physics.sensor import Observation, SensorConfig
 
 if TYPE_CHECKING:
     from sim.autopilot.vehicle import SimVehicle
@@ -158,11 +163,11 @@ def heartbeat(v: SimVehicle) -> mavlink.MAVLink_message:
 
 
 def global_position_int(v: SimVehicle) -> mavlink.MAVLink_message:
-    s = v.kin
+    s = v.airframe.kin
     hdg = round(math.degrees(s.heading_rad) % 360 * 100) % 36000
     if not v.position_known:  # the estimator has no origin yet
         return mavlink.MAVLink_global_position_int_message(_time_boot_ms(v), 0, 0, 0, 0, 0, 0, 0, hdg)
-    lat, lon = v.lat_lon_deg
+    lat, lon = v.airframe.lat_lon_deg
     vn = s.speed_m_s * math.cos(s.heading_rad)
     ve = s.speed_m_s * math.sin(s.heading_rad)
     return mavlink.MAVLink_global_position_int_message(
@@ -178,8 +183,8 @@ def gps_raw_int(v: SimVehicle) -> mavlink.MAVLink_message:
     if not v.gps_fixed:
         return mavlink.MAVLink_gps_raw_int_message(0, mavlink.GPS_FIX_TYPE_NO_FIX, 0, 0, 0, 65535, 65535, 0, 0, 0)
     fix = mavlink.GPS_FIX_TYPE_RTK_FIXED if v.ardupilot else mavlink.GPS_FIX_TYPE_3D_FIX
-    s = v.kin
-    lat, lon = v.lat_lon_deg
+    s = v.airframe.kin
+    lat, lon = v.airframe.lat_lon_deg
     alt_mm = round((v.home.alt_m + s.alt_m) * 1000)
     cog = round(math.degrees(s.heading_rad) % 360 * 100) % 36000
     return mavlink.MAVLink_gps_raw_int_message(
@@ -206,14 +211,14 @@ def gps_global_origin(v: SimVehicle) -> mavlink.MAVLink_message | None:
 
 
 def attitude(v: SimVehicle) -> mavlink.MAVLink_message:
-    s = v.kin
+    s = v.airframe.kin
     roll = math.atan(s.speed_m_s * s.turn_rate_rad_s / _GRAVITY_M_S2)
     pitch = math.atan2(s.climb_m_s, max(s.speed_m_s, 1.0))
     return mavlink.MAVLink_attitude_message(_time_boot_ms(v), roll, pitch, s.heading_rad, 0.0, 0.0, s.turn_rate_rad_s)
 
 
 def vfr_hud(v: SimVehicle) -> mavlink.MAVLink_message:
-    s = v.kin
+    s = v.airframe.kin
     throttle = 0 if not v.armed else (50 if not v.landed else 10)
     return mavlink.MAVLink_vfr_hud_message(
         s.speed_m_s, s.speed_m_s, round(math.degrees(s.heading_rad)) % 360, throttle,
@@ -228,7 +233,7 @@ def sys_status(v: SimVehicle) -> mavlink.MAVLink_message:
         return mavlink.MAVLink_sys_status_message(
             px4.SENSORS_PRESENT[ready], px4.SENSORS_ENABLED[ready], health, 400, round(v.battery_voltage_v * 1000),
             -100, round(v.battery_pct), 0, 0, 0, 0, 0, 0)
-    b = v.battery
+    b = v.airframe.battery
     present = health = _SENSORS
     if v.ardupilot:  # the pre-arm bit: healthy when its pre-arm checks pass in the current mode
         present |= mavlink.MAV_SYS_STATUS_PREARM_CHECK
@@ -242,7 +247,7 @@ def sys_status(v: SimVehicle) -> mavlink.MAVLink_message:
 def battery_status(v: SimVehicle) -> mavlink.MAVLink_message:
     """ArduPilot (flight §5): the pack voltage in voltages[0], no time remaining (0), consumed
     charge and energy; px4: cell voltages and a time-remaining estimate."""
-    b = v.battery
+    b = v.airframe.battery
     if not v.ardupilot:  # SIH's battery as PX4 reports it (px4 §7)
         return mavlink.MAVLink_battery_status_message(
             0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, 0x7FFF,
@@ -331,3 +336,20 @@ _BUILDERS = {
 }
 _ARDUPILOT_ONLY = frozenset({EKF_STATUS_REPORT})
 _PX4_ONLY = frozenset({ESTIMATOR_STATUS})
+
+
+def reading_message(obs: Observation, config: SensorConfig, alt_m: float, relative_alt_m: float
+                    ) -> mavlink.MAVLink_camera_image_captured_message:
+    """CAMERA_IMAGE_CAPTURED of one reading: the cell centre's lat/lon, the vehicle's altitudes
+    (AMSL and above home, metres) when it read the cell, and `detect?cell=..&hit=..` with the
+    sensor model in `file_url`."""
+    url = f"detect?cell={obs.cell[0]},{obs.cell[1]}&hit={int(obs.reported)}&pc={config.pc:g}&pf={config.pf:g}"
+    return mavlink.MAVLink_camera_image_captured_message(
+        int(obs.time_s * 1000), 0, 0, round(obs.lat_deg * 1e7), round(obs.lon_deg * 1e7), round(alt_m * 1000),
+        round(relative_alt_m * 1000), [1.0, 0.0, 0.0, 0.0], obs.index, 1, url.encode(),
+    )
+
+
+def reading_text(obs: Observation) -> str:
+    """The STATUSTEXT that announces a positive reading to people (severity NOTICE)."""
+    return f"DETECT cell {obs.cell[0]},{obs.cell[1]} img {obs.index}"

@@ -1,8 +1,11 @@
-"""One simulated autopilot: modes, commands, mission execution, battery and sensor.
+"""One simulated autopilot: commands, modes, mission execution, parameters, failsafes and
+telemetry, flying an `Airframe` (`sim.physics.airframe`: motion, battery, sensor).
 
 `SimVehicle` is transport-free: `handle(msg, wall_s)` answers one MAVLink message, `step(dt_s)`
 advances simulated time, `emit()` returns telemetry and events due. The fleet owns the clock
-and the sockets.
+and the sockets. Each step the autopilot decides a `Goal` from its mode and mission and the
+airframe flies toward it; the autopilot reads back where the airframe is (`airframe.kin`, in
+the fleet's local frame) to reach waypoints, land and report.
 
 The `ardupilot` profile behaves as ArduCopter / ArduPlane 4.7 SITL did when measured (research
 reports `ardupilot_protocol` and `ardupilot_flight`; docs/sim.md lists each behaviour): readiness
@@ -23,16 +26,19 @@ from functools import partial
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.ardupilot_storage import stored_item
+from planner.georef import LocalFrame
 from sim.autopilot import telemetry
 from sim.autopilot.ardupilot import BOOT_TIMES, CAPACITY, MISSION_TEXT_NAMES, BootTimes, boot_refusals, ekf_flags
 from sim.autopilot.ardupilot_mission import ArduPilotMissionProtocol
+from sim.autopilot.failsafe import FailsafeLevel, failsafe_level, failsafe_to_trigger
 from sim.autopilot.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
 from sim.autopilot.modes import Mode, custom_mode_of, mode_from_custom, mode_table
 from sim.autopilot.px4 import BOOT_TIMES as PX4_BOOT_TIMES, Px4BootTimes
-from sim.physics.battery import Battery, BatteryConfig, FailsafeLevel, failsafe_level, failsafe_to_trigger
-from sim.physics.geo import HomePose, LocalFrame
-from sim.physics.kinematics import KinematicLimits, KinematicState, step_toward
-from sim.physics.sensor import DownwardSensor, Observation, SensorConfig, reading_message, reading_text
+from sim.autopilot.telemetry import reading_message, reading_text
+from sim.physics.airframe import Airframe, Goal, HomePose
+from sim.physics.battery import Battery, BatteryConfig, SihBattery
+from sim.physics.kinematics import KinematicLimits
+from sim.physics.sensor import DownwardSensor, Observation, SensorConfig
 
 MAVMessage = mavlink.MAVLink_message
 _FORCE_MAGIC = 21196
@@ -135,13 +141,6 @@ class VehicleState:
     failsafe: FailsafeLevel
 
 
-@dataclass(slots=True)
-class _Goal:
-    target_en: tuple[float, float] | None
-    alt_m: float
-    landing: bool = False
-
-
 class SimVehicle:
     #: the method answering each message type (looked up on the instance: a profile's own answers)
     HANDLERS: dict[str, str] = {
@@ -176,18 +175,19 @@ class SimVehicle:
         self.ardupilot = config.profile == "ardupilot"
         self.copter = config.vehicle_type == "copter"
         self.boot = config.boot_times
-        self.frame = frame or LocalFrame(home.lat_deg, home.lon_deg)
-        self.limits = config.limits
+        self.frame = frame or LocalFrame(home.lat_deg, home.lon_deg)  # the fleet's, where it navigates
         east, north = self.frame.geodetic2en(home.lat_deg, home.lon_deg)
         self.home_en = (east, north)
-        self.kin = KinematicState(east, north, 0.0, math.radians(home.heading_deg))
+        half = 0.5 * config.sensor.cell_size_m
+        sensor = DownwardSensor(config.sensor, self.frame, targets or [], seed=seed, vehicle_id=sysid,
+                                origin_en=grid_origin_en or (east - half, north - half))
+        self.airframe = Airframe(home, self.frame, config.limits, self._new_battery(), sensor)
         self.time_s = 0.0
         self.mode = Mode.MANUAL
         self.armed = False
         self.landed = True
         self.landing = False
         self.failsafe = FailsafeLevel.NONE
-        self.battery = Battery(config.battery)
         if self.ardupilot:
             store = partial(stored_item, fixed_wing=not self.copter)
             self.mission: MissionProtocol = ArduPilotMissionProtocol(ProtocolConfig(
@@ -217,13 +217,15 @@ class SimVehicle:
         self._lift_at_s: float | None = None
         self._prearm_report_s = 30.0
         self._land_from: tuple[float, float, float] | None = None  # plane: where its glide began
-        half = 0.5 * config.sensor.cell_size_m
-        self.sensor = DownwardSensor(config.sensor, self.frame, targets or [], seed=seed, vehicle_id=sysid,
-                                     origin_en=grid_origin_en or (east - half, north - half))
+        self._points_en: dict[tuple[int, int], tuple[float, float]] = {}  # mission points (degE7) in the frame
         self.streams = telemetry.StreamScheduler(telemetry.default_intervals_s(
             config.telemetry_hz, profile=config.profile, vehicle_type=config.vehicle_type))
         self.params = self._default_params()
         self._pending: list[MAVMessage] = []
+
+    def _new_battery(self) -> Battery | SihBattery:
+        """The airframe's battery: ArduPilot SITL's simulated pack (the px4 profile: SIH's)."""
+        return Battery(self.config.battery)
 
     def _default_params(self) -> dict[str, float]:
         cfg = self.config
@@ -240,7 +242,7 @@ class SimVehicle:
             params |= {"RTL_ALTITUDE": cfg.rtl_alt_m, "WP_RADIUS": cfg.acceptance_radius_m, "RTL_AUTOLAND": 0.0,
                        "LAND_DISARMDELAY": 20.0}
         return params | {
-            "MIS_RESTART": 0.0, "BATT_CAPACITY": round(self.battery.capacity_mah), "BATT_ARM_VOLT": 0.0,
+            "MIS_RESTART": 0.0, "BATT_CAPACITY": round(self.airframe.battery.capacity_mah), "BATT_ARM_VOLT": 0.0,
             "BATT_ARM_MAH": 0.0, "BATT_LOW_VOLT": 10.5 if self.copter else 0.0, "SIM_BATT_VOLTAGE": 12.6,
             "SIM_DRAIN_MULT": 1.0, "SIM_BATT_FAIL": 0.0,
         }
@@ -248,20 +250,22 @@ class SimVehicle:
     # ---- true state and the Python API -------------------------------------------------
 
     @property
-    def lat_lon_deg(self) -> tuple[float, float]:
-        return self.frame.en2geodetic(self.kin.east_m, self.kin.north_m)
-
-    @property
     def state(self) -> VehicleState:
-        lat, lon = self.lat_lon_deg
+        body = self.airframe
+        lat, lon = body.lat_lon_deg
         return VehicleState(
-            lat, lon, self.kin.alt_m, math.degrees(self.kin.heading_rad) % 360.0, self.kin.speed_m_s,
+            lat, lon, body.kin.alt_m, body.heading_deg, body.kin.speed_m_s,
             self.mode, self.armed, self.landed, self.battery_pct, self.mission_seq, self.failsafe,
         )
 
     @property
+    def sensor(self) -> DownwardSensor:
+        """The airframe's downward sensor."""
+        return self.airframe.sensor
+
+    @property
     def observations(self) -> list[Observation]:
-        return self.sensor.observations
+        return self.airframe.sensor.observations
 
     @property
     def mav_type(self) -> int:
@@ -305,18 +309,18 @@ class SimVehicle:
     @property
     def battery_pct(self) -> float:
         """The remaining charge the vehicle reports, %."""
-        return self.battery.remaining_pct
+        return self.airframe.battery.remaining_pct
 
     @property
     def battery_voltage_v(self) -> float:
         """ArduPilot SITL: a copter's battery stays at SIM_BATT_VOLTAGE; a plane's sags with
         throttle (12.0 V climbing, 12.26 V cruising, flight §5)."""
         if not self.ardupilot:
-            return self.battery.voltage_v
+            return self.airframe.battery.voltage_v
         volts = self.params["SIM_BATT_VOLTAGE"]
         if self.copter or not self.armed or self.landed:
             return volts
-        return volts - 0.7 * (0.86 if self.kin.climb_m_s > 0.5 else 0.49)
+        return volts - 0.7 * (0.86 if self.airframe.kin.climb_m_s > 0.5 else 0.49)
 
     @property
     def mission_total(self) -> int:
@@ -343,10 +347,10 @@ class SimVehicle:
 
     def fail_battery(self) -> None:
         """Immediate battery failure (the critical failsafe follows on the next step)."""
-        self.battery.fail()
+        self.airframe.battery.fail()
 
     def set_drain_multiplier(self, k: float) -> None:
-        self.battery.drain_multiplier = k
+        self.airframe.battery.drain_multiplier = k
         self.params["SIM_DRAIN_MULT"] = k
 
     def arm(self, force: bool = False) -> int:
@@ -478,7 +482,7 @@ class SimVehicle:
     def _requested(self, msg_id: int, param2: float) -> MAVMessage | None:
         if msg_id == mavlink.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED:
             index = int(param2)
-            obs = self.sensor.observations
+            obs = self.airframe.sensor.observations
             return self._capture_msg(obs[index]) if 0 <= index < len(obs) else None
         return telemetry.build(msg_id, self)
 
@@ -527,22 +531,22 @@ class SimVehicle:
 
     def _on_param_request_read(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
         names = list(self.params)
-        name = _param_name(msg.param_id)
+        name = param_name(msg.param_id)
         if msg.param_index >= 0:
             name = names[msg.param_index] if msg.param_index < len(names) else ""
         return [self._param_value(name)] if name in self.params else []
 
     def _on_param_set(self, msg: MAVMessage, sender: tuple[int, int]) -> list[MAVMessage]:
-        name = _param_name(msg.param_id)
+        name = param_name(msg.param_id)
         if name not in self.params:
             return []
         self.params[name] = msg.param_value
         if name == "SIM_DRAIN_MULT":
-            self.battery.drain_multiplier = msg.param_value
+            self.airframe.battery.drain_multiplier = msg.param_value
         elif name == "SIM_BATT_FAIL" and msg.param_value > 0:
             self.fail_battery()
         elif name == "BATT_CAPACITY" and msg.param_value > 0:
-            self.battery.capacity_mah = msg.param_value  # remaining % follows at once (flight §5)
+            self.airframe.battery.capacity_mah = msg.param_value  # remaining % follows at once (flight §5)
         return [self._param_value(name)]
 
     def _param_value(self, name: str) -> MAVMessage:
@@ -585,7 +589,7 @@ class SimVehicle:
         """Why arming is refused now, one STATUSTEXT each; empty: it arms. ArduCopter's AUTO,
         RTL and LAND are not armable (checked once the pre-arm checks pass)."""
         if not self.ardupilot:
-            if failsafe_level(self.battery.remaining_pct, self.config.battery) != FailsafeLevel.NONE:
+            if failsafe_level(self.airframe.battery.remaining_pct, self.config.battery) != FailsafeLevel.NONE:
                 return ["PreArm: Battery below minimum arming level"]
             if self.mode in (Mode.RTL, Mode.LAND):
                 return ["Arm: Mode not armable"]
@@ -596,7 +600,7 @@ class SimVehicle:
         return [f"Arm: {r}" for r in reasons]
 
     def _battery_refusals(self) -> list[str]:
-        b, p = self.battery, self.params
+        b, p = self.airframe.battery, self.params
         volts = self.battery_voltage_v
         if 0 < p["BATT_ARM_VOLT"] and volts < p["BATT_ARM_VOLT"]:
             return ["Battery 1 below minimum arming voltage"]
@@ -634,8 +638,8 @@ class SimVehicle:
             self.statustext("Arming motors")
             return mavlink.MAV_RESULT_ACCEPTED
         self.statustext("Arming motors" if self.copter else "Throttle armed")
-        lat, lon = self.lat_lon_deg
-        self._set_home(lat, lon, self.home.alt_m + self.kin.alt_m)  # home is where it arms
+        lat, lon = self.airframe.lat_lon_deg
+        self._set_home(lat, lon, self.home.alt_m + self.airframe.kin.alt_m)  # home is where it arms
         if self.copter:
             self._disarm_at_s = self.time_s + self.params["DISARM_DELAY"]  # unless it takes off
         return mavlink.MAV_RESULT_ACCEPTED
@@ -684,12 +688,12 @@ class SimVehicle:
         self._hold_until_s = None
         self._land_from = None
         if mode in (Mode.GUIDED, Mode.LOITER):
-            self._target_en = (self.kin.east_m, self.kin.north_m)
-            self._target_alt_m = self.kin.alt_m
+            self._target_en = self.airframe.position_en
+            self._target_alt_m = self.airframe.kin.alt_m
         elif mode == Mode.RTL:
             # ArduCopter returns at RTL_ALT or higher; ArduPlane at RTL_ALTITUDE
             self._rtl_alt_m = self._rtl_alt_setting_m if self.ardupilot and not self.copter \
-                else max(self.kin.alt_m, self._rtl_alt_setting_m)
+                else max(self.airframe.kin.alt_m, self._rtl_alt_setting_m)
         elif mode == Mode.TAKEOFF:
             self._takeoff_alt_m = self.config.takeoff_alt_m
         elif mode == Mode.AUTO and (not was_auto or self.mission_complete):
@@ -833,13 +837,13 @@ class SimVehicle:
         self.time_s += dt_s
         if self.ardupilot:
             self._boot_step()
-        self.battery.step(dt_s, flying=self.armed and not self.landed, powered=self.armed or not self.ardupilot,
-                          voltage_v=self.battery_voltage_v)
+        self.airframe.battery.step(dt_s, flying=self.armed and not self.landed,
+                                   powered=self.armed or not self.ardupilot, voltage_v=self.battery_voltage_v)
         self._check_failsafe()
         if self._disarm_at_s is not None and self.landed and self.time_s >= self._disarm_at_s:
             self._disarm()
         if not self.armed:
-            self.kin.speed_m_s = self.kin.climb_m_s = self.kin.turn_rate_rad_s = 0.0
+            self.airframe.stop()
             return
         goal = self._goal()
         if goal is None:
@@ -858,22 +862,22 @@ class SimVehicle:
         self._lift_at_s = None
         self.landed = False
         self.landing = goal.landing
-        if goal.landing and self.ardupilot and self.copter and self.kin.alt_m < _LAND_SLOW_BELOW_M:
-            goal.alt_m = max(goal.alt_m, self.kin.alt_m - _LAND_SLOW_M_S * dt_s)  # LAND_SPEED (flight §2)
-        step_toward(self.kin, self.limits, dt_s, target_en=goal.target_en, target_alt_m=goal.alt_m,
-                    speed_m_s=self._speed_m_s)
-        if goal.landing and self.kin.alt_m <= 0.0:
+        body = self.airframe
+        if goal.landing and self.ardupilot and self.copter and body.kin.alt_m < _LAND_SLOW_BELOW_M:
+            goal.alt_m = max(goal.alt_m, body.kin.alt_m - _LAND_SLOW_M_S * dt_s)  # LAND_SPEED (flight §2)
+        body.step(dt_s, goal, self._speed_m_s)
+        if goal.landing and body.kin.alt_m <= 0.0:
             self._touchdown()
         elif self.mode == Mode.AUTO:
             self._check_reached()
         if self.ardupilot and self.mode == Mode.RTL and not self.copter and self.params["RTL_AUTOLAND"] == 1 \
-                and math.dist(self.home_en, (self.kin.east_m, self.kin.north_m)) <= self.limits.turn_radius_m * 2:
+                and math.dist(self.home_en, body.position_en) <= body.limits.turn_radius_m * 2:
             self._start_landing_sequence()
         self._sense()
 
     def _sense(self) -> None:
         """The downward sensor's reading of this step, if any."""
-        obs = self.sensor.update(self.kin.east_m, self.kin.north_m, self.kin.alt_m, self.time_s)
+        obs = self.airframe.sense(self.time_s)
         if obs is not None:
             self._pending.append(self._capture_msg(obs))
             if obs.reported:
@@ -896,25 +900,26 @@ class SimVehicle:
                 self.statustext("PreArm: " + refusals[0], mavlink.MAV_SEVERITY_CRITICAL)
 
     def _capture_msg(self, obs: Observation) -> MAVMessage:
-        return reading_message(obs, self.config.sensor, self.home.alt_m + self.kin.alt_m, self.kin.alt_m)
+        alt_m = self.airframe.kin.alt_m
+        return reading_message(obs, self.config.sensor, self.home.alt_m + alt_m, alt_m)
 
     def _check_failsafe(self) -> None:
         if self.ardupilot and not self.armed:
             return  # ArduPilot's battery failsafes act only while armed (flight §5)
-        reached = failsafe_level(self.battery.remaining_pct, self.config.battery)
+        reached = failsafe_level(self.airframe.battery.remaining_pct, self.config.battery)
         trigger = failsafe_to_trigger(self.failsafe, reached)
         if trigger is None:
             return
         self.failsafe = trigger
         if not self.armed or self.landed:
             return
-        pct = self.battery.remaining_pct
+        pct = self.airframe.battery.remaining_pct
         can_land = Mode.LAND in mode_table(self.config.profile, self.config.vehicle_type)
         action = Mode.RTL if trigger == FailsafeLevel.LOW or not can_land else Mode.LAND
         if self.ardupilot:
             level = "low" if trigger == FailsafeLevel.LOW else "critical"
             self.statustext(f"Battery 1 is {level} {self.battery_voltage_v:.2f}V used "
-                            f"{self.battery.consumed_mah:.0f} mAh", mavlink.MAV_SEVERITY_WARNING)
+                            f"{self.airframe.battery.consumed_mah:.0f} mAh", mavlink.MAV_SEVERITY_WARNING)
             self.statustext("Battery Failsafe", mavlink.MAV_SEVERITY_WARNING)
         elif trigger == FailsafeLevel.LOW:
             self.statustext(f"Battery failsafe: low {pct:.0f}%, RTL", mavlink.MAV_SEVERITY_CRITICAL)
@@ -923,9 +928,7 @@ class SimVehicle:
         self._set_mode(action)
 
     def _touchdown(self) -> None:
-        descent = -self.kin.climb_m_s
-        self.kin.alt_m = 0.0
-        self.kin.speed_m_s = self.kin.climb_m_s = self.kin.turn_rate_rad_s = 0.0
+        descent = self.airframe.touch_down()
         was_flying = not self.landed
         self.landed = True
         self.landing = self.ardupilot and self.copter  # reported LANDING until it disarms
@@ -949,62 +952,61 @@ class SimVehicle:
         delay = 2.0 if self.copter else self.params["LAND_DISARMDELAY"]
         self._disarm_at_s = self.time_s + delay
 
-    def _goal(self) -> _Goal | None:
-        here = (self.kin.east_m, self.kin.north_m)
+    def _goal(self) -> Goal | None:
+        here = self.airframe.position_en
         if self._takeoff_alt_m is not None and self.mode in (Mode.GUIDED, Mode.TAKEOFF):
-            if self.kin.alt_m >= self._takeoff_alt_m - 0.5:
+            if self.airframe.kin.alt_m >= self._takeoff_alt_m - 0.5:
                 self._takeoff_alt_m = None
                 if self.mode == Mode.TAKEOFF:
                     self.mode = Mode.LOITER
                 if self._target_en is None:  # no reposition arrived during the climb
-                    self._target_en, self._target_alt_m = here, self.kin.alt_m
+                    self._target_en, self._target_alt_m = here, self.airframe.kin.alt_m
             else:
-                return _Goal(self._climb_point(), self._takeoff_alt_m)
+                return Goal(self._climb_point(), self._takeoff_alt_m)
         if self.ardupilot and self.copter and self.mode == Mode.LOITER:
             # SITL has no RC: LOITER's throttle is at its minimum and the copter sinks and lands
-            return None if self.landed else _Goal(None, -1.0, landing=True)
+            return None if self.landed else Goal(None, -1.0, landing=True)
         if self.mode in (Mode.GUIDED, Mode.LOITER, Mode.TAKEOFF):
             if self.landed:
                 return None
-            return _Goal(self._hold_or(self._target_en), self._target_alt_m)
+            return Goal(self._hold_or(self._target_en), self._target_alt_m)
         if self.mode == Mode.LAND:
-            return _Goal(None if self.limits.can_hover else self._hold_or(None), -1.0, landing=True)
+            return Goal(None if self.airframe.limits.can_hover else self._hold_or(None), -1.0, landing=True)
         if self.mode == Mode.RTL:
             return self._rtl_goal()
         if self.mode == Mode.AUTO:
             if self.ardupilot and self.copter and self.landed and not self._auto_armed:
                 return None  # AUTO entered by DO_SET_MODE on the ground: no take-off (flight §2)
             return self._auto_goal()
-        return None if self.landed else _Goal(None, self.kin.alt_m)
+        return None if self.landed else Goal(None, self.airframe.kin.alt_m)
 
     def _climb_point(self) -> tuple[float, float] | None:
         """Copters climb vertically; planes climb straight ahead."""
-        if self.limits.can_hover:
+        if self.airframe.limits.can_hover:
             return None
-        far = 10_000.0
-        return (self.kin.east_m + far * math.sin(self.kin.heading_rad),
-                self.kin.north_m + far * math.cos(self.kin.heading_rad))
+        far, kin = 10_000.0, self.airframe.kin
+        return (kin.east_m + far * math.sin(kin.heading_rad), kin.north_m + far * math.cos(kin.heading_rad))
 
     def _hold_or(self, target: tuple[float, float] | None) -> tuple[float, float] | None:
         """A plane near its target circles (target None) instead of chasing it."""
-        if target is None or self.limits.can_hover:
+        if target is None or self.airframe.limits.can_hover:
             return target
-        if math.dist(target, (self.kin.east_m, self.kin.north_m)) < self.limits.turn_radius_m:
+        if math.dist(target, self.airframe.position_en) < self.airframe.limits.turn_radius_m:
             return None
         return target
 
-    def _rtl_goal(self) -> _Goal:
-        dist = math.dist(self.home_en, (self.kin.east_m, self.kin.north_m))
+    def _rtl_goal(self) -> Goal:
+        dist = math.dist(self.home_en, self.airframe.position_en)
         radius = self.config.acceptance_radius_m
         if self.ardupilot and not self.copter:
-            return _Goal(self._hold_or(self.home_en), self._rtl_alt_m)  # ArduPlane circles home (flight §3)
+            return Goal(self._hold_or(self.home_en), self._rtl_alt_m)  # ArduPlane circles home (flight §3)
         if self.landing or dist <= radius:
-            return _Goal(self._touchdown_point(self.home_en), -1.0, landing=True)
-        if self.limits.can_hover and self.kin.alt_m < self._rtl_alt_m - 0.5:
-            return _Goal(None, self._rtl_alt_m)
-        return _Goal(self.home_en, self._rtl_alt_m)
+            return Goal(self._touchdown_point(self.home_en), -1.0, landing=True)
+        if self.airframe.limits.can_hover and self.airframe.kin.alt_m < self._rtl_alt_m - 0.5:
+            return Goal(None, self._rtl_alt_m)
+        return Goal(self.home_en, self._rtl_alt_m)
 
-    def _auto_goal(self) -> _Goal | None:
+    def _auto_goal(self) -> Goal | None:
         items = self.mission.items()
         for _ in range(len(items) + 1):
             if self.mission_seq >= len(items):
@@ -1012,7 +1014,7 @@ class SimVehicle:
                     self.mission_complete = True
                     self.statustext(self._finished_text)
                     self._pending.append(telemetry.mission_current(self))
-                return None if self.landed else _Goal(self._hold_or(None), self.kin.alt_m)
+                return None if self.landed else Goal(self._hold_or(None), self.airframe.kin.alt_m)
             item = items[self.mission_seq]
             if self.ardupilot and not self.copter and self._nav_item is not None \
                     and self._nav_item.seq == self.mission_seq:
@@ -1041,55 +1043,61 @@ class SimVehicle:
         self._pending.append(telemetry.mission_current(self))
 
     def _item_en(self, item: MissionItem) -> tuple[float, float]:
+        """Where an item's point is in the local frame (0, 0: here); each point converted once,
+        not on every step it is flown toward."""
         if item.x == 0 and item.y == 0:
-            return (self.kin.east_m, self.kin.north_m)
-        return self.frame.geodetic2en(item.x / 1e7, item.y / 1e7)
+            return self.airframe.position_en
+        key = (item.x, item.y)
+        en = self._points_en.get(key)
+        if en is None:
+            en = self._points_en[key] = self.frame.geodetic2en(item.x / 1e7, item.y / 1e7)
+        return en
 
-    def _nav_goal(self, item: MissionItem) -> _Goal:
+    def _nav_goal(self, item: MissionItem) -> Goal:
         cmd = item.command
         alt = self._alt_rel(item.z, item.frame)
         if cmd == mavlink.MAV_CMD_NAV_TAKEOFF:
-            return _Goal(self._climb_point(), alt)
+            return Goal(self._climb_point(), alt)
         if cmd == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             if not self.landing and self._rtl_alt_m <= 0.0:
-                self._rtl_alt_m = max(self.kin.alt_m, self._rtl_alt_setting_m)
+                self._rtl_alt_m = max(self.airframe.kin.alt_m, self._rtl_alt_setting_m)
             return self._rtl_goal()
         if cmd == mavlink.MAV_CMD_NAV_LAND:
             target = self._item_en(item)
             if self.ardupilot and not self.copter:
                 return self._glide_goal(target)
-            if self.landing or math.dist(target, (self.kin.east_m, self.kin.north_m)) <= self._radius(item):
-                return _Goal(self._touchdown_point(target), -1.0, landing=True)
-            return _Goal(target, self.kin.alt_m)
-        return _Goal(self._item_en(item), alt)
+            if self.landing or math.dist(target, self.airframe.position_en) <= self._radius(item):
+                return Goal(self._touchdown_point(target), -1.0, landing=True)
+            return Goal(target, self.airframe.kin.alt_m)
+        return Goal(self._item_en(item), alt)
 
     def _touchdown_point(self, target: tuple[float, float]) -> tuple[float, float] | None:
         """Where a vertical landing goes down: an ArduCopter onto the point itself (0.03 m from
         it, flight §2), the px4 profile where it stands; a plane circles down."""
-        if not self.limits.can_hover:
+        if not self.airframe.limits.can_hover:
             return self._hold_or(None)
         return target if self.ardupilot else None
 
-    def _glide_goal(self, target: tuple[float, float]) -> _Goal:
+    def _glide_goal(self, target: tuple[float, float]) -> Goal:
         """ArduPlane's landing: along the runway axis (from the previous waypoint, the approach,
         to the NAV_LAND point), gliding from the approach altitude to the ground just short of
         the point (flight §3: touchdowns 5-14 m short, within 0.5 m of the axis)."""
-        here = (self.kin.east_m, self.kin.north_m)
+        here = self.airframe.position_en
         if self._land_from is None:
-            self._land_from = (*self._previous_nav_en(here), self.kin.alt_m)
+            self._land_from = (*self._previous_nav_en(here), self.airframe.kin.alt_m)
         x0, y0, alt0 = self._land_from
         total = math.hypot(target[0] - x0, target[1] - y0)
         if total < 1.0:  # no axis: straight ahead, down
-            return _Goal(self._climb_point(), -1.0, landing=True)
+            return Goal(self._climb_point(), -1.0, landing=True)
         ux, uy = (target[0] - x0) / total, (target[1] - y0) / total
         along = (here[0] - x0) * ux + (here[1] - y0) * uy
         left = total - along
         glide_alt = alt0 * min(max(left / total, 0.0), 1.0)
-        look = along + 2.0 * self.limits.turn_radius_m  # pursue a point ahead on the axis
+        look = along + 2.0 * self.airframe.limits.turn_radius_m  # pursue a point ahead on the axis
         aim = (x0 + ux * look, y0 + uy * look)
-        if left <= self.limits.turn_radius_m:  # over the runway: on down to the ground
-            return _Goal(aim, glide_alt - 0.3, landing=True)
-        return _Goal(aim, glide_alt, landing=True)
+        if left <= self.airframe.limits.turn_radius_m:  # over the runway: on down to the ground
+            return Goal(aim, glide_alt - 0.3, landing=True)
+        return Goal(aim, glide_alt, landing=True)
 
     def _previous_nav_en(self, fallback: tuple[float, float]) -> tuple[float, float]:
         """Where the nav item before the current one is (the approach before NAV_LAND)."""
@@ -1103,8 +1111,8 @@ class SimVehicle:
     def _radius(self, item: MissionItem) -> float:
         radius = item.param2 if item.command == mavlink.MAV_CMD_NAV_WAYPOINT and item.param2 > 0 \
             else self.config.acceptance_radius_m
-        if not self.limits.can_hover:
-            radius = max(radius, self.limits.turn_radius_m)
+        if not self.airframe.limits.can_hover:
+            radius = max(radius, self.airframe.limits.turn_radius_m)
         return radius
 
     def _check_reached(self) -> None:
@@ -1114,9 +1122,9 @@ class SimVehicle:
         item = self._nav_item if self._nav_item is not None and self._nav_item.seq == self.mission_seq \
             else items[self.mission_seq]
         cmd = item.command
-        here = (self.kin.east_m, self.kin.north_m)
+        here = self.airframe.position_en
         if cmd == mavlink.MAV_CMD_NAV_TAKEOFF:
-            if self.kin.alt_m >= self._alt_rel(item.z, item.frame) - 0.5:
+            if self.airframe.kin.alt_m >= self._alt_rel(item.z, item.frame) - 0.5:
                 self._reach(item.seq)
             return
         if cmd not in (mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME, mavlink.MAV_CMD_NAV_LOITER_UNLIM):
@@ -1127,14 +1135,14 @@ class SimVehicle:
                 self._advance()
             return
         close = math.dist(self._item_en(item), here) <= self._radius(item)
-        if self.limits.can_hover:
-            close = close and abs(self.kin.alt_m - self._alt_rel(item.z, item.frame)) <= 1.0
+        if self.airframe.limits.can_hover:
+            close = close and abs(self.airframe.kin.alt_m - self._alt_rel(item.z, item.frame)) <= 1.0
         if not close:
             return
         if cmd == mavlink.MAV_CMD_NAV_LOITER_UNLIM:
             return
         self._report_reached(item.seq)
-        hold_s = item.param1 if self.limits.can_hover or cmd == mavlink.MAV_CMD_NAV_LOITER_TIME else 0.0
+        hold_s = item.param1 if self.airframe.limits.can_hover or cmd == mavlink.MAV_CMD_NAV_LOITER_TIME else 0.0
         if hold_s > 0:
             self._hold_until_s = self.time_s + hold_s
         else:
@@ -1173,7 +1181,8 @@ class SimVehicle:
             self.statustext(f"Mission: {self.mission_seq} {MISSION_TEXT_NAMES.get(cmd, cmd)}")
 
 
-def _param_name(raw: bytes | str) -> str:
+def param_name(raw: bytes | str) -> str:
+    """A PARAM_* message's name field as text."""
     if isinstance(raw, bytes):
         raw = raw.decode(errors="replace")
     return raw.rstrip("\x00")

@@ -1,1 +1,2 @@
-"""The simulated world: motion limits, battery, the downward sensor and the local frame."""
+"""The simulated world a vehicle flies in: its airframe (motion within its limits, battery,
+downward sensor). Nothing here knows MAVLink or the autopilot (`sim.autopilot`)."""

@@ -1,9 +1,9 @@
-"""A battery that drains with flight time, and the autopilot's low-battery failsafe decision."""
+"""Batteries that drain with flight time: ArduPilot SITL's simulated pack (`Battery`) and PX4
+SIH's (`SihBattery`). What an autopilot does about a low battery is `sim.autopilot.failsafe`."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum
 
 DEFAULT_ENDURANCE_S = 1200.0
 
@@ -29,27 +29,6 @@ class BatteryConfig:
     @property
     def capacity_mah(self) -> float:
         return self.flight_current_a * self.flight_endurance_s / 3.6
-
-
-class FailsafeLevel(Enum):
-    NONE = 0
-    LOW = 1  # return to launch
-    CRITICAL = 2  # land now
-    EMERGENCY = 3  # PX4's last level (BAT_EMERGEN_THR)
-
-
-def failsafe_level(remaining_pct: float, config: BatteryConfig) -> FailsafeLevel:
-    """Which failsafe the remaining charge calls for (ArduPilot's BATT_LOW / BATT_CRT)."""
-    if remaining_pct <= config.critical_pct:
-        return FailsafeLevel.CRITICAL
-    if remaining_pct <= config.low_pct:
-        return FailsafeLevel.LOW
-    return FailsafeLevel.NONE
-
-
-def failsafe_to_trigger(current: FailsafeLevel, reached: FailsafeLevel) -> FailsafeLevel | None:
-    """The failsafe to act on now: only escalations trigger, never a repeat or a recovery."""
-    return reached if reached.value > current.value else None
 
 
 class Battery:
@@ -102,3 +81,29 @@ class Battery:
     @property
     def time_remaining_s(self) -> float:
         return self.remaining_fraction * self.config.flight_endurance_s / max(self.drain_multiplier, 1e-9)
+
+
+class SihBattery:
+    """PX4 SIH's battery (px4 profile): a state of charge `charge` (1 full) that falls linearly,
+    emptying in `drain_s` seconds (SIM_BAT_DRAIN) times `drain_multiplier`, down to a floor
+    (SIM_BAT_MIN_PCT), and is full again when refilled. `fail()` empties it for good. The voltage
+    and remaining charge PX4 reports from it are the autopilot's (`sim.autopilot.px4`)."""
+
+    def __init__(self) -> None:
+        self.charge = 1.0
+        self.failed = False
+        self.drain_multiplier = 1.0
+
+    def step(self, dt_s: float, *, drain_s: float, floor_fraction: float) -> None:
+        floor = 0.0 if self.failed else floor_fraction
+        rate = self.drain_multiplier / max(drain_s, 1e-3)
+        self.charge = max(self.charge - rate * dt_s, floor)
+
+    def fail(self) -> None:
+        self.failed = True
+        self.charge = 0.0
+
+    def refill(self) -> None:
+        """Full again (SIH refills its battery when the vehicle disarms), unless it failed."""
+        if not self.failed:
+            self.charge = 1.0

@@ -9,8 +9,7 @@ Pc, an empty cell (a false alarm) with Pf. The noise of each reading is
 `planner.sensor_noise.reading_draw(seed, vehicle, cell, visit)`: the same world the planner
 simulates on the same seed, and the same readings however the flight's timing falls.
 
-`reading_message` and `reading_text` are the reading on the wire (docs/sim.md, "The detection
-message"), for every sender of readings: the simulated vehicles and `sim/detector.py`.
+The reading on the wire (CAMERA_IMAGE_CAPTURED) is `sim.autopilot.telemetry.reading_message`.
 """
 
 from __future__ import annotations
@@ -19,10 +18,8 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from pymavlink.dialects.v20 import ardupilotmega as mavlink
-
+from planner.georef import LocalFrame
 from planner.sensor_noise import reading_draw
-from sim.physics.geo import LocalFrame
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -96,20 +93,3 @@ class DownwardSensor:
         obs = Observation(len(self.observations), cell, lat, lon, reported, present, time_s)
         self.observations.append(obs)
         return obs
-
-
-def reading_message(obs: Observation, config: SensorConfig, alt_m: float, relative_alt_m: float
-                    ) -> mavlink.MAVLink_camera_image_captured_message:
-    """CAMERA_IMAGE_CAPTURED of one reading: the cell centre's lat/lon, the vehicle's altitudes
-    (AMSL and above home, metres) when it read the cell, and `detect?cell=..&hit=..` with the
-    sensor model in `file_url`."""
-    url = f"detect?cell={obs.cell[0]},{obs.cell[1]}&hit={int(obs.reported)}&pc={config.pc:g}&pf={config.pf:g}"
-    return mavlink.MAVLink_camera_image_captured_message(
-        int(obs.time_s * 1000), 0, 0, round(obs.lat_deg * 1e7), round(obs.lon_deg * 1e7), round(alt_m * 1000),
-        round(relative_alt_m * 1000), [1.0, 0.0, 0.0, 0.0], obs.index, 1, url.encode(),
-    )
-
-
-def reading_text(obs: Observation) -> str:
-    """The STATUSTEXT that announces a positive reading to people (severity NOTICE)."""
-    return f"DETECT cell {obs.cell[0]},{obs.cell[1]} img {obs.index}"

@@ -41,6 +41,45 @@ def test_local_frame_agrees_with_pymap3d_enu_near_the_origin():
     assert np.allclose(e, [300.0, -800.0], atol=0.01) and np.allclose(n, [-450.0, 1200.0], atol=0.01)
 
 
+@pytest.mark.parametrize("lat0, lon0", [(47.397742, 8.545594), (-35.363261, 149.16523), (69.68, 18.87), (0.0, -179.9)])
+def test_scalar_conversions_round_trip_and_match_the_array_api(lat0, lon0):
+    """The simulator's one-point calls: floats out, the array API's values exactly, round trips
+    to the projection's precision."""
+    frame = LocalFrame(lat0, lon0)
+    rng = np.random.default_rng(3)
+    east = rng.uniform(-20_000, 20_000, 200)
+    north = rng.uniform(-20_000, 20_000, 200)
+    lats, lons = frame.local2geodetic(east, north)
+    for e, n, lat_a, lon_a in zip(east, north, lats, lons, strict=True):
+        lat, lon = frame.en2geodetic(e, n)
+        assert type(lat) is float and type(lon) is float
+        assert (lat, lon) == (lat_a, lon_a)
+        e2, n2 = frame.geodetic2en(lat, lon)
+        assert type(e2) is float and type(n2) is float
+        assert math.hypot(e2 - e, n2 - n) < 1e-6
+        assert (e2, n2) == tuple(float(v[0]) for v in frame.geodetic2local([lat], [lon]))
+        lat2, lon2 = frame.en2geodetic(e2, n2)
+        assert abs(lat2 - lat) < 1e-11 and abs(lon2 - lon) < 1e-11
+    assert frame.geodetic2en(lat0, lon0) == pytest.approx((0.0, 0.0), abs=1e-9)
+
+
+@pytest.mark.parametrize(("east", "north"), [(0, 0), (1000, -500), (-3000, 4000), (5000, 5000), (-7000, 0)])
+def test_scalar_conversions_against_pymap3d_enu(east, north):
+    """A tangent plane and the azimuthal equidistant map part by d^3 / (6 R^2) at d from the
+    centre: micrometres at 1 km, a millimetre or two at 7 km."""
+    lat0, lon0 = -35.363261, 149.165230
+    lat, lon = LocalFrame(lat0, lon0).en2geodetic(east, north)
+    e, n, _ = pymap3d.geodetic2enu(lat, lon, 0.0, lat0, lon0, 0.0)
+    d = math.hypot(east, north)
+    assert math.hypot(e - east, n - north) <= d**3 / (6 * 6_335_000.0**2) + 1e-7
+
+
+def test_frames_with_one_origin_share_their_transformers():
+    a, b = LocalFrame(-35.363261, 149.16523), LocalFrame(-35.363261, 149.16523)
+    assert a.geodetic2en(-35.36, 149.17) == b.geodetic2en(-35.36, 149.17)
+    assert a._forward is b._forward and a._inverse is b._inverse
+
+
 def test_grid_covering_counts_cells_and_tolerates_round_off():
     grid = Grid.covering((-500.0, -500.000001, 500.0000001, 500.0), 20.0)
     assert (grid.nx, grid.ny) == (50, 50)

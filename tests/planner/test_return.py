@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OC4, OC5, OC8
-from planner.return_exact import UNREACHABLE, follow_table, return_table, space_time_return
+from planner.return_exact import UNREACHABLE, follow_table, return_around_reservations, return_table
 from planner.return_st import astar_cells, key_cell_map, st_return
 from planner.search.exhaustive import ExhaustiveStrategy
 from tests.planner.helpers import brute_force_steps_home
@@ -58,17 +58,17 @@ def test_followed_path_is_valid_and_as_long_as_the_table(oc, seed):
             _assert_valid_path(path, (x, y, h), blocked, oc)
 
 
-def test_space_time_return_detours_around_a_reservation():
+def test_a_return_detours_around_cells_other_uavs_reserved():
     blocked = np.zeros((10, 10), bool)
     table = return_table(blocked, (5, 9), OC3)
-    free = space_time_return(table, (5, 1, 0), 0, 30, OC3.successors, blocked, set())
+    free = return_around_reservations(table, (5, 1, 0), 0, 30, OC3.successors, blocked, set())
     assert len(free) == table[0, 5, 1] == 8
     reserved = {(t + 1, c[0], c[1]) for t, c in enumerate(free[:4])}
-    detour = space_time_return(table, (5, 1, 0), 0, 30, OC3.successors, blocked, reserved)
+    detour = return_around_reservations(table, (5, 1, 0), 0, 30, OC3.successors, blocked, reserved)
     assert detour is not None and detour[-1][:2] == (5, 9)
     assert all((t + 1, c[0], c[1]) not in reserved for t, c in enumerate(detour))
     _assert_valid_path(detour, (5, 1, 0), blocked, OC3)
-    assert space_time_return(table, (5, 1, 0), 0, 7, OC3.successors, blocked, set()) is None
+    assert return_around_reservations(table, (5, 1, 0), 0, 7, OC3.successors, blocked, set()) is None
 
 
 def test_astar_is_fewest_steps_and_key_cells_follow_eq_20():

@@ -79,7 +79,7 @@ def hovering() -> Sim:
     s.mode(COPTER["GUIDED"])
     s.arm()
     s.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 30)
-    s.run(30.0, until=lambda v: v.kin.alt_m > 29.0)
+    s.run(30.0, until=lambda v: v.airframe.kin.alt_m > 29.0)
     return s
 
 
@@ -255,7 +255,7 @@ def test_copter_takes_off_with_guided_arm_mission_start_0_0():
     s.stream(mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, 4.0)
     s.run(10.0, until=lambda v: not v.landed)
     assert s.v.time_s - started == pytest.approx(3.25, abs=0.15)  # the motors spool up first
-    s.run(10.0, until=lambda v: v.kin.alt_m > 1.0)
+    s.run(10.0, until=lambda v: v.airframe.kin.alt_m > 1.0)
     assert s.v.time_s - started < 4.25 + 0.1  # 1 m above home at +4.25 s
     s.run(30.0, until=lambda v: 1 in v.reached)
     s.run(0.5)
@@ -278,7 +278,7 @@ def test_auto_after_arming_does_not_take_off_and_the_copter_disarms_10_s_after_a
     assert s.arm() == ACCEPTED
     assert s.mode(COPTER["AUTO"]) == ACCEPTED and "Mission: 1 Takeoff" in s.texts(mark)
     s.run(20.0, until=lambda v: not v.armed)
-    assert s.v.kin.alt_m == 0.0
+    assert s.v.airframe.kin.alt_m == 0.0
     assert s.v.time_s - armed == pytest.approx(10.0, abs=0.1) and "Disarming motors" in s.texts(mark)
 
 
@@ -291,7 +291,7 @@ def test_mission_start_while_disarmed_switches_to_auto_and_nothing_moves():
     s.mode(COPTER["GUIDED"])
     s.arm()
     s.command(mavlink.MAV_CMD_MISSION_START, 0, 0)
-    s.run(10.0, until=lambda v: v.kin.alt_m > 1.0)
+    s.run(10.0, until=lambda v: v.airframe.kin.alt_m > 1.0)
 
 
 def test_copter_flies_its_mission_lands_and_disarms_2_s_after_touching_down():
@@ -332,7 +332,7 @@ def test_mission_start_resumes_after_a_re_upload_so_the_first_item_must_be_set()
         closest_a = math.inf
         while not s.v.landed:
             s.run(0.5)
-            closest_a = min(closest_a, distance_m(*s.v.lat_lon_deg, *a))
+            closest_a = min(closest_a, distance_m(*s.v.airframe.lat_lon_deg, *a))
         state = s.v.state
         assert distance_m(state.lat_deg, state.lon_deg, HOME.lat_deg, HOME.lon_deg) < 0.1  # the land point
         assert s.texts(started)[0] == ("Mission: 1 WP" if set_current else "Mission: 3 Land")
@@ -361,7 +361,7 @@ def test_do_reposition_only_as_command_int_and_it_takes_a_copter_out_of_rtl():
     s.mode(COPTER["RTL"])
     assert s.command_int(mavlink.MAV_CMD_DO_REPOSITION, (-1, 1, 0, math.nan), lat, lon, 30) == ACCEPTED
     assert s.v.mode is Mode.GUIDED
-    s.run(20.0, until=lambda v: distance_m(*v.lat_lon_deg, lat, lon) < 1.0)
+    s.run(20.0, until=lambda v: distance_m(*v.airframe.lat_lon_deg, lat, lon) < 1.0)
 
 
 # ---- the plane (flight §3, §7) ----------------------------------------------------------------
@@ -385,7 +385,7 @@ def _plane_flying(**config) -> Sim:
     s.mode(PLANE["AUTO"])
     armed = s.v.time_s
     assert s.arm() == ACCEPTED  # AUTO, then arm: it takes off by itself
-    s.run(10.0, until=lambda v: v.kin.alt_m > 2.0)
+    s.run(10.0, until=lambda v: v.airframe.kin.alt_m > 2.0)
     assert s.v.time_s - armed == pytest.approx(3.9, abs=1.5)  # measured: 2 m at +3.9 s
     return s
 
@@ -394,7 +394,7 @@ def test_plane_flies_its_landing_sequence_and_disarms_20_s_after_touching_down()
     s = _plane_flying()
     s.run(600.0, until=lambda v: v.landed)
     landed, mark = s.v.time_s, s.mark()
-    lat, lon = s.v.lat_lon_deg
+    lat, lon = s.v.airframe.lat_lon_deg
     east = (lon - HOME.lon_deg) * 111_319.49 * math.cos(math.radians(HOME.lat_deg))
     north = (lat - HOME.lat_deg) * 111_319.49
     assert -15.0 < east <= 0.0 and abs(north) < 0.5  # on the runway axis, just short of the LAND point
@@ -421,8 +421,8 @@ def test_plane_rtl_with_rtl_autoland_0_circles_home_until_told_to_land():
     s.mode(PLANE["RTL"])
     s.run(150.0)
     assert s.v.mode is Mode.RTL and not s.v.landed
-    assert s.v.kin.alt_m == pytest.approx(100.0, abs=1.0)  # RTL_ALTITUDE
-    assert distance_m(*s.v.lat_lon_deg, HOME.lat_deg, HOME.lon_deg) < 150.0
+    assert s.v.airframe.kin.alt_m == pytest.approx(100.0, abs=1.0)  # RTL_ALTITUDE
+    assert distance_m(*s.v.airframe.lat_lon_deg, HOME.lat_deg, HOME.lon_deg) < 150.0
     assert s.command(mavlink.MAV_CMD_DO_LAND_START) == ACCEPTED
     assert s.v.mode is Mode.AUTO and s.v.mission_seq == 7
     s.run(600.0, until=lambda v: v.landed)
@@ -434,7 +434,7 @@ def test_plane_arm_then_mission_start_launches_too():
     s.param("RTL_AUTOLAND", 2)
     assert s.arm() == ACCEPTED  # in MANUAL
     assert s.command(mavlink.MAV_CMD_MISSION_START, 0, 0) == ACCEPTED
-    s.run(10.0, until=lambda v: v.kin.alt_m > 2.0)
+    s.run(10.0, until=lambda v: v.airframe.kin.alt_m > 2.0)
 
 
 def test_plane_ignores_position_targets_and_circles_a_reposition():
@@ -445,12 +445,12 @@ def test_plane_ignores_position_targets_and_circles_a_reposition():
     s.handle(mavlink.MAVLink_set_position_target_global_int_message(
         0, 1, 1, REL, 0x0DF8, round(lat * 1e7), round(lon * 1e7), 60, 0, 0, 0, 0, 0, 0, 0, 0))
     s.run(60.0)
-    assert distance_m(*s.v.lat_lon_deg, lat, lon) > 800.0  # ignored
+    assert distance_m(*s.v.airframe.lat_lon_deg, lat, lon) > 800.0  # ignored
     assert s.command(mavlink.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat, lon, 60) == mavlink.MAV_RESULT_UNSUPPORTED
     assert s.command_int(mavlink.MAV_CMD_DO_REPOSITION, (-1, 1, 0, math.nan), lat, lon, 60) == ACCEPTED
-    s.run(200.0, until=lambda v: distance_m(*v.lat_lon_deg, lat, lon) < 100.0)
+    s.run(200.0, until=lambda v: distance_m(*v.airframe.lat_lon_deg, lat, lon) < 100.0)
     s.run(60.0)
-    assert distance_m(*s.v.lat_lon_deg, lat, lon) < 150.0  # it circles the point
+    assert distance_m(*s.v.airframe.lat_lon_deg, lat, lon) < 150.0  # it circles the point
 
 
 # ---- the battery (flight §5, §6) --------------------------------------------------------------
@@ -460,20 +460,20 @@ def test_batt_capacity_changes_the_remaining_charge_at_once_and_consumption_coun
     s = ready(battery=BatteryConfig(endurance_s=1200.0, flight_current_a=20.0))
     assert s.v.params["BATT_CAPACITY"] == pytest.approx(20.0 * 1200 / 3.6, abs=1)
     s.run(5.0)
-    assert s.v.battery.consumed_mah == 0.0  # no current while disarmed
+    assert s.v.airframe.battery.consumed_mah == 0.0  # no current while disarmed
     s.mode(COPTER["GUIDED"])
     s.arm()
     s.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 30)
     s.run(10.0, until=lambda v: not v.landed)
-    on_ground = s.v.battery.consumed_mah  # armed, spooling up: the ground current
+    on_ground = s.v.airframe.battery.consumed_mah  # armed, spooling up: the ground current
     assert 0.0 < on_ground < 20.0 * 3.3 / 3.6
     s.run(60.0)
-    used = s.v.battery.consumed_mah
+    used = s.v.airframe.battery.consumed_mah
     assert used - on_ground == pytest.approx(20.0 * 60.0 / 3.6, rel=0.01)
-    before = s.v.battery.remaining_pct
+    before = s.v.airframe.battery.remaining_pct
     s.param("BATT_CAPACITY", 1000.0)
-    assert s.v.battery.remaining_pct == pytest.approx(100.0 * (1000.0 - used) / 1000.0, abs=0.01)
-    assert s.v.battery.remaining_pct < before
+    assert s.v.airframe.battery.remaining_pct == pytest.approx(100.0 * (1000.0 - used) / 1000.0, abs=0.01)
+    assert s.v.airframe.battery.remaining_pct < before
 
 
 def test_arming_voltage_and_capacity_refusals():
@@ -495,7 +495,7 @@ def test_battery_failsafe_acts_only_while_armed_with_ardupilots_texts():
     s = ready(battery=BatteryConfig(low_pct=50.0))
     s.v.set_drain_multiplier(20.0)
     s.run(60.0)
-    assert s.v.battery.remaining_pct == 100.0  # disarmed: no current, no failsafe
+    assert s.v.airframe.battery.remaining_pct == 100.0  # disarmed: no current, no failsafe
     s.mode(COPTER["GUIDED"])
     s.arm()
     s.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 30)

@@ -18,12 +18,12 @@ from pathlib import Path
 import pytest
 
 from gcs.cli import main
-from gcs.cli.commands.fly import start_sim
 from gcs.flight.fly import fly_async
 from gcs.links import MavLink, mavlink
 from gcs.plans.plan_folder import load_plan_dir
+from sim.autopilot.telemetry import reading_message
 from sim.detector import CAMERA_COMPONENT_ID, MAX_GAP_S, Detector, Fix, World, serve
-from sim.physics.sensor import reading_message
+from sim.plan_fleet import fleet_for_plan
 from tests.gcs.flight.conftest import fast_options
 from tests.gcs.flight.test_bad_input import _one_error_line
 
@@ -68,8 +68,9 @@ def _sim_readings(vehicle, track):
     steps it, its own CAMERA_IMAGE_CAPTURED."""
     out = []
     for t, east, north, alt in track:
-        vehicle.kin.east_m, vehicle.kin.north_m, vehicle.kin.alt_m = east, north, alt
-        obs = vehicle.sensor.update(east, north, alt, t)
+        kin = vehicle.airframe.kin
+        kin.east_m, kin.north_m, kin.alt_m = east, north, alt
+        obs = vehicle.airframe.sense(t)
         if obs is not None:
             out.append(vehicle._capture_msg(obs))
     return out
@@ -96,7 +97,7 @@ def _same(a, b) -> bool:
 
 def test_the_detector_senses_the_world_of_the_simulated_fleet(plan):
     world = World.of_plan(plan)
-    fleet = start_sim(plan, speedup=1.0, seed=5, pc=PC, pf=PF)  # not started: only its vehicles are read
+    fleet = fleet_for_plan(plan, speedup=1.0, seed=5, pc=PC, pf=PF)  # not started: only its vehicles are read
     for uid in plan.uavs:
         sim_sensor, ours = fleet.vehicle(uid).sensor, world.sensor(uid, seed=5, pc=PC, pf=PF)
         assert (ours.frame, ours.origin_en, ours.config, ours.seed, ours.vehicle_id) == \
@@ -126,7 +127,7 @@ def test_same_track_same_seed_same_readings_as_the_simulated_vehicle(plan, seed,
     on the cell centres and off them: the simulated vehicle steps its sensor every 0.1 s, the
     detector gets positions at 5 Hz; the readings are the same, message for message."""
     world = World.of_plan(plan)
-    fleet = start_sim(plan, speedup=1.0, seed=seed, pc=PC, pf=PF)
+    fleet = fleet_for_plan(plan, speedup=1.0, seed=seed, pc=PC, pf=PF)
     for uid, task in plan.uavs.items():
         vehicle = fleet.vehicle(uid)
         track = _track(vehicle, [(p.lat_deg, p.lon_deg) for p in task.trajectory], offset_m=offset_m)
@@ -139,12 +140,13 @@ def test_same_track_same_seed_same_readings_as_the_simulated_vehicle(plan, seed,
 
 
 def test_reading_message_is_the_simulated_vehicles_message(plan):
-    fleet = start_sim(plan, speedup=1.0, seed=0, pc=PC, pf=PF)
+    fleet = fleet_for_plan(plan, speedup=1.0, seed=0, pc=PC, pf=PF)
     vehicle = fleet.vehicle(2)
     track = _track(vehicle, [(p.lat_deg, p.lon_deg) for p in plan.uavs[2].trajectory[:20]])
     for t, east, north, alt in track:
-        vehicle.kin.east_m, vehicle.kin.north_m, vehicle.kin.alt_m = east, north, alt
-        obs = vehicle.sensor.update(east, north, alt, t)
+        kin = vehicle.airframe.kin
+        kin.east_m, kin.north_m, kin.alt_m = east, north, alt
+        obs = vehicle.airframe.sense(t)
         if obs is not None:
             ours = reading_message(obs, vehicle.config.sensor, vehicle.home.alt_m + alt, alt)
             assert ours.pack(mavlink.MAVLink(None)) == vehicle._capture_msg(obs).pack(mavlink.MAVLink(None))
@@ -209,7 +211,7 @@ def test_commands_to_the_camera_are_answered_and_a_lost_reading_is_sent_again(pl
 def test_attached_to_a_simulated_vehicle_it_reports_what_the_vehicle_reports(plan):
     """Over MAVLink: the detector on vehicle 1's TCP port (as on a companion computer) asks for
     positions and reads what vehicle 1's own sensor reads while `gcs fly` flies the plan."""
-    fleet = start_sim(plan, speedup=10.0, seed=4, pc=PC, pf=PF)
+    fleet = fleet_for_plan(plan, speedup=10.0, seed=4, pc=PC, pf=PF)
     fleet.options = dataclasses.replace(fleet.options, tcp=True)
     det = Detector(World.of_plan(plan).sensor(1, seed=4, pc=PC, pf=PF), 1)
 
@@ -272,7 +274,7 @@ def test_bad_input_is_one_line(plan_dir, tmp_path, capsys):
 
 
 def test_one_process_serves_several_vehicles_until_interrupted(plan_dir, plan):
-    fleet = start_sim(plan, speedup=10.0, seed=0, pc=PC, pf=PF)
+    fleet = fleet_for_plan(plan, speedup=10.0, seed=0, pc=PC, pf=PF)
     fleet.options = dataclasses.replace(fleet.options, tcp=True)
     with fleet.running():
         tcp = fleet.tcp_connection_strings()

@@ -1,17 +1,22 @@
-"""Pure pieces: unicycle kinematics, battery and failsafe decisions, sensor, modes, geodesy."""
+"""Pure pieces: unicycle kinematics, the airframe, batteries and failsafe decisions, sensor,
+modes, the local frame."""
 
 from __future__ import annotations
 
+import ast
 import math
+from pathlib import Path
 
-import pymap3d
 import pytest
 from hypothesis import given, settings, strategies as st
 
+import sim
+from planner.georef import LocalFrame
 from planner.sensor_noise import reading_draw
+from sim.autopilot.failsafe import FailsafeLevel, failsafe_level, failsafe_to_trigger
 from sim.autopilot.modes import Mode, custom_mode_of, mode_from_custom
-from sim.physics.battery import Battery, BatteryConfig, FailsafeLevel, failsafe_level, failsafe_to_trigger
-from sim.physics.geo import LocalFrame
+from sim.physics.airframe import Airframe, Goal, HomePose
+from sim.physics.battery import Battery, BatteryConfig, SihBattery
 from sim.physics.kinematics import KinematicLimits, KinematicState, step_toward, wrap_pi
 from sim.physics.sensor import DownwardSensor, SensorConfig
 
@@ -89,6 +94,21 @@ def test_battery_drains_with_flight_time_less_on_the_ground_and_fails_on_demand(
     assert b.remaining_pct == 0 and b.voltage_v == pytest.approx(13.2)
 
 
+def test_sih_battery_drains_linearly_to_its_floor_refills_and_fails_for_good():
+    b = SihBattery()
+    b.step(6.0, drain_s=60.0, floor_fraction=0.5)
+    assert b.charge == pytest.approx(0.9)
+    b.drain_multiplier = 2.0
+    b.step(60.0, drain_s=60.0, floor_fraction=0.5)
+    assert b.charge == 0.5  # SIM_BAT_MIN_PCT
+    b.refill()
+    assert b.charge == 1.0
+    b.fail()
+    b.step(1.0, drain_s=60.0, floor_fraction=0.5)
+    b.refill()
+    assert b.charge == 0.0 and b.failed
+
+
 def test_sensor_rates_match_pc_and_pf():
     frame = LocalFrame(-35.0, 149.0)
     cfg = SensorConfig(cell_size_m=10.0, pc=0.8, pf=0.1)
@@ -157,10 +177,47 @@ def test_plane_has_no_land_mode_like_arduplane():
     assert mode_from_custom(9, "ardupilot", "plane") is None
 
 
-@pytest.mark.parametrize(("east", "north"), [(0, 0), (1000, -500), (-3000, 4000), (5000, 5000)])
-def test_flat_earth_frame_against_pymap3d(east, north):
-    frame = LocalFrame(-35.363261, 149.165230)
-    lat, lon = frame.en2geodetic(east, north)
-    assert frame.geodetic2en(lat, lon) == pytest.approx((east, north), abs=1e-6)
-    e, n, _ = pymap3d.geodetic2enu(lat, lon, 0.0, -35.363261, 149.165230, 0.0)
-    assert math.hypot(e - east, n - north) < 0.1 + 5e-8 * (east * east + north * north)
+def test_the_simulator_uses_the_planners_local_frame():
+    """One local frame: the fleet's homes, each vehicle's airframe and sensor convert with
+    `planner.georef.LocalFrame`, so a plan's cells and the simulated world are laid out alike."""
+    assert sim.LocalFrame is LocalFrame
+    home = HomePose(-35.363261, 149.165230)
+    homes = sim.homes_for(3, [home], spacing_m=5.0)
+    frame = LocalFrame(home.lat_deg, home.lon_deg)
+    for i, h in enumerate(homes):
+        assert frame.geodetic2en(h.lat_deg, h.lon_deg) == pytest.approx((5.0 * i, 0.0), abs=1e-6)
+    fleet = sim.SimFleet(homes, sim.VehicleConfig(), sim.FleetOptions(base_port=0))
+    v = fleet.vehicles[2]
+    assert type(v.frame) is LocalFrame and v.airframe.frame is v.frame and v.sensor.frame is v.frame
+    assert v.airframe.position_en == pytest.approx((10.0, 0.0), abs=1e-6)
+    assert v.airframe.lat_lon_deg == pytest.approx((homes[2].lat_deg, homes[2].lon_deg), abs=1e-12)
+
+
+def test_airframe_flies_toward_its_goal_touches_down_and_senses():
+    frame = LocalFrame(-35.0, 149.0)
+    sensor = DownwardSensor(SensorConfig(cell_size_m=10.0), frame, [], seed=0, vehicle_id=1, origin_en=(-5.0, -5.0))
+    body = Airframe(HomePose(-35.0, 149.0, 100.0, 90.0), frame, COPTER, Battery(BatteryConfig()), sensor)
+    assert body.position_en == pytest.approx((0.0, 0.0), abs=1e-9) and body.heading_deg == pytest.approx(90.0)
+    assert body.sense(0.0) is None  # on the ground
+    for _ in range(40):
+        body.step(0.05, Goal(None, 10.0))  # a copter climbs on the spot
+    assert body.kin.alt_m == pytest.approx(COPTER.climb_rate_m_s * 2.0)
+    assert body.position_en == pytest.approx((0.0, 0.0), abs=1e-9)
+    assert body.sense(2.0).cell == (0, 0)
+    for _ in range(40):
+        body.step(0.05, Goal((20.0, 0.0), 10.0))
+    assert body.position_en == pytest.approx((20.0, 0.0), abs=1e-9)
+    body.step(0.05, Goal(None, -1.0, landing=True))
+    assert body.touch_down() == pytest.approx(COPTER.descent_rate_m_s)
+    assert (body.kin.alt_m, body.kin.speed_m_s, body.kin.climb_m_s) == (0.0, 0.0, 0.0)
+
+
+def test_physics_knows_no_mavlink_and_no_autopilot():
+    """sim/physics is the world: it imports neither the autopilot behaviour nor MAVLink."""
+    for path in (Path(__file__).resolve().parents[2] / "sim" / "physics").glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+                [node.module or ""] if isinstance(node, ast.ImportFrom) else []
+            for name in names:
+                assert not name.startswith(("pymavlink", "sim.autopilot", "sim.fleet", "sim.vehicle_link", "gcs")), \
+                    f"{path.name} imports {name}"

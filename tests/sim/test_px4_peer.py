@@ -102,7 +102,7 @@ def test_sim_bat_drain_and_sim_bat_min_pct_set_the_drain_while_armed(make_fleet,
     assert gcs.wait("BATTERY_STATUS").battery_remaining == 100  # disarmed: full
     assert gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_ACCEPTED
     first = gcs.wait("BATTERY_STATUS")
-    low = gcs.wait("BATTERY_STATUS", lambda m: m.voltages[0] <= 14400 + 1800 * 0.2 + 1, timeout_s=5.0)
+    low = gcs.wait("BATTERY_STATUS", lambda m: m.voltages[0] <= round(14400 + 1800 * 0.2), timeout_s=5.0)
     assert first.voltages[0] > low.voltages[0] == 14760  # 20 % of the charge left: the floor
     assert low.battery_remaining == 20  # on the ground: no load on the estimate
     gcs.wait("HEARTBEAT", lambda m: not m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED, timeout_s=5.0)

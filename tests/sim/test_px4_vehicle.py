@@ -70,7 +70,7 @@ class Sim(SteppedVehicle):
 
     @property
     def here(self) -> tuple[float, float]:
-        return self.v.lat_lon_deg
+        return self.v.airframe.lat_lon_deg
 
     @property
     def custom_mode(self) -> tuple[int, int]:
@@ -291,7 +291,7 @@ def test_arm_then_mode_mission_or_mode_mission_then_arm_both_fly(arm_first):
     steps = [s.arm, lambda: s.mode("MISSION")]
     assert [step() for step in (steps if arm_first else steps[::-1])] == [ACCEPTED, ACCEPTED]
     s.run(30.0, until=lambda v: 0 in v.reached)
-    assert s.v.kin.alt_m > 29.0
+    assert s.v.airframe.kin.alt_m > 29.0
 
 
 # ---- re-plans (§5) ----------------------------------------------------------------------------
@@ -346,20 +346,20 @@ def test_mission_set_current_message_points_the_mission_at_an_item():
 
 def test_nav_takeoff_takes_param7_above_sea_level():
     s = hovering(20.0)
-    assert 19.4 < s.v.kin.alt_m < 20.6 and s.custom_mode == MODES["HOLD"]
+    assert 19.4 < s.v.airframe.kin.alt_m < 20.6 and s.custom_mode == MODES["HOLD"]
     low = ready()
     low.arm()
     result, texts = low.said(low.command, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, 30)
     assert (result, texts) == (ACCEPTED, ["Already higher than takeoff altitude"])
     low.run(12.0, until=lambda v: not v.armed)
-    assert low.v.kin.alt_m == 0.0 and low.texts()[-1] == "Disarmed by auto preflight disarming"
+    assert low.v.airframe.kin.alt_m == 0.0 and low.texts()[-1] == "Disarmed by auto preflight disarming"
     default = ready()
     default.arm()
     result, texts = default.said(default.command, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan,
                                  math.nan)
     assert texts == ["Using default takeoff altitude: 2.5 m"]
     default.run(20.0, until=lambda v: v.mode == Mode.LOITER and not v.landed)
-    assert 2.0 < default.v.kin.alt_m < 3.0
+    assert 2.0 < default.v.airframe.kin.alt_m < 3.0
 
 
 def test_do_reposition_altitude_is_above_sea_level_and_a_relative_frame_6_height_lands_it():
@@ -367,13 +367,13 @@ def test_do_reposition_altitude_is_above_sea_level_and_a_relative_frame_6_height
     lat, lon = offset(HOME, 0, 50)
     assert s.command(mavlink.MAV_CMD_DO_REPOSITION, -1, mavlink.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, 0, math.nan,
                      lat, lon, HOME.alt_m + 20) == ACCEPTED
-    s.run(30.0, until=lambda v: distance_m(*v.lat_lon_deg, lat, lon) < 1.0)
-    assert s.custom_mode == MODES["HOLD"] and 19.0 < s.v.kin.alt_m < 21.0
+    s.run(30.0, until=lambda v: distance_m(*v.airframe.lat_lon_deg, lat, lon) < 1.0)
+    assert s.custom_mode == MODES["HOLD"] and 19.0 < s.v.airframe.kin.alt_m < 21.0
     for frame in (ABS_INT, mavlink.MAV_FRAME_GLOBAL):
         assert s.command_int(mavlink.MAV_CMD_DO_REPOSITION, frame, (-1, 1, 0, math.nan), *offset(HOME, 0, 0),
                              HOME.alt_m + 25) == ACCEPTED
-    s.run(30.0, until=lambda v: distance_m(*v.lat_lon_deg, HOME.lat_deg, HOME.lon_deg) < 1.0)
-    assert 24.0 < s.v.kin.alt_m < 26.0
+    s.run(30.0, until=lambda v: distance_m(*v.airframe.lat_lon_deg, HOME.lat_deg, HOME.lon_deg) < 1.0)
+    assert 24.0 < s.v.airframe.kin.alt_m < 26.0
     start = s.here
     result = s.command_int(mavlink.MAV_CMD_DO_REPOSITION, REL_INT, (-1, 0, 0, math.nan), *offset(HOME, 0, 50), 20)
     assert result == UNSUPPORTED  # without CHANGE_MODE ... and flown all the same
@@ -412,10 +412,10 @@ def test_rtl_climbs_to_30_m_in_place_flies_home_at_30_m_and_lands_there():
     result, texts = s.said(s.command, mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH)
     assert result == ACCEPTED
     assert texts == ["Returning to launch", "RTL: start return at 614 m (30 m above destination)"]
-    s.run(30.0, until=lambda v: v.kin.alt_m > 29.5)
+    s.run(30.0, until=lambda v: v.airframe.kin.alt_m > 29.5)
     assert distance_m(*s.here, *where) < 1.0  # straight up first
-    s.run(100.0, until=lambda v: distance_m(*v.lat_lon_deg, HOME.lat_deg, HOME.lon_deg) < 2.0)
-    assert s.v.kin.alt_m > 29.0
+    s.run(100.0, until=lambda v: distance_m(*v.airframe.lat_lon_deg, HOME.lat_deg, HOME.lon_deg) < 2.0)
+    assert s.v.airframe.kin.alt_m > 29.0
     mark = s.mark()
     s.run(120.0, until=lambda v: not v.armed)
     assert s.texts(mark) == ["RTL: land at destination", "Landing detected", "Disarmed by landing"]
@@ -446,7 +446,7 @@ def test_a_rally_point_in_frame_6_breaks_rtl_it_climbs_without_end():
     where = s.here
     assert "RTL: start return at -2147483648 m (0 m above destination)" in s.said(s.mode, "RTL")[1]
     s.run(100.0)
-    assert s.v.kin.alt_m > 150.0 and distance_m(*s.here, *where) < 1.0
+    assert s.v.airframe.kin.alt_m > 150.0 and distance_m(*s.here, *where) < 1.0
 
 
 # ---- battery (§7) -----------------------------------------------------------------------------
@@ -460,17 +460,18 @@ def test_the_battery_drains_only_while_armed_at_100_per_sim_bat_drain_down_to_si
               item(1, mavlink.MAV_CMD_NAV_WAYPOINT, 0, 0, 15.0, param1=3600.0)])
     s.command(mavlink.MAV_CMD_MISSION_START, 0, 0)
     s.run(10.0)
-    a, t_a = s.v.charge, s.v.time_s
+    sih = s.v.airframe.battery  # SIH's state of charge
+    a, t_a = sih.charge, s.v.time_s
     s.run(10.0)
-    assert (a - s.v.charge) / (s.v.time_s - t_a) == pytest.approx(1 / 60.0)  # SIM_BAT_DRAIN 60 s
+    assert (a - sih.charge) / (s.v.time_s - t_a) == pytest.approx(1 / 60.0)  # SIM_BAT_DRAIN 60 s
     s.run(60.0)
-    assert s.v.charge == pytest.approx(0.5) and round(s.v.battery_pct) == 61  # the floor, read under load
+    assert sih.charge == pytest.approx(0.5) and round(s.v.battery_pct) == 61  # the floor, read under load
     assert s.of("BATTERY_STATUS")[-1][1].voltages[0] == 15300
     s.param("SIM_BAT_DRAIN", 150.0)
     s.param("SIM_BAT_MIN_PCT", 0.0)
-    a, t_a = s.v.charge, s.v.time_s
+    a, t_a = sih.charge, s.v.time_s
     s.run(10.0)
-    assert (a - s.v.charge) / (s.v.time_s - t_a) == pytest.approx(1 / 150.0)
+    assert (a - sih.charge) / (s.v.time_s - t_a) == pytest.approx(1 / 150.0)
     s.run(300.0)
     assert round(s.v.battery_pct) == 11 and s.v.charge_state == mavlink.MAV_BATTERY_CHARGE_STATE_LOW
     assert "Low battery level" in s.texts() and "Failsafe activated" in s.texts()
@@ -533,9 +534,9 @@ def test_position_setpoints_fly_only_in_offboard_and_their_loss_falls_back_to_a_
     assert distance_m(*s.here, lat, lon) < 1.0
     s.run(10.0, until=lambda v: v.mode == Mode.POSCTL)
     assert s.texts()[-1] == "Failsafe activated"
-    alt = s.v.kin.alt_m
+    alt = s.v.airframe.kin.alt_m
     s.run(16.0)
-    assert alt - s.v.kin.alt_m == pytest.approx(12.0, abs=0.5)  # §9: 19 to 7 m in 16 s
+    assert alt - s.v.airframe.kin.alt_m == pytest.approx(12.0, abs=0.5)  # §9: 19 to 7 m in 16 s
 
 
 def _square(half: float, inclusion: bool = True, centre=(0.0, 0.0)) -> list[MissionItem]:

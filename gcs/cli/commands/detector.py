@@ -48,13 +48,10 @@ def _world(args: argparse.Namespace):
 
         plan = load_plan_dir(args.plan)
         return World.of_plan(plan), sorted(plan.uavs), int(plan.raw.get("seed") or 0)
-    from gcs.cli import build_parser
+    from gcs.plans.options import AreaOptions
     from gcs.plans.planning import build_area_search
 
-    extra = ["--margin", str(args.margin_m)]
-    if args.cell_size_m is not None:
-        extra += ["--cell-size", str(args.cell_size_m)]
-    setup = build_area_search(build_parser().parse_args(["plan", "--area", args.area, *extra]))
+    setup = build_area_search(args.area, AreaOptions(cell_size_m=args.cell_size_m, margin_m=args.margin_m))
     return World.of_area(setup), [ap.index + 1 for ap in setup.source.airports], 0
 
 

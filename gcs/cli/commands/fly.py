@@ -3,8 +3,9 @@ until every vehicle has landed (the controller is `gcs.flight.controller`; the l
 and online mode are in docs/fly.md).
 
 `gcs fly --plan DIR --connect udpout:127.0.0.1:14540 ...` flies a `gcs plan --area` folder;
-`gcs fly --area AREA.geojson` plans first (the plan command's code path); `--sim` starts the
-built-in simulated fleet at the plan's airports, so one command runs the whole job.
+`gcs fly --area AREA.geojson` plans first, as `gcs plan --area` does (`gcs.plans.make.plan_area`,
+the same options and defaults); `--sim` starts the built-in simulated fleet at the plan's
+airports, so one command runs the whole job.
 
 `gcs fly --resume DIR` takes over a flight whose station died while the vehicles flew (the
 journal it left in DIR, `gcs.flight.journal`; the reattachment, `gcs.flight.resume`)."""
@@ -15,49 +16,32 @@ import argparse
 import asyncio
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gcs.cli.link_options import add_link_arguments, connections_from, signing_from
-from gcs.display.status_table import render_summary
+from gcs.cli.plan_options import (
+    add_area_arguments,
+    add_output_arguments,
+    add_search_arguments,
+    output_options_from,
+    plan_options_from,
+)
+from gcs.display.status_table import LiveTable, render_summary
 from gcs.errors import UserError
 from gcs.flight.controller import FlyOptions
 from gcs.flight.fly import fly_async
 from gcs.flight.journal import FlightJournal, check_no_flight_in_progress, new_start
-from gcs.flight.sortie import SortieLog, file_sha256
-from gcs.links import SigningKey
-from gcs.links.connection import Connection, LinkKind, parse_connection
+from gcs.flight.sortie import SortieLog
+from gcs.plans.belief_file import file_sha256
+from gcs.plans.options import OutputOptions
 from gcs.plans.plan_folder import FleetPlan, load_plan_dir
 from gcs.telemetry.status import Stage
 from planner.campaign import sortie_seed
 
-# ---- the simulated fleet ------------------------------------------------------------------
-
-
-def start_sim(plan: FleetPlan, *, speedup: float, profile: str = "ardupilot", seed: int = 0, pc: float = 0.9,
-              pf: float = 0.1, drain: dict[int, float] | None = None, loss: float = 0.0,
-              endurance_s: float = 1200.0, signing: SigningKey | None = None):
-    """The built-in simulated fleet on free loopback ports: vehicle i (system id i) at UAV i's
-    airport with its start heading, the plan's targets, a sensor on the plan's grid."""
-    from sim import BatteryConfig, FleetOptions, HomePose, LinkFaults, SimFleet, VehicleConfig
-    from sim.detector import World
-
-    ids = sorted(plan.uavs)
-    if ids != list(range(1, len(ids) + 1)):
-        raise UserError(f"--sim needs UAV ids 1..N, the plan has {ids}")
-    homes = [HomePose(*plan.uavs[i].airport_lat_lon, 0.0, plan.uavs[i].start_heading * 45.0) for i in ids]
-    world = World.of_plan(plan)  # the world `gcs detector` gives real vehicles
-    vehicle = plan.uavs[ids[0]].vehicle.value
-    config = VehicleConfig(vehicle_type=vehicle, profile=profile, sensor=world.sensor_config(pc, pf),
-                           battery=BatteryConfig(endurance_s=endurance_s))
-    fleet = SimFleet(homes, config, FleetOptions(base_port=0, speedup=speedup, targets=world.targets, seed=seed,
-                                                 faults=LinkFaults(loss=loss, seed=seed),
-                                                 signing_key=signing.secret if signing else None,
-                                                 grid_origin=world.grid_origin))
-    for uid, k in (drain or {}).items():
-        fleet.vehicle(uid).set_drain_multiplier(k)
-    return fleet
-
+if TYPE_CHECKING:
+    from gcs.bus.flight_feed import BusFeed
+    from gcs.plans.planning import AreaSetup
 
 # ---- the command line ---------------------------------------------------------------------
 
@@ -76,8 +60,6 @@ def add_connection_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from gcs.plans import planning as area_plan
-
     p = sub.add_parser("fly", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     add_connection_arguments(p)
     from gcs.bus.flight_feed import add_bus_arguments
@@ -104,28 +86,23 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="with --sim: UAV's battery drains K times faster than nominal")
     p.add_argument("--online", action="store_true",
                    help="planner in the loop: re-decide every step from live positions and readings (needs --area)")
-    # planning options for --area (the plan command's own arguments)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--np", dest="np_steps", type=int, default=5)
-    p.add_argument("--oc", default="3")
-    p.add_argument("--range", dest="range_steps", type=int, default=130)
-    p.add_argument("--strategy", default="exhaustive")
-    p.add_argument("--return", dest="return_planner", default="exact")
-    p.add_argument("--reserve", type=int, default=0)
-    p.add_argument("--range-aware-search", action="store_true")
-    p.add_argument("--pc", type=float, default=0.9)
-    p.add_argument("--pf", type=float, default=0.1)
-    p.add_argument("--footprint", type=int, default=0)
-    p.add_argument("--out", default=None,
+    g = p.add_argument_group("planning with --area (the options of gcs plan, with its defaults)")
+    add_search_arguments(g)
+    g.add_argument("--out", default=None,
                    help="with --area: folder for the plan, missions and flight recording (default: runs/<area name>)")
-    p.add_argument("--quiet", action="store_true")
-    p.add_argument("--rrd", metavar="PATH",
-                   help="Rerun recording of the flight (default: flight.rrd in the plan folder)")
-    p.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
-    p.add_argument("--rerun-connect", nargs="?", const="rerun+http://127.0.0.1:9876/proxy", metavar="ADDR",
-                   help="also stream the flight to a running Rerun viewer (ADDR default: %(const)s)")
-    area_plan.add_arguments(p)
+    add_output_arguments(p, "the flight", "flight.rrd in the plan folder")
+    add_area_arguments(p)
     p.set_defaults(func=run)
+
+
+def simulated_fleet(plan: FleetPlan, **settings):
+    """`sim.plan_fleet.fleet_for_plan`, its refusal as one error line."""
+    from sim.plan_fleet import fleet_for_plan
+
+    try:
+        return fleet_for_plan(plan, **settings)
+    except ValueError as exc:
+        raise UserError(f"--sim: {exc}") from None
 
 
 def _pairs(values: list[str], what: str, kind=float) -> dict[int, float]:
@@ -139,36 +116,23 @@ def _pairs(values: list[str], what: str, kind=float) -> dict[int, float]:
     return out
 
 
-def plan_namespace(args: argparse.Namespace) -> argparse.Namespace:
-    """The `gcs plan --area` arguments for this flight: the plan command's own parser and
-    defaults, overlaid with the planning options given to `gcs fly` (no Rerun recording)."""
-    from gcs.cli import build_parser
-
-    ns = build_parser().parse_args(["plan", "--area", args.area])
-    for name, value in vars(args).items():
-        if hasattr(ns, name) and name not in ("func", "command"):
-            setattr(ns, name, value)
-    if hasattr(ns, "no_rrd"):
-        ns.no_rrd = True
-        ns.rerun_connect = None
-    return ns
-
-
-def resolve_plan(args: argparse.Namespace) -> FleetPlan:
-    """`--plan DIR`, or `--area FILE` planned first by the plan command itself."""
-    if getattr(args, "area", None):
-        from gcs.cli.commands import plan as plan_command
+def plan_for_flight(args: argparse.Namespace) -> tuple[FleetPlan, AreaSetup | None]:
+    """`--plan DIR`; or `--area FILE` planned first, as `gcs plan --area` plans it (no Rerun
+    recording of the planning), and its setup."""
+    if args.area:
+        from gcs.display.plan_tables import area_report
+        from gcs.plans.make import plan_area
 
         if args.plan:
             raise UserError("give --plan or --area, not both")
-        from gcs.plans.planning import area_out_dir
-
-        args.out = str(area_out_dir(args))
-        plan_command.run(plan_namespace(args))
-        return load_plan_dir(args.out)
+        area, search = plan_options_from(args)
+        result = plan_area(args.area, area, search, args.out, OutputOptions(record=False, progress=not args.quiet))
+        if not args.quiet:
+            print(area_report(result))
+        return load_plan_dir(result.out_dir), result.sorties[0].setup
     if not args.plan:
         raise UserError("give --plan DIR (a gcs plan --area folder) or --area FILE")
-    return load_plan_dir(args.plan)
+    return load_plan_dir(args.plan), None
 
 
 def check_connections(args: argparse.Namespace) -> list[str]:
@@ -190,16 +154,14 @@ def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
         raise UserError("--reserve-pct must be in [0, 100)")
     return FlyOptions(speed_m_s=args.cruise_speed, reserve_pct=args.reserve_pct, descent_m_s=args.descent_speed,
                       link_timeout_s=args.link_timeout, lost_giveup_s=args.lost_giveup, return_after_s=returns,
-                      fence=not args.no_fence, live_table=sys.stdout.isatty(), check_home=not args.allow_home_offset,
+                      fence=not args.no_fence, check_home=not args.allow_home_offset,
                       ready_timeout_s=args.ready_timeout, arm_timeout_s=args.arm_timeout)
 
 
 def flight_recorder(args: argparse.Namespace, plan: FleetPlan):
     """The flight's Rerun recorder (`flight.rrd` in the plan folder unless `--rrd` / `--no-rrd`),
     or None when nothing is recorded; rerun is imported only then."""
-    from gcs.cli.commands.plan import recording_path
-
-    rrd = recording_path(args, Path(plan.folder) / "flight.rrd")
+    rrd = output_options_from(args).recording_path(Path(plan.folder) / "flight.rrd")
     if rrd is None and args.rerun_connect is None:
         return None
     from gcs.recording.flight import FlightRecorder
@@ -212,14 +174,14 @@ def flight_recorder(args: argparse.Namespace, plan: FleetPlan):
     return recorder
 
 
-def _bus_from(args: argparse.Namespace) -> dict | None:
-    """The MQTT bus settings (`--mqtt` ...), or None without a bus."""
+def _bus_from(args: argparse.Namespace) -> BusFeed | None:
+    """The MQTT bus feed (`--mqtt` ...), or None without a bus."""
     if not args.mqtt:
         return None
-    from gcs.bus.flight_feed import bus_options
+    from gcs.bus.flight_feed import BusFeed, bus_options
 
     try:
-        return bus_options(args)
+        return BusFeed(**bus_options(args))
     except ValueError as exc:
         raise UserError(str(exc)) from None
 
@@ -241,10 +203,10 @@ def _relative(path: Path | None, folder: Path) -> str | None:
 def run(args: argparse.Namespace) -> int:
     if args.resume:
         return resume(args)
-    if args.online and not getattr(args, "area", None):
+    if args.online and not args.area:
         raise UserError("--online needs --area (the priors of the search map live in the area file)")
     drains = _pairs(args.sim_drain, "--sim-drain")
-    if args.plan and not Path(args.plan).is_dir() and not getattr(args, "area", None):
+    if args.plan and not Path(args.plan).is_dir() and not args.area:
         raise UserError(f"plan folder {args.plan} does not exist "
                         f"(make one with: gcs plan --area AREA.geojson --out {args.plan})")
     connections = check_connections(args)
@@ -252,27 +214,25 @@ def run(args: argparse.Namespace) -> int:
     bus = _bus_from(args)
     if args.plan:
         check_no_flight_in_progress(Path(args.plan))
-    elif getattr(args, "area", None):
+    elif args.area:
         from gcs.plans.planning import area_out_dir
 
-        check_no_flight_in_progress(area_out_dir(args))
-    plan = resolve_plan(args)
+        check_no_flight_in_progress(area_out_dir(args.area, args.out))
+    plan, setup = plan_for_flight(args)
     options = options_from(args, plan)
     recorder = flight_recorder(args, plan)
     if any(u not in plan.uavs for u in drains):
         raise UserError("--sim-drain: unknown UAV")
     online = None
-    if args.online:
+    if args.online and setup is not None:  # the planned search, flown again on the vehicles' readings
         from gcs.flight.online import observed_search
-        from gcs.plans import planning as area_plan
 
-        setup = area_plan.build_area_search(plan_namespace(args))
-        online = observed_search(setup.search.scenario, setup.search.config, seed=args.seed)
+        online = observed_search(setup.search.scenario, setup.search.config, seed=setup.search.seed)
     sortie = SortieLog(plan)
     fleet = None
     if args.sim:
         # a later sortie's readings draw new noise (planner.campaign.sortie_seed)
-        fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile,
+        fleet = simulated_fleet(plan, speedup=args.speedup, profile=args.sim_profile,
                           seed=sortie_seed(args.seed, sortie.sortie), pc=args.pc,
                           pf=args.pf, drain=drains, loss=args.sim_loss,
                           endurance_s=args.sim_endurance, signing=signing).start()
@@ -286,10 +246,13 @@ def run(args: argparse.Namespace) -> int:
     if recorder is not None and recorder.rrd_path is not None:  # an earlier flight's continuations
         for stale in recorder.rrd_path.parent.glob(f"{recorder.rrd_path.stem}.resume*{recorder.rrd_path.suffix}"):
             stale.unlink(missing_ok=True)
+    table = LiveTable() if sys.stdout.isatty() else None
     try:
         controller = asyncio.run(fly_async(plan, connections, options,
                                            stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online,
-                                           recorder=recorder, bus=bus, signing=signing, watchers=[journal, sortie]))
+                                           recorder=recorder, bus=bus, signing=signing,
+                                           out=table.line if table else None,
+                                           watchers=[journal, sortie, *([table] if table else [])]))
     finally:
         if fleet is not None:
             fleet.stop()
@@ -302,24 +265,12 @@ def _ending(controller, sortie: SortieLog, recorder) -> int:
     print(sortie.report())
     if recorder is not None and recorder.rrd_path is not None:
         print(f"recording {recorder.rrd_path}")
-    if controller._interrupted:
+    if controller.interrupted:
         return 130
     return 0 if all(st.stage is Stage.LANDED for st in controller.status.values()) else 1
 
 
 # ---- taking over a flight whose station died ----------------------------------------------
-
-#: the flags `--resume` takes (anything else belongs to the flight as it was started), and the
-def _from_the_same_ports(connections: list[str], source_ports: dict[str, int]) -> list[str | Connection]:
-    """The links again, each `udpout` sending from the local port it sent from before: PX4 answers
-    only the first address that spoke to it, and the dead station's is the one it knows."""
-    links: list[str | Connection] = []
-    for text in connections:
-        c = parse_connection(text)
-        port = source_ports.get(str(c))
-        links.append(replace(c, source_port=port) if port and c.kind is LinkKind.UDP_OUT else text)
-    return links
-
 
 #: options the journal keeps unless given again (flag: FlyOptions field)
 RESUMED_OPTIONS = {"--cruise-speed": "speed_m_s", "--reserve-pct": "reserve_pct", "--descent-speed": "descent_m_s",
@@ -337,32 +288,14 @@ def _flags_given(args: argparse.Namespace) -> list[str]:
 
 def resume(args: argparse.Namespace) -> int:
     """`gcs fly --resume DIR`: read the journal, reconnect, reattach every vehicle and fly on."""
-    from gcs.flight.journal import JournalError, read_journal
-    from gcs.flight.resume import Resumption
+    from gcs.flight.resume import Resumption, links_from_the_same_ports, resumable_flight
 
     given = _flags_given(args)
     foreign = [flag for flag in given if flag not in RESUME_FLAGS]
     if foreign:
         raise UserError(f"--resume flies the flight as it was started: leave out {', '.join(dict.fromkeys(foreign))}")
     folder = Path(args.resume)
-    if not folder.is_dir():
-        raise UserError(f"--resume {folder}: no such folder")
-    try:
-        state = read_journal(folder)
-    except JournalError as exc:
-        raise UserError(f"--resume {folder}: {exc}") from None
-    if state.ended is not None:
-        raise UserError(f"--resume {folder}: no flight in progress there: the flight started {state.start.utc} ended "
-                        f"with its station running ({_end_text(state.ended)})")
-    if state.start.sim:
-        raise UserError(f"--resume {folder}: the flight flew the built-in simulated fleet (--sim), which stopped with "
-                        "its station: nothing is flying")
-    if state.start.online:
-        raise UserError(f"--resume {folder}: an online flight (--online) cannot be taken over: its vehicles hold "
-                        "their last cell in GUIDED until their failsafes bring them home")
-    plan = load_plan_dir(folder)
-    if file_sha256(folder / "plan.json") != state.start.plan_sha256:
-        raise UserError(f"--resume {folder}: plan.json changed since the flight started (it is not the plan flown)")
+    state, plan = resumable_flight(folder)
     connections = connections_from(args) if args.connect else list(state.start.connections)
     signing = signing_from(args)
     if state.start.signed and signing is None:
@@ -379,20 +312,12 @@ def resume(args: argparse.Namespace) -> int:
     journal = FlightJournal.reopen(plan, state, connections, segment)
     resumption = Resumption(plan, state)
     print(f"resuming the flight started {state.start.utc} in {folder} over {', '.join(connections)}", flush=True)
-    controller = asyncio.run(fly_async(plan, _from_the_same_ports(connections, state.udp_source_ports), options,
+    table = LiveTable() if sys.stdout.isatty() else None
+    controller = asyncio.run(fly_async(plan, links_from_the_same_ports(connections, state.udp_source_ports), options,
                                        stdin_orders=args.stdin_orders or sys.stdin.isatty(), recorder=recorder,
-                                       bus=bus, signing=signing, watchers=[journal, sortie], resume=resumption))
+                                       bus=bus, signing=signing, out=table.line if table else None,
+                                       watchers=[journal, sortie, *([table] if table else [])], resume=resumption))
     return _ending(controller, sortie, recorder)
-
-
-def _end_text(end: dict) -> str:
-    if end.get("error"):
-        return f"the station failed: {end['error']}"
-    if end.get("interrupted"):
-        return "stopped by the operator"
-    landed, still = end.get("landed", []), end.get("open", [])
-    text = f"{len(landed)} landed"
-    return text + (f", UAV {', '.join(map(str, still))} not landed" if still else "")
 
 
 def resumed_recorder(args: argparse.Namespace, plan: FleetPlan, state):

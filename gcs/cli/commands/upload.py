@@ -11,7 +11,7 @@ import asyncio
 from collections.abc import Sequence
 from pathlib import Path
 
-from gcs.cli.commands.fly import add_connection_arguments, check_connections, start_sim
+from gcs.cli.commands.fly import add_connection_arguments, check_connections, simulated_fleet
 from gcs.cli.link_options import signing_from
 from gcs.errors import UserError
 from gcs.flight.controller import FlightController, FlyOptions
@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
                          check_home=not args.allow_home_offset)
     fleet = None
     if args.sim:
-        fleet = start_sim(plan, speedup=args.speedup, profile=args.sim_profile, loss=args.sim_loss,
+        fleet = simulated_fleet(plan, speedup=args.speedup, profile=args.sim_profile, loss=args.sim_loss,
                           signing=signing).start()
         connections = fleet.connection_strings()
     try:

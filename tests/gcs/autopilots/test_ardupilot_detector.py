@@ -14,11 +14,11 @@ import time
 
 import pytest
 
-from gcs.cli import build_parser
 from gcs.flight.controller import FlightController, FlyOptions
 from gcs.flight.fly import fly_async
 from gcs.flight.online import observed_search
 from gcs.links import CommandError, MavLink, mavlink
+from gcs.plans.options import AreaOptions, SearchOptions
 from gcs.plans.plan_folder import load_plan_dir
 from gcs.plans.planning import build_area_search
 from gcs.telemetry.status import Stage
@@ -109,11 +109,11 @@ def test_readings_reach_the_station_through_ardupilot_and_a_lost_one_is_recovere
                             0, 1, 1, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, POSITION_ONLY, round(lat1 * 1e7),
                             round(lon1 * 1e7), ALT_M, 0, 0, 0, 0, 0, 0, 0, 0))
                         await asyncio.sleep(0.2)
-                        controller._recover_readings(time.monotonic())
+                        controller.recover_readings(time.monotonic())
                     await _until(lambda: len(status.detections) >= len(cells), 10.0, "the readings")
                     end = time.monotonic() + 10.0
                     while 1 not in status.detection_indices and time.monotonic() < end:
-                        controller._recover_readings(time.monotonic())  # asks again once a second
+                        controller.recover_readings(time.monotonic())  # asks again once a second
                         await asyncio.sleep(0.1)
                 finally:
                     served.cancel()
@@ -149,9 +149,7 @@ def test_online_search_on_ardupilot_with_the_detector_updates_the_belief_map(tmp
                                 stderr=subprocess.STDOUT, text=True)
     try:
         with ArduPilotSitl("copter", home=site.home(0), serial2=f"udpclient:127.0.0.1:{port}") as sitl:
-            ns = build_parser().parse_args(["plan", "--area", area, "--seed", str(SEED), "--altitude", "15",
-                                            "--strategy", "exhaustive"])
-            setup = build_area_search(ns)
+            setup = build_area_search(area, AreaOptions(altitude_m=15), SearchOptions(seed=SEED, strategy="exhaustive"))
             search = observed_search(setup.search.scenario, setup.search.config, seed=SEED)
             prior = search.map.tep.copy()
             controller = asyncio.run(asyncio.wait_for(

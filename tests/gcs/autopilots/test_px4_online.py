@@ -13,10 +13,10 @@ import sys
 
 import pytest
 
-from gcs.cli import build_parser
 from gcs.flight.controller import FlyOptions
 from gcs.flight.fly import fly_async
 from gcs.flight.online import observed_search
+from gcs.plans.options import AreaOptions, SearchOptions
 from gcs.plans.plan_folder import load_plan_dir
 from gcs.plans.planning import build_area_search
 from gcs.telemetry.status import Stage
@@ -48,9 +48,8 @@ def test_online_search_on_a_mixed_fleet_with_detectors_folds_both_vehicles_readi
         with ArduPilotSitl("copter", home=SITE.home(0), sysid=1, speedup=5,
                            serial2=f"udpclient:127.0.0.1:{ardupilot_camera_port}") as ardupilot, \
                 Px4Sitl(home=SITE.home(1)[:3], sysid=2, instance=px4_instance, params=STEADY_BATTERY) as px4:
-            ns = build_parser().parse_args(["plan", "--area", str(tmp_path / "site.geojson"), "--seed", str(SEED),
-                                            "--altitude", "15", "--strategy", "exhaustive"])
-            setup = build_area_search(ns)
+            setup = build_area_search(tmp_path / "site.geojson", AreaOptions(altitude_m=15),
+                                      SearchOptions(seed=SEED, strategy="exhaustive"))
             search = observed_search(setup.search.scenario, setup.search.config, seed=SEED)
             prior = search.map.tep.copy()
             controller = asyncio.run(asyncio.wait_for(

@@ -15,11 +15,11 @@ import aiomqtt
 from gcs.bus import Command, CommandKind, FleetWatcher, MessageType, Topics, parse_broker_url, schema_errors
 from gcs.bus.flight_feed import add_bus_arguments, attach_bus, bus_options
 from gcs.cli import main
-from gcs.cli.commands.fly import start_sim
 from gcs.flight.controller import FlightController, FlyOptions
 from gcs.links import MavLink
 from gcs.plans.plan_folder import load_plan_dir
 from gcs.telemetry.status import Stage
+from sim.plan_fleet import fleet_for_plan
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -31,7 +31,7 @@ def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fle
     plan = load_plan_dir(out)
     options = FlyOptions(tick_s=0.01, transfer_timeout_s=0.1, command_timeout_s=0.2, link_timeout_s=1.0,
                          lost_giveup_s=1.0, connect_timeout_s=5.0, arm_timeout_s=5.0)
-    sim = start_sim(plan, speedup=60.0).start()
+    sim = fleet_for_plan(plan, speedup=60.0).start()
 
     async def scenario():
         received = []

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from gcs.cli import main
-from gcs.flight.sortie import file_sha256, validate_belief_dict
+from gcs.plans.belief_file import file_sha256, validate_belief_dict
 from gcs.plans.plan_file import validate_plan_dict
 from planner.success import expected_finds
 from tests.gcs.plans.conftest import small_area

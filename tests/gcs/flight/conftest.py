@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 from gcs.cli import main
-from gcs.cli.commands.fly import start_sim
 from gcs.flight.controller import FlightController, FlyOptions
 from gcs.flight.fly import fly_async
 from gcs.plans.plan_folder import FleetPlan, load_plan_dir
+from sim.plan_fleet import fleet_for_plan
 
 ROOT = Path(__file__).resolve().parents[3]
 SPEEDUP = 60.0
@@ -42,7 +42,7 @@ def fly(plan: FleetPlan, options: FlyOptions | None = None, *, during=None, list
         **sim) -> tuple[FlightController, object]:
     """Fly `plan` against a fresh simulated fleet; `during(fleet)` runs once it is up."""
     sim.setdefault("speedup", SPEEDUP)
-    fleet = start_sim(plan, **sim).start()
+    fleet = fleet_for_plan(plan, **sim).start()
     try:
         if during is not None:
             during(fleet)

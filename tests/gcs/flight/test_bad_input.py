@@ -58,6 +58,18 @@ def test_malformed_return_order(plan_dir, capsys):
     assert "UAV:NUMBER" in _one_error_line(capsys)
 
 
+@pytest.mark.parametrize("extra, message", [
+    (["--area", str(ROOT / "missions" / "paper.geojson")], "give --plan or --area, not both"),
+    (["--online"], "--online needs --area"),
+])
+def test_fly_takes_a_plan_folder_or_an_area_not_both(plan_dir, capsys, extra, message):
+    """--plan and --area together, or --online without --area: one line, nothing written."""
+    before = sorted(p.name for p in plan_dir.iterdir())
+    assert main(["fly", "--plan", str(plan_dir), "--sim", *extra]) == 2
+    assert message in _one_error_line(capsys)
+    assert sorted(p.name for p in plan_dir.iterdir()) == before
+
+
 def test_plan_without_geo_reference(tmp_path, capsys):
     out = tmp_path / "plan.json"
     assert main(["plan", "--scenario", "paper", "--strategy", "exhaustive", "--range", "20", "--out", str(out),

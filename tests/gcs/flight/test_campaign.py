@@ -17,10 +17,12 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from gcs.cli import build_parser, main
+from gcs.cli import main
 from gcs.flight.events import ReadingReceived
-from gcs.flight.sortie import SortieLog, file_sha256, validate_belief_dict, validate_sortie_dict
+from gcs.flight.sortie import SortieLog
+from gcs.plans.belief_file import file_sha256, validate_belief_dict, validate_sortie_dict
 from gcs.plans.campaign import continued_start
+from gcs.plans.options import options_record
 from gcs.plans.plan_file import validate_plan_dict
 from gcs.plans.plan_folder import load_plan_dir
 from gcs.plans.planning import build_area_search
@@ -116,6 +118,21 @@ def test_a_flight_leaves_the_posterior_of_its_readings_its_tracks_and_its_detect
                for d in detections)
 
 
+def test_gcs_fly_area_plans_what_gcs_plan_area_plans_with_the_same_defaults(campaign, tmp_path):
+    """`gcs fly --area` calls the planning `gcs plan --area` calls, with the same options and
+    defaults (the paper's CPIO among them): the same plan, missions and belief."""
+    out = tmp_path / "planned"
+    assert main(["plan", "--area", str(campaign.area), "--out", str(out), "--no-rrd", "--quiet"]) == 0
+    flown_plan = _json(campaign.first / "plan.json")
+    assert flown_plan["settings"]["strategy"] == "cpio"
+
+    def text(folder, name):  # (the campaign rows name the folder)
+        return (folder / name).read_text().replace(str(campaign.area.resolve()), "AREA").replace(str(folder), "OUT")
+
+    for name in ("plan.json", "belief.json", "paths.geojson", "uav1.waypoints", "uav4.plan"):
+        assert text(out, name) == text(campaign.first, name), name
+
+
 def _search_cells(plan: dict) -> list[tuple[int, int]]:
     return [(p["x"] - 1, p["y"] - 1) for u in plan["uavs"] for p in u["trajectory"][1:] if p["stage"] == "search"]
 
@@ -142,9 +159,11 @@ def test_the_next_sortie_plans_from_the_posterior_with_fresh_batteries_and_stays
     assert belief["source"] == "flight" and belief["sortie"] == 2 and belief["tep"] == record["belief"]["tep"]
     assert [u["range"] for u in plan2["uavs"]] == [u["range"] for u in plan1["uavs"]]  # fresh batteries
 
-    # closed and legal: the same sortie planned again from the same arguments, checked step by step
-    ns, start = continued_start(build_parser().parse_args(["plan", "--continue", str(first)]))
-    setup = build_area_search(ns, start.belief)
+    # closed and legal: the same sortie planned again from the options plan.json recorded, checked step by step
+    nxt = continued_start(first)
+    assert (nxt.area_file, Path(nxt.out)) == (campaign.area.resolve(), second.resolve())
+    assert options_record(nxt.area, nxt.search) == plan1["campaign"]["options"]
+    setup = build_area_search(nxt.area_file, nxt.area, nxt.search, nxt.start.belief)
     for _ in setup.search.run():
         pass
     replanned = setup.search.plan()

@@ -115,9 +115,9 @@ def test_a_vehicle_that_goes_silent_does_not_stop_the_others(plan):
 
 
 def test_upload_under_20_percent_packet_loss_still_verifies(plan):
-    from gcs.cli.commands.fly import start_sim
+    from sim.plan_fleet import fleet_for_plan
 
-    fleet = start_sim(plan, speedup=10.0, loss=0.2, seed=3).start()
+    fleet = fleet_for_plan(plan, speedup=10.0, loss=0.2, seed=3).start()
     try:
         controller = asyncio.run(upload_fleet(plan, fleet.connection_strings(),
                                               fast_options(transfer_timeout_s=0.05, fly=False)))
@@ -151,12 +151,12 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     the range is the live battery's, so decisions may rightly part from the precomputed plan's:
     there only the finds are compared. (Seed 4: one UAV's search ends on its airport, with no
     return leg.)"""
-    from gcs.cli.commands.fly import start_sim
     from gcs.display.status_table import targets_found
     from gcs.flight.fly import fly_async
     from gcs.flight.online import observed_search
     from gcs.plans import planning as area_plan
     from gcs.plans.plan_folder import load_plan_dir
+    from sim.plan_fleet import fleet_for_plan
     from tests.gcs.flight.conftest import ROOT
 
     area = str(ROOT / "missions" / "paper.geojson")
@@ -164,12 +164,12 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     assert main(["plan", "--area", area, *options, "--out", str(tmp_path), "--quiet", "--no-rrd"]) == 0
     plan = load_plan_dir(tmp_path)
     predicted = {(t["x"] - 1, t["y"] - 1) for t in plan.raw["targets"] if t["found_step"] is not None}
-    from gcs.cli import build_parser
+    from gcs.plans.options import SearchOptions
 
-    args = build_parser().parse_args(["plan", "--area", area, *options])
-    setup = area_plan.build_area_search(args)
+    setup = area_plan.build_area_search(area, search=SearchOptions(seed=seed, strategy="exhaustive",
+                                                                   horizon_value=None if horizon else False))
     search = observed_search(setup.search.scenario, setup.search.config, seed=seed)
-    fleet = start_sim(plan, speedup=40.0, seed=seed).start()
+    fleet = fleet_for_plan(plan, speedup=40.0, seed=seed).start()
     try:
         online = asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
                                                         online=search), 180))
@@ -231,10 +231,10 @@ def test_fly_area_with_operator_orders_on_stdin(tmp_path):
 def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch):
     """A bug in the GCS loop mid-flight: every vehicle in the air is commanded RTL before the
     command ends with one error (FlightAborted), never left flying unwatched."""
-    from gcs.cli.commands.fly import start_sim
     from gcs.flight.controller import FlightAborted, FlightController
     from gcs.flight.fly import fly_async
     from sim import Mode
+    from sim.plan_fleet import fleet_for_plan
 
     real = FlightController.evaluate
 
@@ -244,7 +244,7 @@ def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch)
         return real(self, uid)
 
     monkeypatch.setattr(FlightController, "evaluate", evaluate)
-    fleet = start_sim(plan, speedup=20.0).start()
+    fleet = fleet_for_plan(plan, speedup=20.0).start()
     try:
         with pytest.raises(FlightAborted, match="injected bug.*commanded RTL"):
             asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options()), 120))

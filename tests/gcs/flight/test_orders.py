@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import asyncio
 
-from gcs.cli.commands.fly import start_sim
 from gcs.flight.controller import FlightController
 from gcs.flight.events import StageChanged
 from gcs.links import open_links
 from gcs.telemetry.status import Stage
+from sim.plan_fleet import fleet_for_plan
 from tests.gcs.flight.conftest import SPEEDUP, fast_options, fly
 
 
@@ -26,7 +26,7 @@ def test_a_return_ordered_before_take_off_keeps_the_vehicle_on_the_ground(plan):
 def test_a_return_ordered_after_the_mission_started_but_before_lift_off_disarms_it_there(plan):
     """The race the bus test met under load: the order arrives once the mission was started, before
     the vehicle is airborne; it is disarmed on the ground instead of taking off."""
-    fleet = start_sim(plan, speedup=SPEEDUP).start()
+    fleet = fleet_for_plan(plan, speedup=SPEEDUP).start()
 
     async def main() -> FlightController:
         async with open_links(fleet.connection_strings()) as links:

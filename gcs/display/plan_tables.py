@@ -1,0 +1,106 @@
+"""What `gcs plan` (and `gcs fly --area` before it flies) prints about a plan: the summary per UAV
+with the probability of success, the missions of an area plan, and a campaign's sorties."""
+
+from __future__ import annotations
+
+import json
+from typing import TYPE_CHECKING
+
+from gcs.missions.items import AltitudeReference
+
+if TYPE_CHECKING:
+    from gcs.plans.campaign import CampaignResult
+    from gcs.plans.make import ScenarioResult
+    from gcs.plans.planning import AreaSetup
+    from planner.plan import Plan
+
+
+def summary_table(plan: Plan) -> str:
+    """Per UAV its legs, range use and probability of success (expected targets found, and that
+    as a share of what the prior puts in the area); then the totals, and the simulated finds."""
+    found_by: dict[int, int] = {}
+    for t in plan.targets:
+        if t.found_by is not None:
+            found_by[t.found_by] = found_by.get(t.found_by, 0) + 1
+    pos = plan.success
+    rows = [f"{'UAV':>3}  {'airport':>9}  {'search':>6}  {'return':>6}  {'range':>5}  {'eta':>6}  {'E[found]':>8}  "
+            f"{'PoS':>6}  {'found':>5}  return reason"]
+    for u in plan.uavs:
+        airport = f"({u.airport[0] + 1},{u.airport[1] + 1})"
+        reason = u.return_reason.value if u.return_reason else "-"
+        expected = (f"{pos.by_uav.get(u.uav_id, 0.0):>8.2f}  {pos.share_of(u.uav_id):>6.1%}" if pos
+                    else f"{'-':>8}  {'-':>6}")
+        found = found_by.get(u.uav_id, 0) if len(plan.targets) else "-"
+        rows.append(f"{u.uav_id:>3}  {airport:>9}  {u.search_steps:>6}  {u.return_steps:>6}  {u.range_steps:>5}  "
+                    f"{u.eta:>6.1%}  {expected}  {found:>5}  {reason}")
+    if pos is not None:
+        rows.append(f"probability of success {pos.share:.1%}: expected targets found {pos.expected:.2f} of the "
+                    f"{pos.available:.2f} the prior puts in the area")
+    simulated = (f"targets found {plan.targets_found}/{len(plan.targets)}" if len(plan.targets)
+                 else "no targets placed (none to find)")
+    rows.append(f"simulated: {simulated}, false alarms {plan.false_alarms}, mean eta {plan.mean_eta:.1%}")
+    return "\n".join(rows)
+
+
+def mission_table(setup: AreaSetup, files: dict[str, str]) -> str:
+    """Per UAV of an area plan its name, altitude and layer, range, path length and waypoints
+    (as plan.json in `files` has them); the altitude layers and the grid."""
+    data = json.loads(files["plan.json"])
+    rows = [f"{'UAV':>3}  {'name':<16} {'alt m':>6} {'layer':>5} {'range m':>8} {'path m':>8} {'waypoints':>9}"]
+    for u in data["uavs"]:
+        layer = u.get("altitude_layer")
+        rows.append(f"{u['id']:>3}  {u['name'][:16]:<16} {u['altitude_m']:>6.0f} {layer or '-':>5} "
+                    f"{u['range_m']:>8.0f} {u['length_m']:>8.0f} {len(u['waypoints']):>9}")
+    layers = setup.layers
+    above = "the ground below" if setup.altitude_reference is AltitudeReference.TERRAIN else "each airport"
+    if layers.levels_m:
+        rows.append(f"altitude layers {layers.levels_m[0]:g}-{layers.levels_m[-1]:g} m above {above} "
+                    f"({len(layers.levels_m)} layers)")
+    for level, uavs in sorted(layers.shared.items()):
+        rows.append(f"UAVs {', '.join(map(str, uavs))} share layer {level} ({layers.levels_m[level - 1]:g} m): "
+                    "the plan keeps them out of each other's cells; raise --ceiling or lower --altitude-step to part "
+                    "them")
+    g = setup.area.grid
+    rows.append(f"grid {g.nx}x{g.ny} cells of {g.cell_size_m:g} m, {int(setup.area.free.sum())} searchable, "
+                f"{setup.area.edge_blocked} blocked at edges")
+    return "\n".join(rows)
+
+
+def campaign_table(rows: list[dict], available: float) -> str:
+    """Every sortie of a campaign so far: flown or planned, what it was planned from, its
+    readings, its expected finds and probability of success, and the cumulative one."""
+    lines = [f"campaign: the prior puts {available:.2f} targets in the area",
+             f"{'sortie':>6}  {'status':<8} {'planned from':<12} {'readings':>8}  {'E[found]':>8}  {'PoS':>6}  "
+             f"{'cumulative PoS':>14}"]
+    for r in rows:
+        readings = f"{r['readings']}" if "readings" in r else "-"
+        lines.append(f"{r['sortie']:>6}  {r['status']:<8} {r['belief']:<12} {readings:>8}  "
+                     f"{r['expected_targets_found']:>8.2f}  {r['probability_of_success']:>6.1%}  "
+                     f"{r['cumulative_pos']:>14.1%}")
+    return "\n".join(lines)
+
+
+def scenario_report(result: ScenarioResult) -> str:
+    """The summary of a built-in scenario's plan and where its files went."""
+    return "\n".join([summary_table(result.plan),
+                      f"plan written to {result.path}, picture {result.picture}"
+                      + (f", recording {result.rrd}" if result.rrd else "")])
+
+
+def area_report(result: CampaignResult) -> str:
+    """Per sortie of an area plan its summary, its missions and where its files went; then the
+    campaign's sorties when there are several, and where campaign.json went."""
+    several = result.campaign_file is not None
+    lines = []
+    for sortie in result.sorties:
+        if several or len(result.rows) > 1:
+            lines.append(f"-- sortie {sortie.setup.belief.sortie} ({sortie.folder}) --")
+        lines.append(summary_table(sortie.plan))
+        lines.append(mission_table(sortie.setup, sortie.files))
+        lines.append(f"plan, missions and paths written to {sortie.folder}/ ({', '.join(sorted(sortie.files))}), "
+                     f"picture {sortie.picture.name}" + (f", recording {sortie.rrd}" if sortie.rrd else ""))
+    if len(result.rows) > 1:
+        lines.append(campaign_table(result.rows, result.available))
+    if result.campaign_file is not None:
+        lines.append(f"campaign summary written to {result.campaign_file}")
+    return "\n".join(lines)

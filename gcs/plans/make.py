@@ -1,0 +1,172 @@
+"""Make a plan, start to finish: what `gcs plan` and `gcs fly --area` call, and a Python user may.
+
+    plan_scenario("paper", SearchOptions(seed=7), "runs/plan.json")     # a built-in scenario
+    plan_area("missions/paper.geojson", AreaOptions(), SearchOptions()) # a real area: runs/paper/
+    continue_campaign("runs/paper")                                     # the sortie after a flight
+
+Each runs the closed search with a progress bar (on stderr), records it to Rerun unless told not
+to, writes the plan files and draws the picture, and returns what it made; printing it is the
+caller's (`gcs.display.plan_tables`). Two helper processes work beside the search
+(`gcs.background`): one loads matplotlib and draws the pictures, one loads rerun and writes the
+recording (when it goes to a file only), so the planning process imports neither."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from gcs.atomic import write_json_atomic
+from gcs.background import Background
+from gcs.display.overview import draw_overview, warm_up as warm_up_picture
+from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions
+from gcs.plans.plan_file import plan_to_dict
+from gcs.recording.background import BackgroundPlanRecorder
+
+if TYPE_CHECKING:
+    from gcs.plans.campaign import CampaignResult
+    from gcs.recording.plan import PlanRecorder
+    from planner.dtscs import ClosedSearch, StepRecord
+    from planner.plan import Plan
+    from planner.scenario import Scenario
+
+DEFAULT_PLAN_FILE = "runs/plan.json"
+
+
+def fly_with_progress(search: ClosedSearch, progress: bool = True,
+                      on_step: Callable[[StepRecord], None] | None = None) -> Plan:
+    """Run `search` to the end with a progress bar on stderr (none when `progress` is False or
+    stderr is no terminal), calling `on_step` with every step's record; the plan."""
+    from tqdm import tqdm
+
+    horizon = max(u.range_steps for u in search.uavs.values())
+    with tqdm(total=horizon, unit="step", desc="planning", disable=not progress or None, leave=False,
+              file=sys.stderr) as bar:
+        for record in search.run():
+            if on_step is not None:
+                on_step(record)
+            bar.update(1)
+            bar.set_postfix(found=sum(s is not None for s in search.found_step))
+    return search.plan()
+
+
+def warm_up_recording() -> None:
+    """In the helper: rerun and the recorder, loaded while the search runs."""
+    import gcs.recording.plan  # noqa: F401
+
+
+class Planning:
+    """The helpers of one planning run: `fly` runs and records a search, `draw` draws pictures."""
+
+    def __init__(self, output: OutputOptions, pictures: Background, recordings: Background | None) -> None:
+        self.output = output
+        self._pictures = pictures
+        self._recordings = recordings
+
+    def fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None = None) -> Plan:
+        """Run the search with a progress bar, recording every step to Rerun unless disabled: by
+        the recordings helper when it records to a file only, here when it also streams to a viewer."""
+        output = self.output
+        if rrd is None and output.rerun_connect is None:
+            return fly_with_progress(search, output.progress)
+        recorder: PlanRecorder | BackgroundPlanRecorder
+        if self._recordings is not None and output.rerun_connect is None:
+            recorder = BackgroundPlanRecorder(self._recordings, rrd, search.scenario, cells_to_lat_lon=cells_to_lat_lon,
+                                              name=name)
+        else:
+            from gcs.recording.plan import PlanRecorder  # rerun takes ~0.45 s to import: only when recording
+
+            recorder = PlanRecorder(rrd, output.rerun_connect, search.scenario, cells_to_lat_lon=cells_to_lat_lon,
+                                    name=name)
+        with recorder as rec:
+            plan = fly_with_progress(search, output.progress, rec.log_step)
+            rec.log_plan(plan)
+        return plan
+
+    def draw(self, jobs: list[tuple[Plan, Scenario, Path]]) -> list[Path]:
+        """Draw each (plan, scenario, path) in the pictures helper, wait for them and the
+        recordings; the pictures' paths."""
+        indices = [self._pictures.submit(draw_overview, *job) for job in jobs]
+        if self._recordings is not None:
+            self._recordings.results()
+        drawn = self._pictures.results()
+        return [drawn[i] for i in indices]
+
+
+@contextmanager
+def planning(output: OutputOptions) -> Iterator[Planning]:
+    """The helper processes of a run, started now so that they load their libraries while the
+    area is read and the search runs; stopped on leaving."""
+    with ExitStack() as stack:
+        pictures = stack.enter_context(Background(warm_up_picture))
+        recordings = None
+        if output.record and output.rerun_connect is None:
+            recordings = stack.enter_context(Background(warm_up_recording))
+        yield Planning(output, pictures, recordings)
+
+
+@dataclass(frozen=True)
+class ScenarioResult:
+    """A built-in scenario's plan, the file it was written to, its picture and its recording."""
+
+    plan: Plan
+    scenario: Scenario
+    path: Path
+    picture: Path
+    rrd: Path | None
+
+
+def plan_path(out: str | Path) -> Path:
+    """The plan file `out` names: a `.json` file, else `plan.json` in that folder."""
+    path = Path(out)
+    return path if path.suffix == ".json" else path / "plan.json"
+
+
+def plan_scenario(scenario: str = "paper", search: SearchOptions | None = None, out: str | Path = DEFAULT_PLAN_FILE,
+                  output: OutputOptions | None = None) -> ScenarioResult:
+    """Plan built-in scenario `scenario` (`planner.scenario.SCENARIOS`) into `out` (a `.json`
+    file, or a folder that receives plan.json), with the picture and, unless `output` says
+    otherwise, the Rerun recording beside it. Bad options raise UserError before anything is written."""
+    from gcs.plans.planning import build_scenario_search
+
+    search = search or SearchOptions()
+    output = output or OutputOptions()
+    with planning(output) as run:
+        closed = build_scenario_search(scenario, search)
+        path = plan_path(out)
+        rrd = output.recording_path(path.with_suffix(".rrd"))
+        plan = run.fly(closed, rrd, f"{scenario} seed {search.seed}")
+        write_json_atomic(path, plan_to_dict(plan, seed=search.seed))
+        [picture] = run.draw([(plan, closed.scenario, path.with_suffix(".png"))])
+    return ScenarioResult(plan, closed.scenario, path, picture, rrd)
+
+
+def plan_area(area_file: str | Path, area: AreaOptions | None = None, search: SearchOptions | None = None,
+              out: str | Path | None = None, output: OutputOptions | None = None,
+              sorties: int | None = None) -> CampaignResult:
+    """Plan the area of `area_file` (docs/areas.md) into the folder `out` (default runs/<area
+    file name>): plan.json, the missions, paths, belief and picture, and the recording unless
+    `output` says otherwise. With `sorties` N, N closed sorties in a row into `out`/sortie<k>/
+    and campaign.json (docs/campaigns.md). Bad input raises UserError before anything is written."""
+    from gcs.plans.campaign import plan_sorties
+
+    output = output or OutputOptions()
+    with planning(output) as run:
+        return plan_sorties(area_file, area or AreaOptions(), search or SearchOptions(), out, run, sorties=sorties)
+
+
+def continue_campaign(folder: str | Path, out: str | Path | None = None, output: OutputOptions | None = None,
+                      sorties: int | None = None) -> CampaignResult:
+    """Plan the sortie after the finished flight in `folder` from the posterior it left, with
+    fresh batteries and the area and options `folder` was planned with, into `out` (default
+    `folder`-sortie<N+1>); with `sorties` N, N sorties. UserError when `folder` is not a finished
+    flight of an unchanged plan over an unchanged area file."""
+    from gcs.plans.campaign import continued_start, plan_sorties
+
+    output = output or OutputOptions()
+    with planning(output) as run:
+        nxt = continued_start(folder, out)
+        return plan_sorties(nxt.area_file, nxt.area, nxt.search, nxt.out, run, sorties=sorties, start=nxt.start)
