@@ -3,15 +3,14 @@ changes, take-offs, readings) and publishes each as it happens, samples the vehi
 (it never writes their state), and carries commands from the bus to the controller. `attach_bus`
 is the few lines `gcs fly --mqtt` needs:
 
-    async with attach_bus(controller, args.mqtt, fleet=args.fleet):
+    async with attach_bus(controller, "mqtt://127.0.0.1", fleet="north"):
         await controller.run()
 
-and `BusFeed` the same as a watcher of `gcs.flight.fly.fly_async` (`bus=BusFeed(**bus_options(args))`):
+and `BusFeed` the same as a watcher of `gcs.flight.fly.fly_async` (`bus=bus_feed(url, fleet=...)`):
 the bus depends on the flight, never the other way round."""
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import contextlib
 import math
@@ -26,7 +25,7 @@ from gcs.flight.events import FlightEvent, LinkChanged, ReadingReceived, StageCh
 if TYPE_CHECKING:
     from gcs.flight.controller import FlightController
 
-__all__ = ["BusFeed", "FlightFeed", "add_bus_arguments", "attach_bus", "bus_options"]
+__all__ = ["BusFeed", "FlightFeed", "attach_bus", "bus_feed"]
 
 _EVENT_OF_STAGE = {"return": "return", "rtl": "rtl", "landed": "landed", "lost": "link_lost", "failed": "failed"}
 _FINAL = ("landed", "failed")
@@ -115,30 +114,17 @@ class FlightFeed:
         return f"RTL not acknowledged by UAV {', '.join(failed)}" if failed else None
 
 
-def add_bus_arguments(p: argparse.ArgumentParser) -> None:
-    """`--mqtt` and its companions, for `gcs fly`."""
-    g = p.add_argument_group("fleet bus (MQTT, docs/bus.md)")
-    g.add_argument("--mqtt", metavar="URL", default=None,
-                   help="publish the fleet on this broker and take commands from it: mqtt://[user@]host[:port] or "
-                        "mqtts://... (password: $GCS_MQTT_PASSWORD)")
-    g.add_argument("--fleet", default="default", help="fleet name on the bus (topics gcs/FLEET/...)")
-    g.add_argument("--mqtt-station", default="gcs", help="this station's name on the bus")
-    g.add_argument("--mqtt-telemetry-hz", type=float, default=2.0, help="telemetry rate per UAV on the bus")
-    g.add_argument("--mqtt-ca-file", default=None, help="mqtts: CA certificate of the broker")
-    g.add_argument("--mqtt-tls-insecure", action="store_true", help="mqtts: do not check the broker's host name")
-
-
-def bus_options(args: argparse.Namespace) -> dict:
-    """Check the bus arguments early (ValueError with one line) and return attach_bus's keywords."""
-    tls = TlsOptions(args.mqtt_ca_file, insecure=args.mqtt_tls_insecure) \
-        if (args.mqtt_ca_file or args.mqtt_tls_insecure) else None
-    broker = parse_broker_url(args.mqtt, tls=tls)
+def bus_feed(url: str, *, fleet: str = "default", station: str = "gcs", telemetry_hz: float = 2.0,
+             ca_file: str | None = None, tls_insecure: bool = False) -> BusFeed:
+    """A flight's fleet bus on the broker at `url` (mqtt:// or mqtts://), checked before the flight:
+    ValueError with one line for a bad URL, TLS settings or name."""
+    tls = TlsOptions(ca_file, insecure=tls_insecure) if (ca_file or tls_insecure) else None
+    broker = parse_broker_url(url, tls=tls)
     from gcs.bus.messages import check_name
 
-    check_name(args.fleet, "--fleet")
-    check_name(args.mqtt_station, "--mqtt-station")
-    return {"broker": broker, "fleet": args.fleet, "station": args.mqtt_station,
-            "telemetry_hz": args.mqtt_telemetry_hz}
+    check_name(fleet, "--fleet")
+    check_name(station, "--mqtt-station")
+    return BusFeed(broker, fleet=fleet, station=station, telemetry_hz=telemetry_hz)
 
 
 @contextlib.asynccontextmanager
@@ -175,7 +161,7 @@ async def attach_bus(controller: FlightController, broker, *, fleet: str, statio
 
 class BusFeed:
     """A flight's fleet bus, as `fly_async` takes it (`bus=`, or among its `watchers`): the
-    settings of `attach_bus` (the keywords `bus_options` returns), entered on `attach`."""
+    settings of `attach_bus` (`bus_feed` checks them), entered on `attach`."""
 
     def __init__(self, broker, *, fleet: str, station: str = "gcs", telemetry_hz: float = 2.0, **bus_kwargs) -> None:
         self.broker = broker

@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gcs.cli.bus_options import bus_feed_from
 from gcs.cli.link_options import add_link_arguments, connections_from, signing_from
 from gcs.cli.plan_options import (
     add_area_arguments,
@@ -40,7 +41,6 @@ from gcs.telemetry.status import Stage
 from planner.campaign import sortie_seed
 
 if TYPE_CHECKING:
-    from gcs.bus.flight_feed import BusFeed
     from gcs.plans.planning import AreaSetup
 
 # ---- the command line ---------------------------------------------------------------------
@@ -62,7 +62,7 @@ def add_connection_arguments(p: argparse.ArgumentParser) -> None:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("fly", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     add_connection_arguments(p)
-    from gcs.bus.flight_feed import add_bus_arguments
+    from gcs.cli.bus_options import add_bus_arguments
 
     add_bus_arguments(p)
     p.add_argument("--reserve-pct", type=float, default=30.0, help="battery kept back by the return trigger")
@@ -174,18 +174,6 @@ def flight_recorder(args: argparse.Namespace, plan: FleetPlan):
     return recorder
 
 
-def _bus_from(args: argparse.Namespace) -> BusFeed | None:
-    """The MQTT bus feed (`--mqtt` ...), or None without a bus."""
-    if not args.mqtt:
-        return None
-    from gcs.bus.flight_feed import BusFeed, bus_options
-
-    try:
-        return BusFeed(**bus_options(args))
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
-
-
 def journal_options(options: FlyOptions) -> dict:
     """The knobs a resumed flight keeps unless they are given again."""
     return {name: getattr(options, name) for name in RESUMED_OPTIONS.values()}
@@ -211,7 +199,7 @@ def run(args: argparse.Namespace) -> int:
                         f"(make one with: gcs plan --area AREA.geojson --out {args.plan})")
     connections = check_connections(args)
     signing = signing_from(args)
-    bus = _bus_from(args)
+    bus = bus_feed_from(args)
     if args.plan:
         check_no_flight_in_progress(Path(args.plan))
     elif args.area:
@@ -301,7 +289,7 @@ def resume(args: argparse.Namespace) -> int:
     if state.start.signed and signing is None:
         raise UserError(f"--resume {folder}: the flight's links were signed: give --signing-key or "
                         "--signing-passphrase again")
-    bus = _bus_from(args)
+    bus = bus_feed_from(args)
     options = options_from(args, plan)
     for flag, name in RESUMED_OPTIONS.items():
         if flag not in given and name in state.start.options:

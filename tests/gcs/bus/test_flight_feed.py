@@ -3,7 +3,6 @@ FlightController of `gcs fly`, watched and commanded over MQTT."""
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import json
 from collections import defaultdict
@@ -13,7 +12,7 @@ from pathlib import Path
 import aiomqtt
 
 from gcs.bus import Command, CommandKind, FleetWatcher, MessageType, Topics, parse_broker_url, schema_errors
-from gcs.bus.flight_feed import add_bus_arguments, attach_bus, bus_options
+from gcs.bus.flight_feed import bus_feed
 from gcs.cli import main
 from gcs.flight.controller import FlightController, FlyOptions
 from gcs.links import MavLink
@@ -47,11 +46,8 @@ def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fle
             reader = asyncio.create_task(collect())
             links = [await stack.enter_async_context(MavLink(c)) for c in sim.connection_strings()]
             controller = FlightController(plan, links, options, out=lambda line: None)
-            parser = argparse.ArgumentParser()
-            add_bus_arguments(parser)  # as gcs fly would
-            args = parser.parse_args(["--mqtt", broker.url, "--fleet", fleet_name, "--mqtt-station", "flyer",
-                                      "--mqtt-telemetry-hz", "5"])
-            async with attach_bus(controller, **bus_options(args)):
+            feed = bus_feed(broker.url, fleet=fleet_name, station="flyer", telemetry_hz=5.0)  # as gcs fly would
+            async with feed.attach(controller):
                 flight = asyncio.create_task(controller.run())
                 async with FleetWatcher(url, fleet=fleet_name) as watcher:
                     while not controller.status[2].airborne_seen:  # ordered on the ground, it would stay there

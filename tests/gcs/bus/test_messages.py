@@ -88,18 +88,18 @@ def test_a_full_event_queue_drops_the_oldest_and_counts_it():
     assert stats.connects == 0 and "refused" in stats.last_error.lower()
 
 
-def test_fly_bus_arguments_are_checked_before_the_flight():
-    import argparse
+def test_fly_bus_settings_are_checked_before_the_flight():
+    from gcs.bus.flight_feed import bus_feed
 
-    from gcs.bus.flight_feed import add_bus_arguments, bus_options
-
-    parser = argparse.ArgumentParser()
-    add_bus_arguments(parser)
-    opts = bus_options(parser.parse_args(["--mqtt", "mqtts://op@h:8884", "--fleet", "north",
-                                          "--mqtt-ca-file", "ca.crt"]))
-    assert (opts["broker"].port, opts["broker"].tls.ca_file, opts["fleet"], opts["station"]) == \
-        (8884, "ca.crt", "north", "gcs")
-    for argv, what in [(["--mqtt", "tcp://h"], "mqtt://"), (["--mqtt", "mqtt://h", "--fleet", "a/b"], "--fleet"),
-                       (["--mqtt", "mqtt://h", "--mqtt-ca-file", "ca.crt"], "mqtts")]:
+    feed = bus_feed("mqtts://op@h:8884", fleet="north", ca_file="ca.crt")
+    assert (feed.broker.port, feed.broker.tls.ca_file, feed.fleet, feed.station) == (8884, "ca.crt", "north", "gcs")
+    for url, settings, what in [("tcp://h", {}, "mqtt://"), ("mqtt://h", {"fleet": "a/b"}, "--fleet"),
+                                ("mqtt://h", {"ca_file": "ca.crt"}, "mqtts")]:
         with pytest.raises(ValueError, match=what):
-            bus_options(parser.parse_args(argv))
+            bus_feed(url, **settings)
+
+
+def test_fly_bus_arguments_become_one_error_line():
+    from gcs.cli import main
+
+    assert main(["fly", "--plan", "nowhere", "--sim", "--mqtt", "mqtt://h", "--fleet", "a/b"]) == 2
