@@ -117,3 +117,17 @@ def test_a_terrain_following_plan_is_refused_for_px4_before_any_upload(tmp_path,
     for uid in (1, 2, 3, 4):
         assert f"UAV {uid}: FAILED: mission not uploaded: PX4 refuses terrain-following frames: plan without " \
                "--terrain-follow for this vehicle" in said, said
+
+
+def test_a_simulated_fleet_needs_uav_ids_one_to_n(plan):
+    """`--sim` numbers its vehicles 1..N (MAVLink system ids): a plan with a gap is refused,
+    as one error line from the command, before any vehicle starts."""
+    from gcs.cli.commands.fly import simulated_fleet
+    from gcs.errors import UserError
+    from sim.plan_fleet import fleet_for_plan
+
+    del plan.uavs[2]
+    with pytest.raises(ValueError, match=r"needs UAV ids 1..N, the plan has \[1, 3, 4\]"):
+        fleet_for_plan(plan, speedup=1.0)
+    with pytest.raises(UserError, match=r"^--sim: the simulated fleet needs UAV ids 1..N"):
+        simulated_fleet(plan, speedup=1.0)
