@@ -1,6 +1,10 @@
-"""`fly_async`: one flight wired together: the links, one `FlightController`, its listeners and
-watchers (recorder, MQTT bus, journal, sortie log, live table), operator orders, and the online
-planner or a resumed flight when asked for.
+"""One flight of a plan, wired together.
+
+`fly_plan` flies a plan anew and `fly_resumed` takes over a flight whose station died: each keeps
+the flight's journal (`gcs.flight.journal`, what a restarted station resumes from) and its
+sortie record (`gcs.flight.sortie`), and returns a `FlightOutcome`. Both are what `gcs fly` calls;
+`fly_async` beneath them joins the links, one `FlightController`, its listeners and watchers,
+operator orders, and the online planner or a resumed flight when asked for.
 
 The flight imports none of what watches it: the caller builds the recorder
 (`gcs.recording.flight.FlightRecorder`), the bus feed (`gcs.bus.flight_feed.BusFeed`) and the
@@ -11,14 +15,113 @@ from __future__ import annotations
 import asyncio
 import signal
 from collections.abc import Callable, Sequence
-from contextlib import AsyncExitStack
+from contextlib import AbstractAsyncContextManager, AsyncExitStack
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
 
 from gcs.flight.controller import FlightAborted, FlightController, FlyOptions
 from gcs.flight.events import FlightListener
+from gcs.flight.journal import JOURNALED_OPTIONS, FlightJournal, JournalState, journal_options, new_start
 from gcs.flight.orders import start_stdin_reader
+from gcs.flight.sortie import SortieLog
 from gcs.links import SigningKey, open_links
 from gcs.links.connection import Connection
+from gcs.plans.belief_file import file_sha256
 from gcs.plans.plan_folder import FleetPlan
+from gcs.telemetry.status import Stage
+
+if TYPE_CHECKING:
+    from planner.dtscs import ClosedSearch
+
+
+class Watcher(Protocol):
+    """Anything that follows a whole flight: held by `attach(controller)` while it runs."""
+
+    def attach(self, controller: FlightController) -> AbstractAsyncContextManager[Any]: ...
+
+
+class Display(Watcher, Protocol):
+    """A terminal view of the flight (`gcs.display.status_table.LiveTable`): a watcher that also
+    shows the controller's lines."""
+
+    def line(self, text: str) -> None: ...
+
+
+@dataclass
+class FlightOutcome:
+    """How a flight ended: its controller (every vehicle's last status), its sortie record and
+    its recording."""
+
+    controller: FlightController
+    sortie: SortieLog
+    recording: Path | None = None
+
+    @property
+    def exit_code(self) -> int:
+        """0 when every vehicle landed, 130 when the operator interrupted the flight, else 1."""
+        if self.controller.interrupted:
+            return 130
+        return 0 if all(st.stage is Stage.LANDED for st in self.controller.status.values()) else 1
+
+
+def fly_plan(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, *, signing: SigningKey | None = None,
+             simulated: bool = False, online: ClosedSearch | None = None, recorder=None, bus=None,
+             display: Display | None = None, stdin_orders: bool = False) -> FlightOutcome:
+    """Fly `plan` over `connections` until every vehicle is down (`fly_async`), keeping the
+    flight's journal in the plan folder (a `simulated` fleet stops with the station, so its
+    journal never holds a later flight back) and writing its sortie record; `online` flies the
+    search with the planner in the loop (`gcs.flight.online.observed_search`)."""
+    folder = Path(plan.folder)
+    rrd = recorder.rrd_path if recorder is not None else None
+    start = new_start(file_sha256(folder / "plan.json"), list(connections), sim=simulated, signed=signing is not None,
+                      online=online is not None, options=journal_options(options),
+                      rrd=_relative(rrd, folder), recording_id=None)
+    sortie = SortieLog(plan)
+    journal = FlightJournal.begin(plan, start, recorder)
+    controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=stdin_orders, online=online,
+                                       recorder=recorder, bus=bus, signing=signing,
+                                       out=display.line if display is not None else None,
+                                       watchers=[journal, sortie, *([display] if display is not None else [])]))
+    return FlightOutcome(controller, sortie, rrd)
+
+
+def fly_resumed(plan: FleetPlan, state: JournalState, connections: Sequence[str], options: FlyOptions, *,
+                signing: SigningKey | None = None, recorder=None, bus=None,
+                display: Display | None = None, stdin_orders: bool = False) -> FlightOutcome:
+    """Take over the flight `state` (`gcs.flight.resume.resumable_flight`) left in `plan`'s
+    folder and fly it on to the end: the journal and sortie record carry on from what they kept,
+    each `udpout` link sends from the port the dead station used, and `recorder` writes the
+    recording's next segment (`gcs.recording.flight.resumed_flight_recorder`)."""
+    from gcs.flight.resume import Resumption, links_from_the_same_ports
+
+    sortie = SortieLog(plan)
+    sortie.restore(state)
+    rrd = recorder.rrd_path if recorder is not None else None
+    journal = FlightJournal.reopen(plan, state, list(connections), _relative(rrd, Path(plan.folder)))
+    links = links_from_the_same_ports(list(connections), state.udp_source_ports)
+    controller = asyncio.run(fly_async(plan, links, options, stdin_orders=stdin_orders, recorder=recorder, bus=bus,
+                                       signing=signing, out=display.line if display is not None else None,
+                                       watchers=[journal, sortie, *([display] if display is not None else [])],
+                                       resume=Resumption(plan, state)))
+    return FlightOutcome(controller, sortie, rrd)
+
+
+def resumed_options(options: FlyOptions, state: JournalState, given: set[str]) -> FlyOptions:
+    """`options` with the journal's value of every knob it kept (`JOURNALED_OPTIONS`) that is
+    not among the `given` field names."""
+    kept = {name: value for name, value in state.start.options.items()
+            if name in JOURNALED_OPTIONS and name not in given}
+    return replace(options, **kept)
+
+
+def _relative(path: Path | None, folder: Path) -> str | None:
+    if path is None:
+        return None
+    try:
+        return str(path.resolve().relative_to(folder.resolve()))
+    except ValueError:
+        return str(path.resolve())
 
 
 async def fly_async(plan: FleetPlan, connections: Sequence[str | Connection], options: FlyOptions,

@@ -44,7 +44,7 @@ from gcs.plans.plan_folder import FleetPlan
 from gcs.telemetry.status import FINAL_STAGES, Detection, Stage
 
 if TYPE_CHECKING:
-    from gcs.flight.controller import FlightController
+    from gcs.flight.controller import FlightController, FlyOptions
 
 __all__ = ["JOURNAL_FILE", "FlightJournal", "JournalError", "JournalStart", "JournalState", "VehicleRecord",
            "read_journal"]
@@ -423,6 +423,16 @@ class FlightJournal:
 
 def _utc_now() -> str:
     return datetime.now(UTC).isoformat(timespec="seconds")
+
+
+#: the `FlyOptions` fields a flight's journal keeps: a resumed flight flies with them unless given again
+JOURNALED_OPTIONS = ("speed_m_s", "reserve_pct", "descent_m_s", "link_timeout_s", "lost_giveup_s", "arm_timeout_s",
+                     "ready_timeout_s", "fence", "check_home")
+
+
+def journal_options(options: FlyOptions) -> dict:
+    """The knobs of `options` a flight's journal keeps (`JOURNALED_OPTIONS`)."""
+    return {name: getattr(options, name) for name in JOURNALED_OPTIONS}
 
 
 def new_start(plan_sha256: str, connections: list[str], *, sim: bool, signed: bool, online: bool, options: dict,

@@ -73,6 +73,11 @@ class _Reading:
     lon_deg: float
 
 
+def plan_sortie(plan: FleetPlan) -> int:
+    """Which sortie of its campaign `plan` is (1 for a plan made without one)."""
+    return int((plan.raw.get("campaign") or {}).get("sortie", 1))
+
+
 class SortieLog:
     """Folds a flight's readings into the plan's belief and keeps each vehicle's track; writes
     the sortie record when the flight ends (`attach`)."""
@@ -82,7 +87,7 @@ class SortieLog:
         self.folder = Path(plan.folder)
         campaign = plan.raw.get("campaign") or {}
         options = campaign.get("options") or {}
-        self.sortie = int(campaign.get("sortie", 1))
+        self.sortie = plan_sortie(plan)
         self.area = campaign.get("area")
         self.pc = float(options.get("pc", 0.9))
         self.pf = float(options.get("pf", 0.1))

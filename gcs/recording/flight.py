@@ -44,7 +44,7 @@ import rerun.blueprint as rrb
 from gcs.display.overview import uav_colour
 from gcs.flight.events import FlightEvent, ReadingReceived
 from gcs.flight.watch import EventLine, event_lines, watching
-from gcs.recording.plan import GEO_STRING, EntityRows, flush_rows, lighter, open_stream
+from gcs.recording.plan import GEO_STRING, EntityRows, check_viewer, flush_rows, lighter, open_stream
 
 if TYPE_CHECKING:
 
@@ -124,6 +124,9 @@ class FlightRecorder:
     def open(self) -> None:
         if not self.enabled or self.rec is not None:
             return
+        if self.rrd_path is not None and self.resumed is None:  # an earlier flight's continuations
+            for stale in self.rrd_path.parent.glob(f"{self.rrd_path.stem}.resume*{self.rrd_path.suffix}"):
+                stale.unlink(missing_ok=True)
         blueprint = flight_blueprint(sorted(self.plan.uavs))
         self.rec = open_stream(self.rrd_path, self.connect, self.name, blueprint,
                                self.resumed.recording_id if self.resumed is not None else None)
@@ -359,6 +362,32 @@ def segment_path(first: Path, k: int) -> Path:
     """The file of a flight recording's segment `k` (0: the first, `flight.rrd`; then
     `flight.resume1.rrd`, ...)."""
     return first if k == 0 else first.with_name(f"{first.stem}.resume{k}{first.suffix}")
+
+
+def new_flight_recorder(plan: FleetPlan, rrd: Path | None, connect: str | None) -> FlightRecorder | None:
+    """The recorder of a new flight of `plan` to the file `rrd` and/or the viewer at `connect`
+    (UserError if none listens there), or None when nothing is recorded."""
+    if rrd is None and connect is None:
+        return None
+    if connect is not None:
+        check_viewer(connect)
+    return FlightRecorder(rrd, connect, plan, name=f"flight {Path(plan.folder).name}")
+
+
+def resumed_flight_recorder(plan: FleetPlan, state: JournalState, *, record: bool,
+                            connect: str | None) -> FlightRecorder | None:
+    """The recorder of a flight taken over after its station died: the recording's next segment
+    beside the first (when the flight was recorded to a file and `record`), and/or the viewer at
+    `connect`, first logging what the earlier segments lack; None when nothing is recorded."""
+    folder = Path(plan.folder)
+    rrd = segment_path(folder / state.start.rrd, len(state.segments)) if record and state.start.rrd else None
+    if rrd is None and connect is None:
+        return None
+    if connect is not None:
+        check_viewer(connect)
+    resumed = resumed_recording(state, plan, [folder / name for name in state.segments],
+                                time.time() - state.start.wall_s - state.last_t)
+    return FlightRecorder(rrd, connect, plan, name=f"flight {folder.name}", resumed=resumed)
 
 
 def recorded_until(paths: list[Path]) -> dict[str, float]:

@@ -13,9 +13,7 @@ journal it left in DIR, `gcs.flight.journal`; the reattachment, `gcs.flight.resu
 from __future__ import annotations
 
 import argparse
-import asyncio
 import sys
-import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -31,13 +29,11 @@ from gcs.cli.plan_options import (
 from gcs.display.status_table import LiveTable, render_summary
 from gcs.errors import UserError
 from gcs.flight.controller import FlyOptions
-from gcs.flight.fly import fly_async
-from gcs.flight.journal import FlightJournal, check_no_flight_in_progress, new_start
-from gcs.flight.sortie import SortieLog
-from gcs.plans.belief_file import file_sha256
+from gcs.flight.fly import FlightOutcome, fly_plan, fly_resumed, resumed_options
+from gcs.flight.journal import check_no_flight_in_progress
+from gcs.flight.sortie import plan_sortie
 from gcs.plans.options import OutputOptions
 from gcs.plans.plan_folder import FleetPlan, load_plan_dir
-from gcs.telemetry.status import Stage
 from planner.campaign import sortie_seed
 
 if TYPE_CHECKING:
@@ -158,36 +154,6 @@ def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
                       ready_timeout_s=args.ready_timeout, arm_timeout_s=args.arm_timeout)
 
 
-def flight_recorder(args: argparse.Namespace, plan: FleetPlan):
-    """The flight's Rerun recorder (`flight.rrd` in the plan folder unless `--rrd` / `--no-rrd`),
-    or None when nothing is recorded; rerun is imported only then."""
-    rrd = output_options_from(args).recording_path(Path(plan.folder) / "flight.rrd")
-    if rrd is None and args.rerun_connect is None:
-        return None
-    from gcs.recording.flight import FlightRecorder
-
-    recorder = FlightRecorder(rrd, args.rerun_connect, plan, name=f"flight {Path(plan.folder).name}")
-    if args.rerun_connect is not None:
-        from gcs.recording.plan import check_viewer
-
-        check_viewer(args.rerun_connect)
-    return recorder
-
-
-def journal_options(options: FlyOptions) -> dict:
-    """The knobs a resumed flight keeps unless they are given again."""
-    return {name: getattr(options, name) for name in RESUMED_OPTIONS.values()}
-
-
-def _relative(path: Path | None, folder: Path) -> str | None:
-    if path is None:
-        return None
-    try:
-        return str(path.resolve().relative_to(folder.resolve()))
-    except ValueError:
-        return str(path.resolve())
-
-
 def run(args: argparse.Namespace) -> int:
     if args.resume:
         return resume(args)
@@ -208,7 +174,6 @@ def run(args: argparse.Namespace) -> int:
         check_no_flight_in_progress(area_out_dir(args.area, args.out))
     plan, setup = plan_for_flight(args)
     options = options_from(args, plan)
-    recorder = flight_recorder(args, plan)
     if any(u not in plan.uavs for u in drains):
         raise UserError("--sim-drain: unknown UAV")
     online = None
@@ -216,51 +181,50 @@ def run(args: argparse.Namespace) -> int:
         from gcs.flight.online import observed_search
 
         online = observed_search(setup.search.scenario, setup.search.config, seed=setup.search.seed)
-    sortie = SortieLog(plan)
+    recorder, rrd = None, output_options_from(args).recording_path(Path(plan.folder) / "flight.rrd")
+    if rrd is not None or args.rerun_connect is not None:  # rerun is imported only then
+        from gcs.recording.flight import new_flight_recorder
+
+        recorder = new_flight_recorder(plan, rrd, args.rerun_connect)
     fleet = None
     if args.sim:
         # a later sortie's readings draw new noise (planner.campaign.sortie_seed)
         fleet = simulated_fleet(plan, speedup=args.speedup, profile=args.sim_profile,
-                          seed=sortie_seed(args.seed, sortie.sortie), pc=args.pc,
-                          pf=args.pf, drain=drains, loss=args.sim_loss,
-                          endurance_s=args.sim_endurance, signing=signing).start()
-        connections = fleet.connection_strings()
+                                seed=sortie_seed(args.seed, plan_sortie(plan)), pc=args.pc, pf=args.pf, drain=drains,
+                                loss=args.sim_loss, endurance_s=args.sim_endurance, signing=signing)
+        connections = fleet.start().connection_strings()
         print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}",
               flush=True)
-    start = new_start(file_sha256(Path(plan.folder) / "plan.json"), connections, sim=args.sim,
-                      signed=signing is not None, online=args.online, options=journal_options(options),
-                      rrd=_relative(recorder.rrd_path if recorder else None, Path(plan.folder)), recording_id=None)
-    journal = FlightJournal.begin(plan, start, recorder)
-    if recorder is not None and recorder.rrd_path is not None:  # an earlier flight's continuations
-        for stale in recorder.rrd_path.parent.glob(f"{recorder.rrd_path.stem}.resume*{recorder.rrd_path.suffix}"):
-            stale.unlink(missing_ok=True)
-    table = LiveTable() if sys.stdout.isatty() else None
     try:
-        controller = asyncio.run(fly_async(plan, connections, options,
-                                           stdin_orders=args.stdin_orders or sys.stdin.isatty(), online=online,
-                                           recorder=recorder, bus=bus, signing=signing,
-                                           out=table.line if table else None,
-                                           watchers=[journal, sortie, *([table] if table else [])]))
+        outcome = fly_plan(plan, connections, options, signing=signing, simulated=args.sim, online=online,
+                           recorder=recorder, bus=bus, display=_display(), stdin_orders=_stdin_orders(args))
     finally:
         if fleet is not None:
             fleet.stop()
-    return _ending(controller, sortie, recorder)
+    return _ending(outcome)
 
 
-def _ending(controller, sortie: SortieLog, recorder) -> int:
-    """The summary and the exit code."""
-    print(render_summary(controller))
-    print(sortie.report())
-    if recorder is not None and recorder.rrd_path is not None:
-        print(f"recording {recorder.rrd_path}")
-    if controller.interrupted:
-        return 130
-    return 0 if all(st.stage is Stage.LANDED for st in controller.status.values()) else 1
+def _display() -> LiveTable | None:
+    return LiveTable() if sys.stdout.isatty() else None
+
+
+def _stdin_orders(args: argparse.Namespace) -> bool:
+    return args.stdin_orders or sys.stdin.isatty()
+
+
+def _ending(outcome: FlightOutcome) -> int:
+    """The summary; the exit code."""
+    print(render_summary(outcome.controller))
+    print(outcome.sortie.report())
+    if outcome.recording is not None:
+        print(f"recording {outcome.recording}")
+    return outcome.exit_code
 
 
 # ---- taking over a flight whose station died ----------------------------------------------
 
-#: options the journal keeps unless given again (flag: FlyOptions field)
+#: the flags of the options a flight's journal keeps (`gcs.flight.journal.JOURNALED_OPTIONS`): a resumed
+#: flight flies with the journal's values unless they are given again
 RESUMED_OPTIONS = {"--cruise-speed": "speed_m_s", "--reserve-pct": "reserve_pct", "--descent-speed": "descent_m_s",
                    "--link-timeout": "link_timeout_s", "--lost-giveup": "lost_giveup_s",
                    "--arm-timeout": "arm_timeout_s", "--ready-timeout": "ready_timeout_s", "--no-fence": "fence",
@@ -276,7 +240,7 @@ def _flags_given(args: argparse.Namespace) -> list[str]:
 
 def resume(args: argparse.Namespace) -> int:
     """`gcs fly --resume DIR`: read the journal, reconnect, reattach every vehicle and fly on."""
-    from gcs.flight.resume import Resumption, links_from_the_same_ports, resumable_flight
+    from gcs.flight.resume import resumable_flight
 
     given = _flags_given(args)
     foreign = [flag for flag in given if flag not in RESUME_FLAGS]
@@ -290,38 +254,13 @@ def resume(args: argparse.Namespace) -> int:
         raise UserError(f"--resume {folder}: the flight's links were signed: give --signing-key or "
                         "--signing-passphrase again")
     bus = bus_feed_from(args)
-    options = options_from(args, plan)
-    for flag, name in RESUMED_OPTIONS.items():
-        if flag not in given and name in state.start.options:
-            setattr(options, name, state.start.options[name])
-    recorder, segment = resumed_recorder(args, plan, state)
-    sortie = SortieLog(plan)
-    sortie.restore(state)
-    journal = FlightJournal.reopen(plan, state, connections, segment)
-    resumption = Resumption(plan, state)
+    options = resumed_options(options_from(args, plan), state,
+                              {name for flag, name in RESUMED_OPTIONS.items() if flag in given})
+    recorder = None
+    if (state.start.rrd is not None and not args.no_rrd) or args.rerun_connect is not None:
+        from gcs.recording.flight import resumed_flight_recorder
+
+        recorder = resumed_flight_recorder(plan, state, record=not args.no_rrd, connect=args.rerun_connect)
     print(f"resuming the flight started {state.start.utc} in {folder} over {', '.join(connections)}", flush=True)
-    table = LiveTable() if sys.stdout.isatty() else None
-    controller = asyncio.run(fly_async(plan, links_from_the_same_ports(connections, state.udp_source_ports), options,
-                                       stdin_orders=args.stdin_orders or sys.stdin.isatty(), recorder=recorder,
-                                       bus=bus, signing=signing, out=table.line if table else None,
-                                       watchers=[journal, sortie, *([table] if table else [])], resume=resumption))
-    return _ending(controller, sortie, recorder)
-
-
-def resumed_recorder(args: argparse.Namespace, plan: FleetPlan, state):
-    """The recorder of a resumed flight (a further segment of the flight's recording, beside
-    the first, with the event-log lines the earlier segments lack), or None; and the segment's
-    name for the journal."""
-    if args.no_rrd or (state.start.rrd is None and args.rerun_connect is None):
-        return None, None
-    from gcs.recording.flight import FlightRecorder, resumed_recording, segment_path
-
-    folder = Path(plan.folder)
-    rrd = segment = None
-    if state.start.rrd is not None:
-        rrd = segment_path(folder / state.start.rrd, len(state.segments))
-        segment = _relative(rrd, folder)
-    resumed = resumed_recording(state, plan, [folder / name for name in state.segments],
-                                time.time() - state.start.wall_s - state.last_t)
-    recorder = FlightRecorder(rrd, args.rerun_connect, plan, name=f"flight {folder.name}", resumed=resumed)
-    return recorder, segment
+    return _ending(fly_resumed(plan, state, connections, options, signing=signing, recorder=recorder, bus=bus,
+                               display=_display(), stdin_orders=_stdin_orders(args)))

@@ -252,3 +252,48 @@ def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch)
     finally:
         fleet.stop()
     assert all(mode is Mode.RTL for mode in modes.values()), modes
+
+
+def test_fly_plan_from_python_keeps_the_journal_and_the_sortie_record(plan_dir, tmp_path):
+    """`gcs.flight.fly.fly_plan`, what `gcs fly` calls: a Python caller gets the flight, its
+    journal, its sortie record and its recording without the command line."""
+    import json
+    import shutil
+
+    from gcs.flight.fly import fly_plan
+    from gcs.flight.journal import JOURNAL_FILE, read_journal
+    from gcs.plans.belief_file import SORTIE_FILE
+    from gcs.plans.plan_folder import load_plan_dir
+    from gcs.recording.flight import new_flight_recorder
+    from sim.plan_fleet import fleet_for_plan
+
+    folder = tmp_path / "paper"
+    shutil.copytree(plan_dir, folder)
+    plan = load_plan_dir(folder)
+    stale = folder / "flight.resume1.rrd"  # an earlier flight's continuation: replaced with it
+    stale.write_bytes(b"old")
+    options = fast_options(reserve_pct=25.0)
+    with fleet_for_plan(plan, speedup=60.0).running() as fleet:
+        outcome = fly_plan(plan, fleet.connection_strings(), options, simulated=True,
+                           recorder=new_flight_recorder(plan, folder / "flight.rrd", None))
+    assert outcome.exit_code == 0
+    assert all(st.stage is Stage.LANDED for st in outcome.controller.status.values())
+    state = read_journal(folder)
+    assert (folder / JOURNAL_FILE).exists() and state.ended is not None and state.start.sim
+    assert state.start.options["reserve_pct"] == 25.0 and state.start.rrd == "flight.rrd"
+    sortie = json.loads((folder / SORTIE_FILE).read_text())
+    assert sortie["sortie"] == 1 and outcome.sortie.report().startswith(f"sortie 1 recorded in {folder}/")
+    assert outcome.recording == folder / "flight.rrd" and outcome.recording.stat().st_size > 0
+    assert not stale.exists()
+
+
+def test_resumed_options_keep_the_journal_knobs_not_given_again(plan_dir, tmp_path):
+    from gcs.flight.fly import resumed_options
+    from gcs.flight.journal import JournalStart, JournalState, journal_options
+
+    started = FlyOptions(speed_m_s=14.0, reserve_pct=40.0, fence=False)
+    start = JournalStart(0.0, "", "", (), False, False, False, journal_options(started), None, None)
+    state = JournalState(tmp_path / "j", start, vehicles={}, events=[], segments=[], last_t=0.0)
+    resumed = resumed_options(FlyOptions(reserve_pct=20.0, return_after_s={1: 5.0}), state, {"reserve_pct"})
+    assert resumed.speed_m_s == 14.0 and not resumed.fence  # kept from the journal
+    assert resumed.reserve_pct == 20.0 and resumed.return_after_s == {1: 5.0}  # given again
