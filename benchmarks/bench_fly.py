@@ -27,8 +27,8 @@ sys.path.insert(0, str(ROOT))
 
 from gcs.autopilots import Autopilot  # noqa: E402
 from gcs.cli import main as gcs_main  # noqa: E402
-from gcs.cli.commands.upload import upload_fleet  # noqa: E402
 from gcs.flight.controller import FlightController, FlyOptions  # noqa: E402
+from gcs.flight.fly import upload_plan  # noqa: E402
 from gcs.links import MavLink  # noqa: E402
 from gcs.plans.plan_folder import FleetPlan, load_plan_dir  # noqa: E402
 from sim.plan_fleet import fleet_for_plan  # noqa: E402
@@ -61,7 +61,7 @@ def bench_upload(plan: FleetPlan, runs: int, loss: float) -> tuple[list[float], 
         try:
             opts = FlyOptions(fly=False, transfer_timeout_s=0.05 if loss else 0.5)
             start = time.perf_counter()
-            controller = asyncio.run(upload_fleet(plan, fleet.connection_strings(), opts, out=lambda line: None))
+            controller = asyncio.run(upload_plan(plan, fleet.connection_strings(), opts, out=lambda line: None))
             times.append(time.perf_counter() - start)
             assert len(controller.upload_reports) == len(plan.uavs), "an upload failed"
             transfers += [sum(r.elapsed_s for r in reports.values()) for reports in controller.upload_reports.values()]

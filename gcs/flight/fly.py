@@ -65,6 +65,18 @@ class FlightOutcome:
         return 0 if all(st.stage is Stage.LANDED for st in self.controller.status.values()) else 1
 
 
+async def upload_plan(plan: FleetPlan, connections: Sequence[str], options: FlyOptions,
+                      out: Callable[[str], None] | None = None,
+                      signing: SigningKey | None = None) -> FlightController:
+    """Send every UAV's mission (and geofence and rally point unless `options.fence` is off) to
+    its vehicle and verify it by reading it back, without flying (`gcs upload`); the
+    controller's `upload_reports` say what each vehicle holds."""
+    async with open_links(connections, signing=signing) as links:
+        controller = FlightController(plan, links, options, out)
+        await controller.upload_all()
+    return controller
+
+
 def fly_plan(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, *, signing: SigningKey | None = None,
              simulated: bool = False, online: ClosedSearch | None = None, recorder=None, bus=None,
              display: Display | None = None, stdin_orders: bool = False) -> FlightOutcome:

@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from gcs.cli.bus_options import bus_feed_from
+from gcs.cli.bus_options import add_bus_arguments, bus_feed_from
 from gcs.cli.link_options import add_link_arguments, connections_from, signing_from
 from gcs.cli.plan_options import (
     add_area_arguments,
@@ -26,6 +26,7 @@ from gcs.cli.plan_options import (
     output_options_from,
     plan_options_from,
 )
+from gcs.cli.sim_options import add_sim_arguments, connections_or_sim, simulated_fleet
 from gcs.display.status_table import LiveTable, render_summary
 from gcs.errors import UserError
 from gcs.flight.controller import FlyOptions
@@ -42,24 +43,14 @@ if TYPE_CHECKING:
 # ---- the command line ---------------------------------------------------------------------
 
 
-def add_connection_arguments(p: argparse.ArgumentParser) -> None:
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("fly", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     p.add_argument("--plan", metavar="DIR", help="a gcs plan --area output folder")
     p.add_argument("--resume", metavar="DIR", help="take over the flight in progress in DIR after the station that "
                                                    "flew it died (its links, unless --connect is given again)")
     add_link_arguments(p)
-    p.add_argument("--sim", action="store_true", help="start the built-in simulated fleet at the plan's airports")
-    p.add_argument("--speedup", type=float, default=10.0, help="simulated time / real time with --sim")
-    p.add_argument("--sim-profile", choices=("ardupilot", "px4"), default="ardupilot",
-                   help="autopilot the sim imitates")
-    p.add_argument("--sim-loss", type=float, default=0.0, help="packet loss probability on every simulated link")
+    add_sim_arguments(p)
     p.add_argument("--no-fence", action="store_true", help="do not upload geofence and rally points")
-
-
-def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("fly", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
-    add_connection_arguments(p)
-    from gcs.cli.bus_options import add_bus_arguments
-
     add_bus_arguments(p)
     p.add_argument("--reserve-pct", type=float, default=30.0, help="battery kept back by the return trigger")
     p.add_argument("--cruise-speed", type=float, default=10.0, help="vehicles' cruise speed, m/s (range estimate)")
@@ -89,16 +80,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_output_arguments(p, "the flight", "flight.rrd in the plan folder")
     add_area_arguments(p)
     p.set_defaults(func=run)
-
-
-def simulated_fleet(plan: FleetPlan, **settings):
-    """`sim.plan_fleet.fleet_for_plan`, its refusal as one error line."""
-    from sim.plan_fleet import fleet_for_plan
-
-    try:
-        return fleet_for_plan(plan, **settings)
-    except ValueError as exc:
-        raise UserError(f"--sim: {exc}") from None
 
 
 def _pairs(values: list[str], what: str, kind=float) -> dict[int, float]:
@@ -131,15 +112,6 @@ def plan_for_flight(args: argparse.Namespace) -> tuple[FleetPlan, AreaSetup | No
     return load_plan_dir(args.plan), None
 
 
-def check_connections(args: argparse.Namespace) -> list[str]:
-    """`--sim` or well-formed `--connect` strings, checked before any planning or upload."""
-    if args.sim and args.connect:
-        raise UserError("--sim starts its own vehicles: leave out --connect")
-    if not args.sim and not args.connect:
-        raise UserError("give --connect (e.g. udpin:127.0.0.1:14550, tcp:127.0.0.1:5760, /dev/ttyUSB0,57600) or --sim")
-    return connections_from(args)
-
-
 def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
     returns = _pairs(args.return_after, "--return-after")
     unknown = [u for u in returns if u not in plan.uavs]
@@ -163,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plan and not Path(args.plan).is_dir() and not args.area:
         raise UserError(f"plan folder {args.plan} does not exist "
                         f"(make one with: gcs plan --area AREA.geojson --out {args.plan})")
-    connections = check_connections(args)
+    connections = connections_or_sim(args)
     signing = signing_from(args)
     bus = bus_feed_from(args)
     if args.plan:

@@ -8,21 +8,23 @@ from __future__ import annotations
 
 import argparse
 import asyncio
-from collections.abc import Sequence
 from pathlib import Path
 
-from gcs.cli.commands.fly import add_connection_arguments, check_connections, simulated_fleet
-from gcs.cli.link_options import signing_from
+from gcs.cli.link_options import add_link_arguments, signing_from
+from gcs.cli.sim_options import add_sim_arguments, connections_or_sim, simulated_fleet
 from gcs.errors import UserError
-from gcs.flight.controller import FlightController, FlyOptions
+from gcs.flight.controller import FlyOptions
+from gcs.flight.fly import upload_plan
 from gcs.flight.journal import check_no_flight_in_progress
-from gcs.links import SigningKey, open_links
-from gcs.plans.plan_folder import FleetPlan, load_plan_dir
+from gcs.plans.plan_folder import load_plan_dir
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("upload", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
-    add_connection_arguments(p)
+    p.add_argument("--plan", metavar="DIR", help="a gcs plan --area output folder")
+    add_link_arguments(p)
+    add_sim_arguments(p)
+    p.add_argument("--no-fence", action="store_true", help="do not upload geofence and rally points")
     p.add_argument("--timeout", type=float, default=0.5, help="seconds before a mission message is re-sent")
     p.add_argument("--connect-timeout", type=float, default=15.0, help="seconds to wait for each vehicle's HEARTBEAT")
     p.add_argument("--ready-timeout", type=float, default=180.0,
@@ -32,18 +34,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-async def upload_fleet(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, out=None,
-                       signing: SigningKey | None = None) -> FlightController:
-    async with open_links(connections, signing=signing) as links:
-        controller = FlightController(plan, links, options, out)
-        await controller.upload_all()
-    return controller
-
-
 def run(args: argparse.Namespace) -> int:
     if not args.plan:
         raise UserError("give --plan DIR (a gcs plan --area folder)")
-    connections = check_connections(args)
+    connections = connections_or_sim(args)
     signing = signing_from(args)
     plan = load_plan_dir(args.plan)
     if not args.sim:  # an upload goes to vehicles that may be flying that flight
@@ -57,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
                           signing=signing).start()
         connections = fleet.connection_strings()
     try:
-        controller = asyncio.run(upload_fleet(plan, connections, options, signing=signing))
+        controller = asyncio.run(upload_plan(plan, connections, options, signing=signing))
     finally:
         if fleet is not None:
             fleet.stop()

@@ -122,7 +122,7 @@ def test_a_terrain_following_plan_is_refused_for_px4_before_any_upload(tmp_path,
 def test_a_simulated_fleet_needs_uav_ids_one_to_n(plan):
     """`--sim` numbers its vehicles 1..N (MAVLink system ids): a plan with a gap is refused,
     as one error line from the command, before any vehicle starts."""
-    from gcs.cli.commands.fly import simulated_fleet
+    from gcs.cli.sim_options import simulated_fleet
     from gcs.errors import UserError
     from sim.plan_fleet import fleet_for_plan
 

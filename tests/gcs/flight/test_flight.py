@@ -9,10 +9,10 @@ import math
 import pytest
 
 from gcs.cli import main
-from gcs.cli.commands.upload import upload_fleet
 from gcs.display.status_table import render_summary, render_table
 from gcs.flight.controller import FlyOptions
 from gcs.flight.events import ModeChanged, ReadingReceived, StageChanged, TookOff
+from gcs.flight.fly import upload_plan
 from gcs.telemetry.status import Stage
 from sim import FailsafeLevel
 from tests.gcs.flight.conftest import fast_options, fly
@@ -119,7 +119,7 @@ def test_upload_under_20_percent_packet_loss_still_verifies(plan):
 
     fleet = fleet_for_plan(plan, speedup=10.0, loss=0.2, seed=3).start()
     try:
-        controller = asyncio.run(upload_fleet(plan, fleet.connection_strings(),
+        controller = asyncio.run(upload_plan(plan, fleet.connection_strings(),
                                               fast_options(transfer_timeout_s=0.05, fly=False)))
         stored = {uid: fleet.vehicle(uid).mission.items() for uid in plan.uavs}
     finally:
