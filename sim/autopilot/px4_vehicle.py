@@ -29,6 +29,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from sim.autopilot import px4, telemetry
 from sim.autopilot.failsafe import FailsafeLevel, failsafe_to_trigger
+from sim.autopilot.guidance import climb_point, hold_or
 from sim.autopilot.mission_protocol import MissionItem, MissionType, ProtocolConfig
 from sim.autopilot.modes import Mode, mode_table
 from sim.autopilot.px4_mission import Px4MissionProtocol, px4_texts
@@ -542,7 +543,7 @@ class Px4Vehicle(SimVehicle):
         self._speed_m_s = p[0] if p[0] > 0 else None
         return result
 
-    # ---- RTL (§6) ---------------------------------------------------------------------------
+    # ---- guidance: RTL (§6) and the goals of `sim.autopilot.guidance` as PX4 flies them ------
 
     def _start_rtl(self) -> None:
         here = self.airframe.position_en
@@ -593,8 +594,6 @@ class Px4Vehicle(SimVehicle):
             self.statustext("RTL: land at destination")
         return Goal(None, -1.0, landing=True)
 
-    # ---- flight -----------------------------------------------------------------------------
-
     def _nav_goal(self, item: MissionItem) -> Goal:
         """PX4 reports a NAV_LAND reached over its point, before it descends (§4); a mission's
         NAV_RETURN_TO_LAUNCH flies PX4's RTL."""
@@ -621,26 +620,29 @@ class Px4Vehicle(SimVehicle):
         if self.mode == Mode.TAKEOFF:
             if self._takeoff_alt_m is not None:
                 if alt < self._takeoff_alt_m - 0.5:
-                    return Goal(self._climb_point(), self._takeoff_alt_m)
+                    return Goal(climb_point(self.airframe), self._takeoff_alt_m)
                 self._takeoff_alt_m = None
                 self._enter(Mode.LOITER)
-            return None if self.landed else Goal(self._hold_or(None), alt)
+            return None if self.landed else Goal(hold_or(self.airframe, None), alt)
         if self.mode in (Mode.LOITER, Mode.GUIDED):
             if self.landed:
                 return None
             if self._target_alt_m <= 0:
                 return Goal(None, -1.0, landing=True)
-            return Goal(self._hold_or(self._target_en), self._target_alt_m)
+            return Goal(hold_or(self.airframe, self._target_en), self._target_alt_m)
         if self.mode == Mode.POSCTL:
             return None if self.landed else Goal(None, alt - _POSCTL_SINK_M_S * self._dt_s, landing=True)
         if self.mode == Mode.LAND:
-            return None if self.landed else Goal(None if self.airframe.limits.can_hover else self._hold_or(None), -1.0,
-                                                  landing=True)
+            if self.landed:
+                return None
+            return Goal(None if self.airframe.limits.can_hover else hold_or(self.airframe, None), -1.0, landing=True)
         if self.mode == Mode.RTL:
             return None if self.landed else self._rtl_goal()
         if self.mode == Mode.AUTO:
             return self._auto_goal()
         return None if self.landed else Goal(None, alt)
+
+    # ---- flight -----------------------------------------------------------------------------
 
     def step(self, dt_s: float) -> None:
         """Advance simulated time by dt (seconds; the fleet keeps dt at or under 0.1 s)."""

@@ -1,11 +1,12 @@
-"""One simulated autopilot: commands, modes, mission execution, parameters, failsafes and
-telemetry, flying an `Airframe` (`sim.physics.airframe`: motion, battery, sensor).
+"""One simulated autopilot: commands, modes, arming, parameters, failsafes and telemetry,
+flying an `Airframe` (`sim.physics.airframe`: motion, battery, sensor).
 
 `SimVehicle` is transport-free: `handle(msg, wall_s)` answers one MAVLink message, `step(dt_s)`
 advances simulated time, `emit()` returns telemetry and events due. The fleet owns the clock
 and the sockets. Each step the autopilot decides a `Goal` from its mode and mission and the
 airframe flies toward it; the autopilot reads back where the airframe is (`airframe.kin`, in
-the fleet's local frame) to reach waypoints, land and report.
+the fleet's local frame) to reach waypoints, land and report. Where it steers (each mode's goal,
+the mission's progress, RTL, the landings) is `sim.autopilot.guidance`.
 
 The `ardupilot` profile behaves as ArduCopter / ArduPlane 4.7 SITL did when measured (research
 reports `ardupilot_protocol` and `ardupilot_flight`; docs/sim.md lists each behaviour): readiness
@@ -28,14 +29,15 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from gcs.autopilots.ardupilot_storage import stored_item
 from planner.georef import LocalFrame
 from sim.autopilot import telemetry
-from sim.autopilot.ardupilot import BOOT_TIMES, CAPACITY, MISSION_TEXT_NAMES, BootTimes, boot_refusals, ekf_flags
+from sim.autopilot.ardupilot import BOOT_TIMES, CAPACITY, BootTimes, boot_refusals, ekf_flags
 from sim.autopilot.ardupilot_mission import ArduPilotMissionProtocol
 from sim.autopilot.failsafe import FailsafeLevel, failsafe_level, failsafe_to_trigger
+from sim.autopilot.guidance import NAV_COMMANDS, Guidance
 from sim.autopilot.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
 from sim.autopilot.modes import Mode, custom_mode_of, mode_from_custom, mode_table
 from sim.autopilot.px4 import BOOT_TIMES as PX4_BOOT_TIMES, Px4BootTimes
 from sim.autopilot.telemetry import reading_message, reading_text
-from sim.physics.airframe import Airframe, Goal, HomePose
+from sim.physics.airframe import Airframe, HomePose
 from sim.physics.battery import Battery, BatteryConfig, SihBattery
 from sim.physics.kinematics import KinematicLimits
 from sim.physics.sensor import DownwardSensor, Observation, SensorConfig
@@ -43,16 +45,6 @@ from sim.physics.sensor import DownwardSensor, Observation, SensorConfig
 MAVMessage = mavlink.MAVLink_message
 _FORCE_MAGIC = 21196
 _ABSOLUTE_ALT_FRAMES = frozenset({mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_INT})
-_NAV_COMMANDS = frozenset(
-    {
-        mavlink.MAV_CMD_NAV_WAYPOINT,
-        mavlink.MAV_CMD_NAV_LOITER_UNLIM,
-        mavlink.MAV_CMD_NAV_LOITER_TIME,
-        mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH,
-        mavlink.MAV_CMD_NAV_LAND,
-        mavlink.MAV_CMD_NAV_TAKEOFF,
-    }
-)
 _LAND_SLOW_BELOW_M, _LAND_SLOW_M_S = 10.0, 0.5  # ArduCopter's LAND_ALT_LOW and LAND_SPEED
 # from the take-off command to leaving the ground: ArduCopter 3.25 s after MISSION_START, ArduPlane
 # 2.0 s after arming in AUTO (landed_state TAKEOFF then, flight §2, §3)
@@ -141,7 +133,7 @@ class VehicleState:
     failsafe: FailsafeLevel
 
 
-class SimVehicle:
+class SimVehicle(Guidance):
     #: the method answering each message type (looked up on the instance: a profile's own answers)
     HANDLERS: dict[str, str] = {
         "COMMAND_LONG": "_on_command", "COMMAND_INT": "_on_command", "SET_MODE": "_on_set_mode",
@@ -201,23 +193,17 @@ class SimVehicle:
         if self.home_set:
             self.mission.set_home(home.lat_deg, home.lon_deg, home.alt_m)
         self._mission_version = self.mission.versions[MissionType.MISSION]
-        self.mission_seq = 0  # ArduPilot: 0 until a mission starts (item 0 is home)
-        self.mission_complete = False
-        self.reached: list[int] = []
-        self._jumps_done: dict[int, int] = {}
-        self._hold_until_s: float | None = None
+        self._init_guidance()
+        # the setpoints commands and modes give guidance
         self._takeoff_alt_m: float | None = None
         self._target_en: tuple[float, float] | None = None
         self._target_alt_m = 0.0
         self._speed_m_s: float | None = None
         self._rtl_alt_m = 0.0
         self._auto_armed = False  # ArduCopter: AUTO flies from the ground only after MISSION_START
-        self._nav_item: MissionItem | None = None  # ArduPlane finishes the nav item it started
         self._disarm_at_s: float | None = None
         self._lift_at_s: float | None = None
         self._prearm_report_s = 30.0
-        self._land_from: tuple[float, float, float] | None = None  # plane: where its glide began
-        self._points_en: dict[tuple[int, int], tuple[float, float]] = {}  # mission points (degE7) in the frame
         self.streams = telemetry.StreamScheduler(telemetry.default_intervals_s(
             config.telemetry_hz, profile=config.profile, vehicle_type=config.vehicle_type))
         self.params = self._default_params()
@@ -724,17 +710,8 @@ class SimVehicle:
     def _starts_with_takeoff(self) -> bool:
         items = self.mission.items()
         seq = max(self.mission_seq, self._first_seq)
-        nav = next((it for it in items[seq:] if it.command in _NAV_COMMANDS), None)
+        nav = next((it for it in items[seq:] if it.command in NAV_COMMANDS), None)
         return nav is not None and nav.command == mavlink.MAV_CMD_NAV_TAKEOFF
-
-    def _start_or_resume(self) -> None:
-        """AUTO starts the mission where it stands (MIS_RESTART 0: a re-uploaded mission
-        resumes at the current index), from its first item if it never ran or completed."""
-        if self.mission_complete or self.mission_seq < self._first_seq:
-            self._restart_mission()
-        if self.ardupilot:
-            self._announce_item()
-        self._pending.append(telemetry.mission_current(self))
 
     def _mission_start(self, p: tuple[float, ...]) -> int:
         if not self.ardupilot:
@@ -806,27 +783,6 @@ class SimVehicle:
         return mavlink.MAV_RESULT_ACCEPTED
 
     # ---- flight ------------------------------------------------------------------------
-
-    @property
-    def _first_seq(self) -> int:
-        return 1 if self.ardupilot else 0
-
-    def _restart_mission(self) -> None:
-        self.mission_seq = self._first_seq
-        self.mission_complete = False
-        self._jumps_done.clear()
-        self._hold_until_s = None
-        self._nav_item = None
-
-    def _set_seq(self, seq: int) -> bool:
-        if not self._first_seq <= seq < len(self.mission.items()):
-            return False
-        self.mission_seq = seq
-        self.mission_complete = False
-        self._hold_until_s = None
-        self._nav_item = None
-        self._pending.append(telemetry.mission_current(self))
-        return True
 
     def _alt_rel(self, alt_m: float, frame: int) -> float:
         absolute = frame in _ABSOLUTE_ALT_FRAMES or (self.ardupilot and frame == mavlink.MAV_FRAME_MISSION)
@@ -951,234 +907,6 @@ class SimVehicle:
             self._reach(self.mission_seq)
         delay = 2.0 if self.copter else self.params["LAND_DISARMDELAY"]
         self._disarm_at_s = self.time_s + delay
-
-    def _goal(self) -> Goal | None:
-        here = self.airframe.position_en
-        if self._takeoff_alt_m is not None and self.mode in (Mode.GUIDED, Mode.TAKEOFF):
-            if self.airframe.kin.alt_m >= self._takeoff_alt_m - 0.5:
-                self._takeoff_alt_m = None
-                if self.mode == Mode.TAKEOFF:
-                    self.mode = Mode.LOITER
-                if self._target_en is None:  # no reposition arrived during the climb
-                    self._target_en, self._target_alt_m = here, self.airframe.kin.alt_m
-            else:
-                return Goal(self._climb_point(), self._takeoff_alt_m)
-        if self.ardupilot and self.copter and self.mode == Mode.LOITER:
-            # SITL has no RC: LOITER's throttle is at its minimum and the copter sinks and lands
-            return None if self.landed else Goal(None, -1.0, landing=True)
-        if self.mode in (Mode.GUIDED, Mode.LOITER, Mode.TAKEOFF):
-            if self.landed:
-                return None
-            return Goal(self._hold_or(self._target_en), self._target_alt_m)
-        if self.mode == Mode.LAND:
-            return Goal(None if self.airframe.limits.can_hover else self._hold_or(None), -1.0, landing=True)
-        if self.mode == Mode.RTL:
-            return self._rtl_goal()
-        if self.mode == Mode.AUTO:
-            if self.ardupilot and self.copter and self.landed and not self._auto_armed:
-                return None  # AUTO entered by DO_SET_MODE on the ground: no take-off (flight §2)
-            return self._auto_goal()
-        return None if self.landed else Goal(None, self.airframe.kin.alt_m)
-
-    def _climb_point(self) -> tuple[float, float] | None:
-        """Copters climb vertically; planes climb straight ahead."""
-        if self.airframe.limits.can_hover:
-            return None
-        far, kin = 10_000.0, self.airframe.kin
-        return (kin.east_m + far * math.sin(kin.heading_rad), kin.north_m + far * math.cos(kin.heading_rad))
-
-    def _hold_or(self, target: tuple[float, float] | None) -> tuple[float, float] | None:
-        """A plane near its target circles (target None) instead of chasing it."""
-        if target is None or self.airframe.limits.can_hover:
-            return target
-        if math.dist(target, self.airframe.position_en) < self.airframe.limits.turn_radius_m:
-            return None
-        return target
-
-    def _rtl_goal(self) -> Goal:
-        dist = math.dist(self.home_en, self.airframe.position_en)
-        radius = self.config.acceptance_radius_m
-        if self.ardupilot and not self.copter:
-            return Goal(self._hold_or(self.home_en), self._rtl_alt_m)  # ArduPlane circles home (flight §3)
-        if self.landing or dist <= radius:
-            return Goal(self._touchdown_point(self.home_en), -1.0, landing=True)
-        if self.airframe.limits.can_hover and self.airframe.kin.alt_m < self._rtl_alt_m - 0.5:
-            return Goal(None, self._rtl_alt_m)
-        return Goal(self.home_en, self._rtl_alt_m)
-
-    def _auto_goal(self) -> Goal | None:
-        items = self.mission.items()
-        for _ in range(len(items) + 1):
-            if self.mission_seq >= len(items):
-                if not self.mission_complete:
-                    self.mission_complete = True
-                    self.statustext(self._finished_text)
-                    self._pending.append(telemetry.mission_current(self))
-                return None if self.landed else Goal(self._hold_or(None), self.airframe.kin.alt_m)
-            item = items[self.mission_seq]
-            if self.ardupilot and not self.copter and self._nav_item is not None \
-                    and self._nav_item.seq == self.mission_seq:
-                item = self._nav_item  # ArduPlane flies the nav item it started, whatever replaced it
-            if item.command == mavlink.MAV_CMD_DO_JUMP:
-                self._do_jump(item)
-                continue
-            if item.command == mavlink.MAV_CMD_DO_CHANGE_SPEED and item.param2 > 0:
-                self._speed_m_s = item.param2
-            if item.command not in _NAV_COMMANDS:
-                self._advance()
-                continue
-            self._nav_item = item
-            return self._nav_goal(item)
-        return None
-
-    _finished_text = "Mission complete"
-
-    def _do_jump(self, item: MissionItem) -> None:
-        done = self._jumps_done.get(item.seq, 0)
-        if item.param2 < 0 or done < item.param2:
-            self._jumps_done[item.seq] = done + 1
-            self.mission_seq = int(item.param1)
-        else:
-            self._advance()
-        self._pending.append(telemetry.mission_current(self))
-
-    def _item_en(self, item: MissionItem) -> tuple[float, float]:
-        """Where an item's point is in the local frame (0, 0: here); each point converted once,
-        not on every step it is flown toward."""
-        if item.x == 0 and item.y == 0:
-            return self.airframe.position_en
-        key = (item.x, item.y)
-        en = self._points_en.get(key)
-        if en is None:
-            en = self._points_en[key] = self.frame.geodetic2en(item.x / 1e7, item.y / 1e7)
-        return en
-
-    def _nav_goal(self, item: MissionItem) -> Goal:
-        cmd = item.command
-        alt = self._alt_rel(item.z, item.frame)
-        if cmd == mavlink.MAV_CMD_NAV_TAKEOFF:
-            return Goal(self._climb_point(), alt)
-        if cmd == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            if not self.landing and self._rtl_alt_m <= 0.0:
-                self._rtl_alt_m = max(self.airframe.kin.alt_m, self._rtl_alt_setting_m)
-            return self._rtl_goal()
-        if cmd == mavlink.MAV_CMD_NAV_LAND:
-            target = self._item_en(item)
-            if self.ardupilot and not self.copter:
-                return self._glide_goal(target)
-            if self.landing or math.dist(target, self.airframe.position_en) <= self._radius(item):
-                return Goal(self._touchdown_point(target), -1.0, landing=True)
-            return Goal(target, self.airframe.kin.alt_m)
-        return Goal(self._item_en(item), alt)
-
-    def _touchdown_point(self, target: tuple[float, float]) -> tuple[float, float] | None:
-        """Where a vertical landing goes down: an ArduCopter onto the point itself (0.03 m from
-        it, flight §2), the px4 profile where it stands; a plane circles down."""
-        if not self.airframe.limits.can_hover:
-            return self._hold_or(None)
-        return target if self.ardupilot else None
-
-    def _glide_goal(self, target: tuple[float, float]) -> Goal:
-        """ArduPlane's landing: along the runway axis (from the previous waypoint, the approach,
-        to the NAV_LAND point), gliding from the approach altitude to the ground just short of
-        the point (flight §3: touchdowns 5-14 m short, within 0.5 m of the axis)."""
-        here = self.airframe.position_en
-        if self._land_from is None:
-            self._land_from = (*self._previous_nav_en(here), self.airframe.kin.alt_m)
-        x0, y0, alt0 = self._land_from
-        total = math.hypot(target[0] - x0, target[1] - y0)
-        if total < 1.0:  # no axis: straight ahead, down
-            return Goal(self._climb_point(), -1.0, landing=True)
-        ux, uy = (target[0] - x0) / total, (target[1] - y0) / total
-        along = (here[0] - x0) * ux + (here[1] - y0) * uy
-        left = total - along
-        glide_alt = alt0 * min(max(left / total, 0.0), 1.0)
-        look = along + 2.0 * self.airframe.limits.turn_radius_m  # pursue a point ahead on the axis
-        aim = (x0 + ux * look, y0 + uy * look)
-        if left <= self.airframe.limits.turn_radius_m:  # over the runway: on down to the ground
-            return Goal(aim, glide_alt - 0.3, landing=True)
-        return Goal(aim, glide_alt, landing=True)
-
-    def _previous_nav_en(self, fallback: tuple[float, float]) -> tuple[float, float]:
-        """Where the nav item before the current one is (the approach before NAV_LAND)."""
-        items = self.mission.items()
-        for it in reversed(items[self._first_seq:self.mission_seq]):
-            if it.command in _NAV_COMMANDS and it.command != mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH \
-                    and (it.x, it.y) != (0, 0):
-                return self.frame.geodetic2en(it.x / 1e7, it.y / 1e7)
-        return fallback
-
-    def _radius(self, item: MissionItem) -> float:
-        radius = item.param2 if item.command == mavlink.MAV_CMD_NAV_WAYPOINT and item.param2 > 0 \
-            else self.config.acceptance_radius_m
-        if not self.airframe.limits.can_hover:
-            radius = max(radius, self.airframe.limits.turn_radius_m)
-        return radius
-
-    def _check_reached(self) -> None:
-        items = self.mission.items()
-        if self.mission_seq >= len(items):
-            return
-        item = self._nav_item if self._nav_item is not None and self._nav_item.seq == self.mission_seq \
-            else items[self.mission_seq]
-        cmd = item.command
-        here = self.airframe.position_en
-        if cmd == mavlink.MAV_CMD_NAV_TAKEOFF:
-            if self.airframe.kin.alt_m >= self._alt_rel(item.z, item.frame) - 0.5:
-                self._reach(item.seq)
-            return
-        if cmd not in (mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_NAV_LOITER_TIME, mavlink.MAV_CMD_NAV_LOITER_UNLIM):
-            return
-        if self._hold_until_s is not None:
-            if self.time_s >= self._hold_until_s:
-                self._hold_until_s = None
-                self._advance()
-            return
-        close = math.dist(self._item_en(item), here) <= self._radius(item)
-        if self.airframe.limits.can_hover:
-            close = close and abs(self.airframe.kin.alt_m - self._alt_rel(item.z, item.frame)) <= 1.0
-        if not close:
-            return
-        if cmd == mavlink.MAV_CMD_NAV_LOITER_UNLIM:
-            return
-        self._report_reached(item.seq)
-        hold_s = item.param1 if self.airframe.limits.can_hover or cmd == mavlink.MAV_CMD_NAV_LOITER_TIME else 0.0
-        if hold_s > 0:
-            self._hold_until_s = self.time_s + hold_s
-        else:
-            self._advance()
-
-    def _report_reached(self, seq: int) -> None:
-        """MISSION_ITEM_REACHED; ArduPlane reports the waypoint before a DO_LAND_START with the
-        DO_LAND_START's number (flight §3)."""
-        reported = seq
-        items = self.mission.items()
-        if self.ardupilot and not self.copter and seq + 1 < len(items) \
-                and items[seq + 1].command == mavlink.MAV_CMD_DO_LAND_START:
-            reported = seq + 1
-        self._pending.append(mavlink.MAVLink_mission_item_reached_message(reported))
-        self.reached.append(reported)
-        if self.ardupilot:
-            self.statustext(f"Reached command #{seq}" if self.copter else f"Reached waypoint #{seq}")
-
-    def _reach(self, seq: int) -> None:
-        self._report_reached(seq)
-        self._advance()
-
-    def _advance(self) -> None:
-        self.mission_seq += 1
-        self._rtl_alt_m = 0.0
-        self._nav_item = None
-        self._pending.append(telemetry.mission_current(self))
-        if self.ardupilot:
-            self._announce_item()
-
-    def _announce_item(self) -> None:
-        """ArduPilot's "Mission: N Takeoff" as each item starts."""
-        items = self.mission.items()
-        if self._first_seq <= self.mission_seq < len(items):
-            cmd = items[self.mission_seq].command
-            self.statustext(f"Mission: {self.mission_seq} {MISSION_TEXT_NAMES.get(cmd, cmd)}")
 
 
 def param_name(raw: bytes | str) -> str:

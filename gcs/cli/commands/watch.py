@@ -19,6 +19,7 @@ import asyncio
 import sys
 import time
 import uuid
+from collections.abc import Callable
 
 from gcs.bus import Command, CommandKind, FleetWatcher, TlsOptions, parse_broker_url, render_fleet
 from gcs.cli.link_options import add_link_arguments, connections_from, signing_from
@@ -82,18 +83,20 @@ def command_from(args: argparse.Namespace) -> Command | None:
     return None
 
 
-async def _watch(watcher: FleetWatcher, duration_s: float | None, every_s: float) -> None:
+async def _show(render: Callable[[], str], duration_s: float | None, every_s: float,
+                failure: Callable[[], str | None] = lambda: None) -> None:
+    """Redraw `render()` every `every_s` until Ctrl-C (in place on a terminal); with a duration,
+    print it once when the time is up. ConnectionError when `failure()` says why the source died."""
     live = sys.stdout.isatty() and duration_s is None
     end = None if duration_s is None else time.monotonic() + duration_s
     while end is None or time.monotonic() < end:
-        if watcher.error is not None:
-            raise ConnectionError(watcher.error)
+        if (error := failure()) is not None:
+            raise ConnectionError(error)
         await asyncio.sleep(every_s if end is None else max(0.0, min(every_s, end - time.monotonic())))
         if end is None:
-            text = render_fleet(watcher)
-            sys.stdout.write(("\x1b[H\x1b[2J" if live else "") + text + "\n\n")
+            sys.stdout.write(("\x1b[H\x1b[2J" if live else "") + render() + "\n\n")
             sys.stdout.flush()
-    print(render_fleet(watcher), flush=True)
+    print(render(), flush=True)
 
 
 async def _run(args: argparse.Namespace, command: Command | None) -> int:
@@ -108,7 +111,7 @@ async def _run(args: argparse.Namespace, command: Command | None) -> int:
         async with FleetWatcher(broker, fleet=args.fleet) as watcher:
             if command is None:
                 duration = args.duration_s if args.duration_s is not None else (1.0 if args.once else None)
-                await _watch(watcher, duration, args.every_s)
+                await _show(lambda: render_fleet(watcher), duration, args.every_s, lambda: watcher.error)
                 return 0
             try:
                 reply = await watcher.command(command, args.timeout)
@@ -129,14 +132,7 @@ async def _watch_links(args: argparse.Namespace) -> int:
 
     async with LinkWatcher(connections_from(args), signing=signing_from(args)) as watcher:
         duration = args.duration_s if args.duration_s is not None else (3.0 if args.once else None)
-        live = sys.stdout.isatty() and duration is None
-        end = None if duration is None else time.monotonic() + duration
-        while end is None or time.monotonic() < end:
-            await asyncio.sleep(args.every_s if end is None else max(0.0, min(args.every_s, end - time.monotonic())))
-            if end is None:
-                sys.stdout.write(("\x1b[H\x1b[2J" if live else "") + render_vehicles(watcher) + "\n\n")
-                sys.stdout.flush()
-        print(render_vehicles(watcher), flush=True)
+        await _show(lambda: render_vehicles(watcher), duration, args.every_s)
     return 0
 
 

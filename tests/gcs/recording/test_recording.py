@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gcs.cli.commands.replay import free_port, stop_server, viewer_command, wait_for_port
 from gcs.recording.plan import PlanRecorder, cell_to_view, map_to_rgb, read_recording, view_to_cell
+from gcs.recording.replay import free_port, stop_server, viewer_command, wait_for_port
 from planner.plan import Stage
 from tests.gcs.recording.conftest import RecordedRun, record_search
 

@@ -16,8 +16,8 @@ import pytest
 from PIL import Image
 
 from gcs.cli import main
-from gcs.cli.commands.replay import free_port, viewer_command
 from gcs.recording.plan import map_to_rgb
+from gcs.recording.replay import free_port, viewer_command
 from tests.gcs.recording.browser import Browser
 from tests.gcs.recording.conftest import RecordedRun
 
