@@ -24,9 +24,13 @@ from planner.sensor_noise import reading_draw
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class SensorConfig:
-    cell_size_m: float = 20.0
+    """The grid cell side and the sensor's Pc and Pf, by default those `gcs plan` uses (the
+    planner's `planner.environment.Sensor`, `gcs.plans.options.DEFAULT_CELL_SIZE_M`; a test
+    keeps them equal)."""
+
+    cell_size_m: float = 50.0
     pc: float = 0.9
-    pf: float = 0.05
+    pf: float = 0.1
     min_alt_m: float = 2.0
     view_radius_cells: float = 0.5
 

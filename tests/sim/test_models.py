@@ -221,3 +221,14 @@ def test_physics_knows_no_mavlink_and_no_autopilot():
             for name in names:
                 assert not name.startswith(("pymavlink", "sim.autopilot", "sim.fleet", "sim.vehicle_link", "gcs")), \
                     f"{path.name} imports {name}"
+
+
+def test_the_simulated_sensor_defaults_to_the_planners_sensor_and_grid():
+    """One default per option: what `gcs sim` and the fleet sense unless told otherwise is what
+    `gcs plan` plans with."""
+    from gcs.plans.options import DEFAULT_CELL_SIZE_M, SearchOptions
+    from planner.environment import Sensor
+
+    sim = SensorConfig()
+    assert (sim.pc, sim.pf) == (Sensor().pc, Sensor().pf) == (SearchOptions().pc, SearchOptions().pf)
+    assert sim.cell_size_m == DEFAULT_CELL_SIZE_M

@@ -63,3 +63,26 @@ def test_area_and_home_together_are_refused():
     run = subprocess.run([sys.executable, "-m", "gcs.cli", "sim", "--area", str(AREA), "--home", "1,2"],
                          cwd=ROOT, capture_output=True, text=True, timeout=30)
     assert run.returncode == 2 and run.stderr.strip() == "error: give either --area or --home, not both"
+
+
+def test_the_area_world_is_the_grid_and_targets_gcs_plan_lays_out(tmp_path):
+    """`gcs sim --area` senses on the plan's grid: same cell size, south-west corner and target
+    cells as the folder `gcs plan --area` writes from the same file."""
+    import argparse
+
+    import numpy as np
+
+    from gcs.cli import main
+    from gcs.cli.commands.sim import _area_world
+    from gcs.plans.plan_folder import load_plan_dir
+    from sim.detector import World
+
+    assert main(["plan", "--area", str(AREA), "--out", str(tmp_path / "p"), "--quiet", "--no-rrd"]) == 0
+    planned = World.of_plan(load_plan_dir(tmp_path / "p"))
+    homes, world = _area_world(argparse.Namespace(area=str(AREA), cell_size_m=None, margin_m=0.0, home_alt_m=0.0))
+    assert len(homes) == len(read_area_file(AREA).airports)
+    assert world.cell_size_m == planned.cell_size_m == 20.0  # the file's cell_size_m
+    assert np.allclose(world.grid_origin, planned.grid_origin, atol=1e-9)
+    assert np.allclose(sorted(world.targets), sorted(planned.targets), atol=1e-9) and world.targets
+    _, finer = _area_world(argparse.Namespace(area=str(AREA), cell_size_m=25.0, margin_m=0.0, home_alt_m=0.0))
+    assert finer.cell_size_m == 25.0

@@ -16,6 +16,7 @@ import time
 
 from gcs.cli.link_options import add_link_arguments, connections_from, signing_from
 from gcs.errors import UserError
+from gcs.plans.options import SearchOptions
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -32,8 +33,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_link_arguments(p)
     p.add_argument("--seed", type=int, default=None,
                    help="seed of the sensor noise (default: the plan's, 0 with --area)")
-    p.add_argument("--pc", type=float, default=0.9, help="probability of reporting a target in the cell")
-    p.add_argument("--pf", type=float, default=0.1, help="probability of reporting an empty cell (false alarm)")
+    p.add_argument("--pc", type=float, default=SearchOptions.pc, help="probability of reporting a target in the cell")
+    p.add_argument("--pf", type=float, default=SearchOptions.pf,
+                   help="probability of reporting an empty cell (false alarm)")
     p.set_defaults(func=run)
 
 

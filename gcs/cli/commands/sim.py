@@ -1,4 +1,9 @@
-"""`gcs sim`: run simulated MAVLink vehicles on loopback UDP until interrupted."""
+"""`gcs sim`: run simulated MAVLink vehicles on loopback UDP until interrupted.
+
+With `--area` the vehicles stand at the area's airports and sense the world `gcs plan --area`
+lays out from the same file and options: its grid (cell size, south-west corner) and its target
+cells, so a plan of that area flown against them reads the cells it planned. The sensor's Pc
+and Pf default to the planner's."""
 
 from __future__ import annotations
 
@@ -10,6 +15,7 @@ import sys
 from dataclasses import dataclass
 
 from gcs.errors import UserError
+from gcs.plans.options import DEFAULT_CELL_SIZE_M, SearchOptions
 
 DEFAULT_HOME = "-35.363261,149.165230,353"  # ArduPilot SITL's default location (CMAC)
 
@@ -49,9 +55,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--silent", action="append", default=[], metavar="SYSID[@SECONDS]",
                    help="vehicle stops answering (after SECONDS of simulated time)")
     p.add_argument("--target", action="append", default=[], metavar="LAT,LON", help="a target on the ground")
-    p.add_argument("--cell-size-m", type=float, default=20.0, help="sensor grid cell size")
-    p.add_argument("--pc", type=float, default=0.9, help="sensor detection probability")
-    p.add_argument("--pf", type=float, default=0.05, help="sensor false-alarm probability")
+    p.add_argument("--cell-size", "--cell-size-m", dest="cell_size_m", metavar="METRES", type=float, default=None,
+                   help=f"sensor grid cell side (default: with --area the file's cell_size_m, else "
+                        f"{DEFAULT_CELL_SIZE_M:g}, as gcs plan)")
+    p.add_argument("--margin", dest="margin_m", metavar="METRES", type=float, default=0.0,
+                   help="with --area: the safety margin the plan uses (it shapes the grid)")
+    p.add_argument("--pc", type=float, default=SearchOptions.pc,
+                   help=f"sensor detection probability (default {SearchOptions.pc:g}, as gcs plan)")
+    p.add_argument("--pf", type=float, default=SearchOptions.pf,
+                   help=f"sensor false-alarm probability (default {SearchOptions.pf:g}, as gcs plan)")
     p.add_argument("--signing-key", default=None, metavar="HEX|PASSPHRASE",
                    help="MAVLink 2 signing: 64 hex digits, or a passphrase (SHA-256, as MAVProxy)")
     p.set_defaults(func=run)
@@ -67,29 +79,29 @@ def run(args: argparse.Namespace) -> int:
     if args.area is not None:
         if args.home:
             raise UserError("give either --area or --home, not both")
-        homes, targets = _homes_from_area(args.area, args.home_alt_m)
+        homes, world = _area_world(args)
         args.vehicles = len(homes)
-        args.target = list(args.target) + [f"{lat},{lon}" for lat, lon in targets]
-        return serve(homes, args)
+        return serve(homes, args, world)
     homes = [_parse_home(text, args.home_alt_m) for text in (args.home or [DEFAULT_HOME])]
     return serve(homes, args)
 
 
-def _homes_from_area(path: str, alt_m: float):
-    """Home poses from an area file's airports (in file order: vehicle i flies UAV i) and its targets."""
-    from gcs.plans.area_file import read_area_file
+def _area_world(args: argparse.Namespace):
+    """Home poses at an area file's airports (in file order: vehicle i flies UAV i) and the world
+    `gcs plan --area` lays out from it (`sim.detector.World.of_area`)."""
+    from gcs.plans.options import AreaOptions
+    from gcs.plans.planning import build_area_search
     from sim import HomePose
+    from sim.detector import World
 
-    area = read_area_file(path)
-    if not area.airports:
-        raise UserError(f"{path}: no airport features, so no vehicle homes")
-    homes = [HomePose(a.lat_deg, a.lon_deg, alt_m, a.heading * 45.0) for a in area.airports]
-    return homes, [(t.lat_deg, t.lon_deg) for t in area.targets]
+    setup = build_area_search(args.area, AreaOptions(cell_size_m=args.cell_size_m, margin_m=args.margin_m))
+    homes = [HomePose(a.lat_deg, a.lon_deg, args.home_alt_m, a.heading * 45.0) for a in setup.source.airports]
+    return homes, World.of_area(setup)
 
 
-def serve(poses: list, args: argparse.Namespace) -> int:
-    """Validate the rest of `args` and run the fleet from `poses` (1 or N HomePose). This is
-    the entry point for homes computed elsewhere, e.g. from an area file."""
+def serve(poses: list, args: argparse.Namespace, world=None) -> int:
+    """Validate the rest of `args` and run the fleet from `poses` (1 or N HomePose), sensing
+    `world` (a `sim.detector.World`: grid and targets) when given."""
     from sim import BatteryConfig, FleetOptions, LinkFaults, SensorConfig, SimFleet, VehicleConfig, homes_for
     from sim.vehicle_link import signing_key_from
 
@@ -109,8 +121,9 @@ def serve(poses: list, args: argparse.Namespace) -> int:
             _positive("--" + name.replace("_", "-"), getattr(args, name))
     if args.duration_s is not None:
         _positive("--duration-s", args.duration_s)
-    if args.cell_size_m <= 0:
-        raise UserError(f"--cell-size-m must be positive, got {args.cell_size_m:g}")
+    cell_size_m = world.cell_size_m if world is not None else args.cell_size_m or DEFAULT_CELL_SIZE_M
+    if cell_size_m <= 0:
+        raise UserError(f"--cell-size must be positive, got {cell_size_m:g}")
     for name in ("pc", "pf", "duplicate"):
         if not 0.0 <= getattr(args, name) <= 1.0:
             raise UserError(f"--{name} must be a probability in [0, 1], got {getattr(args, name):g}")
@@ -123,7 +136,7 @@ def serve(poses: list, args: argparse.Namespace) -> int:
     silent = [_parse_silent(text, n) for text in args.silent]
     for sysid in args.fail_battery:
         _check_sysid("--fail-battery", sysid, n)
-    targets = tuple(_parse_latlon("--target", text) for text in args.target)
+    targets = tuple(_parse_latlon("--target", text) for text in args.target) + (world.targets if world else ())
     out = tuple(_parse_out(text) for text in args.out)
     key = None
     if args.signing_key is not None:
@@ -137,13 +150,13 @@ def serve(poses: list, args: argparse.Namespace) -> int:
         cruise_speed_m_s=args.cruise_speed_m_s, turn_rate_deg_s=args.turn_rate_deg_s,
         battery=BatteryConfig(endurance_s=args.endurance_s, low_pct=args.low_battery_pct,
                               critical_pct=min(5.0, args.low_battery_pct)),
-        sensor=SensorConfig(cell_size_m=args.cell_size_m, pc=args.pc, pf=args.pf),
+        sensor=SensorConfig(cell_size_m=cell_size_m, pc=args.pc, pf=args.pf),
     )
     options = FleetOptions(
         base_port=args.base_port, bind=args.bind, out=out, speedup=args.speedup, signing_key=key,
         faults=LinkFaults(loss=args.loss, duplicate=args.duplicate, delay_s=args.delay_ms / 1000,
                           jitter_s=args.jitter_ms / 1000, seed=args.seed),
-        targets=targets, seed=args.seed,
+        targets=targets, seed=args.seed, grid_origin=world.grid_origin if world is not None else None,
     )
     fleet = SimFleet(homes_for(n, poses), config, options)
     for v in fleet.vehicles:
