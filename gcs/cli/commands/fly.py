@@ -52,21 +52,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_sim_arguments(p)
     p.add_argument("--no-fence", action="store_true", help="do not upload geofence and rally points")
     add_bus_arguments(p)
-    p.add_argument("--reserve-pct", type=float, default=30.0, help="battery kept back by the return trigger")
-    p.add_argument("--cruise-speed", type=float, default=10.0, help="vehicles' cruise speed, m/s (range estimate)")
-    p.add_argument("--descent-speed", type=float, default=1.5, help="vehicles' landing descent rate, m/s")
+    p.add_argument("--reserve-pct", type=float, default=FlyOptions.reserve_pct,
+                   help="battery kept back by the return trigger")
+    p.add_argument("--cruise-speed", type=float, default=FlyOptions.speed_m_s,
+                   help="vehicles' cruise speed, m/s (range estimate)")
+    p.add_argument("--descent-speed", type=float, default=FlyOptions.descent_m_s,
+                   help="vehicles' landing descent rate, m/s")
     p.add_argument("--return-after", metavar="UAV:SECONDS", action="append", default=[],
                    help="order UAV home after SECONDS (real time), as the operator's 'r UAV' would")
     p.add_argument("--stdin-orders", action="store_true",
                    help="read return orders ('r ID') from stdin even when it is not a terminal")
     p.add_argument("--allow-home-offset", action="store_true",
                    help="fly even when a vehicle's home is more than a cell from its UAV's airport")
-    p.add_argument("--arm-timeout", type=float, default=60.0,
+    p.add_argument("--arm-timeout", type=float, default=FlyOptions.arm_timeout_s,
                    help="seconds to keep retrying arming while the autopilot refuses (its reasons are shown)")
-    p.add_argument("--ready-timeout", type=float, default=180.0,
+    p.add_argument("--ready-timeout", type=float, default=FlyOptions.ready_timeout_s,
                    help="seconds to wait for each vehicle's GPS fix, position estimate and home")
-    p.add_argument("--link-timeout", type=float, default=3.0, help="seconds without telemetry before a vehicle is lost")
-    p.add_argument("--lost-giveup", type=float, default=20.0, help="seconds a lost vehicle is waited for at the end")
+    p.add_argument("--link-timeout", type=float, default=FlyOptions.link_timeout_s,
+                   help="seconds without telemetry before a vehicle is lost")
+    p.add_argument("--lost-giveup", type=float, default=FlyOptions.lost_giveup_s,
+                   help="seconds a lost vehicle is waited for at the end")
     p.add_argument("--sim-endurance", type=float, default=1200.0,
                    help="with --sim: flight endurance of a full battery, s")
     p.add_argument("--sim-drain", metavar="UAV:K", action="append", default=[],

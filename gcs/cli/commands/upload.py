@@ -25,9 +25,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_link_arguments(p)
     add_sim_arguments(p)
     p.add_argument("--no-fence", action="store_true", help="do not upload geofence and rally points")
-    p.add_argument("--timeout", type=float, default=0.5, help="seconds before a mission message is re-sent")
-    p.add_argument("--connect-timeout", type=float, default=15.0, help="seconds to wait for each vehicle's HEARTBEAT")
-    p.add_argument("--ready-timeout", type=float, default=180.0,
+    p.add_argument("--timeout", type=float, default=FlyOptions.transfer_timeout_s,
+                   help="seconds before a mission message is re-sent")
+    p.add_argument("--connect-timeout", type=float, default=FlyOptions.connect_timeout_s,
+                   help="seconds to wait for each vehicle's HEARTBEAT")
+    p.add_argument("--ready-timeout", type=float, default=FlyOptions.ready_timeout_s,
                    help="seconds to wait for each vehicle's GPS fix, position estimate and home")
     p.add_argument("--allow-home-offset", action="store_true",
                    help="upload even when a vehicle's home is more than a cell from its UAV's airport")

@@ -1,0 +1,36 @@
+"""One default per flight option: the flags of `gcs fly` and `gcs upload` default to
+`FlyOptions`, so a flight started from Python flies as one started from the command line."""
+
+from __future__ import annotations
+
+from dataclasses import fields
+
+import pytest
+
+from gcs.cli import command_parser
+from gcs.cli.commands.fly import options_from
+from gcs.flight.controller import FlyOptions
+from gcs.plans.plan_folder import FleetPlan
+
+FLY_FLAGS = {"reserve_pct": "reserve_pct", "cruise_speed": "speed_m_s", "descent_speed": "descent_m_s",
+             "arm_timeout": "arm_timeout_s", "ready_timeout": "ready_timeout_s", "link_timeout": "link_timeout_s",
+             "lost_giveup": "lost_giveup_s"}
+UPLOAD_FLAGS = {"timeout": "transfer_timeout_s", "connect_timeout": "connect_timeout_s",
+                "ready_timeout": "ready_timeout_s"}
+
+
+@pytest.mark.parametrize(("command", "flags"), [("fly", FLY_FLAGS), ("upload", UPLOAD_FLAGS)])
+def test_flight_flags_default_to_fly_options(command, flags):
+    args = command_parser(command).parse_args(["--plan", "somewhere"])
+    defaults = FlyOptions()
+    for dest, field in flags.items():
+        assert getattr(args, dest) == getattr(defaults, field), (command, dest)
+
+
+def test_fly_without_flags_flies_with_the_default_options():
+    args = command_parser("fly").parse_args(["--plan", "somewhere"])
+    plan = FleetPlan.__new__(FleetPlan)
+    plan.uavs = {1: None}
+    built, defaults = options_from(args, plan), FlyOptions()
+    assert {f.name: getattr(built, f.name) for f in fields(FlyOptions)} == \
+        {f.name: getattr(defaults, f.name) for f in fields(FlyOptions)}
