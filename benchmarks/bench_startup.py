@@ -4,8 +4,11 @@ fresh process, as the user runs them. Targets: under 0.3 s and under 2 s.
 
 Prints the median and the fastest wall time of --repeats runs (the fastest is the least disturbed
 by other work on a shared machine) and the median CPU time of all its processes; with --imports
-the heaviest modules `gcs plan` imports.
-Usage: python benchmarks/bench_startup.py [--repeats 7] [--imports] [--tree DIR]"""
+the heaviest modules `gcs plan` and its helper processes import (they share its stderr: the
+pictures helper imports matplotlib, the recordings helper rerun). With --against DIR, another
+copy of the code (e.g. `git archive` of an older commit) is timed too, its runs alternating with
+these, so that both see the same load.
+Usage: python benchmarks/bench_startup.py [--repeats 7] [--imports] [--tree DIR] [--against DIR]"""
 
 from __future__ import annotations
 
@@ -38,6 +41,17 @@ def timed(command: list[str], repeats: int, root: Path) -> tuple[list[float], li
     return wall, cpu
 
 
+def alternating(commands: list[tuple[list[str], Path]], repeats: int) -> list[tuple[list[float], list[float]]]:
+    """`timed` for several (command, folder), their runs taken in turn."""
+    out: list[tuple[list[float], list[float]]] = [([], []) for _ in commands]
+    for _ in range(repeats):
+        for (command, root), (wall, cpu) in zip(commands, out):
+            w, c = timed(command, 1, root)
+            wall += w
+            cpu += c
+    return out
+
+
 def heaviest_imports(command: list[str], root: Path, count: int = 12) -> list[tuple[float, str]]:
     """The `count` top-level imports of `command` taking longest, cumulative seconds."""
     err = subprocess.run([sys.executable, "-X", "importtime", "-m", "gcs.cli", *command[1:]], cwd=root, check=True,
@@ -51,6 +65,11 @@ def heaviest_imports(command: list[str], root: Path, count: int = 12) -> list[tu
     return sorted(rows, reverse=True)[:count]
 
 
+def gcs_command(root: Path) -> list[str]:
+    """The installed console script for this tree, `python -m gcs.cli` for another."""
+    return [str(Path(sys.executable).with_name("gcs"))] if root == ROOT else [sys.executable, "-m", "gcs.cli"]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--repeats", type=int, default=7)
@@ -58,25 +77,33 @@ def main() -> None:
     parser.add_argument("--tree", type=Path, default=ROOT,
                         help="another copy of the code to time with this Python (e.g. `git archive` of an older "
                              "commit)")
+    parser.add_argument("--against", type=Path, default=None, metavar="DIR",
+                        help="also time the copy of the code in DIR, its runs alternating with these")
     args = parser.parse_args()
-    root = args.tree.resolve()
-    # the installed console script for this tree, `python -m gcs.cli` for another
-    gcs = [str(Path(sys.executable).with_name("gcs"))] if root == ROOT else [sys.executable, "-m", "gcs.cli"]
+    roots = [args.tree.resolve()] + ([args.against.resolve()] if args.against else [])
+    cases: dict[str, tuple[list[float], list[float]]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        plan = [*gcs, "plan", "--area", "missions/paper.geojson", "--out", str(Path(tmp) / "paper")]
-        timed(plan, 1, root)  # the first plan fills numba's cache if it is empty
-        cases = {"gcs --help": timed([*gcs, "--help"], args.repeats, root),
-                 "gcs plan --area missions/paper.geojson": timed(plan, args.repeats, root)}
-        outputs = sorted(p.name for p in (Path(tmp) / "paper").iterdir())
+        plans = []
+        for k, root in enumerate(roots):
+            plan = [*gcs_command(root), "plan", "--area", "missions/paper.geojson", "--out", str(Path(tmp) / f"p{k}")]
+            timed(plan, 1, root)  # the first plan fills numba's cache if it is empty
+            plans.append((plan, root))
+        labels = [f" [{root}]" if len(roots) > 1 else "" for root in roots]
+        for root, label in zip(roots, labels):
+            cases[f"gcs --help{label}"] = timed([*gcs_command(root), "--help"], args.repeats, root)
+        for label, result in zip(labels, alternating(plans, args.repeats)):
+            cases[f"gcs plan --area missions/paper.geojson{label}"] = result
+        outputs = sorted(p.name for p in (Path(tmp) / "p0").iterdir())
         if args.imports:
-            print("heaviest imports of gcs plan (cumulative s):")
-            for seconds, name in heaviest_imports(plan, root):
+            print("heaviest imports of gcs plan and its helpers (cumulative s):")
+            for seconds, name in heaviest_imports(plans[0][0], roots[0]):
                 print(f"  {seconds:6.3f}  {name}")
     print(f"wall and CPU seconds of {args.repeats} fresh processes (load average {os.getloadavg()[0]:.1f} on "
           f"{os.cpu_count()} cores)")
-    print(f"{'command':<40} {'median':>7} {'fastest':>8} {'CPU median':>11}")
+    width = max(40, *(len(name) for name in cases))
+    print(f"{'command':<{width}} {'median':>7} {'fastest':>8} {'CPU median':>11}")
     for name, (wall, cpu) in cases.items():
-        print(f"{name:<40} {statistics.median(wall):>7.2f} {min(wall):>8.2f} {statistics.median(cpu):>11.2f}")
+        print(f"{name:<{width}} {statistics.median(wall):>7.2f} {min(wall):>8.2f} {statistics.median(cpu):>11.2f}")
     print(f"plan outputs: {', '.join(outputs)}")
 
 

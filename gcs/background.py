@@ -5,6 +5,7 @@ rerun) while the parent plans, then does what the parent sends it, in order.
         recorder = helper.create(PlanRecorder, ...)  # an object living in the helper
         recorder.call("log_step", record)            # arguments pickled now, the call made there
         job = helper.submit(draw, plan, path)        # a function run there, for its result
+        saved = recorder.submit("close")             # a method of an object there, for its result
         values = helper.results()                    # values[job]; a failure is raised here
 
 Calls and jobs are sent without waiting for the helper, which reads them as they come (also
@@ -48,9 +49,15 @@ class _Runner:
 
     def run(self, message: tuple) -> None:
         kind, *rest = message
-        if kind == "job":
-            fn, args = rest
+        if kind in ("job", "method"):
             try:
+                if kind == "job":
+                    fn, args = rest
+                else:  # a method of an object: after a failed creation or call, that failure
+                    key, name, args = rest
+                    if self.failure is not None:
+                        raise self.failure
+                    fn = getattr(self.objects[key], name)
                 self.outcomes.append((True, fn(*args)))
             except Exception as exc:
                 self.outcomes.append((False, exc))
@@ -87,11 +94,14 @@ def _serve(conn: Connection, parent_end: Connection, warm_up: Callable[[], None]
 
     threading.Thread(target=receive, daemon=True).start()
     runner = _Runner()
+    gc.disable()  # while the slow modules load: imports allocate much and free little
     if warm_up is not None:
         try:
             warm_up()
         except Exception as exc:
             runner.failure = exc
+    gc.freeze()  # what was inherited and what the warm-up loaded: never collected, so never copied
+    gc.enable()
     while (data := inbox.get()) is not None:
         message = pickle.loads(data)
         if message[0] == "end":
@@ -112,6 +122,11 @@ class Remote:
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> None:
         self._helper._send(("call", self._key, name, args, kwargs))
+
+    def submit(self, name: str, *args: Any) -> int:
+        """Run its method `name(*args)` there, as a job: its value is `results()[index]`, the
+        index returned."""
+        return self._helper._job(("method", self._key, name, args))
 
 
 class Background:
@@ -142,7 +157,10 @@ class Background:
 
     def submit(self, fn: Callable[..., Any], *args: Any) -> int:
         """Run `fn(*args)` in the helper; its value is `results()[index]`, the index returned."""
-        self._send(("job", fn, args))
+        return self._job(("job", fn, args))
+
+    def _job(self, message: tuple) -> int:
+        self._send(message)
         self._jobs += 1
         return self._jobs - 1
 

@@ -13,12 +13,17 @@ from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, OutputOptions, S
 
 VIEWER = "rerun+http://127.0.0.1:9876/proxy"
 
+#: The names the planner knows for `--strategy`, `--return` and `--scenario`
+#: (`planner.search.STRATEGIES`, `planner.dtscs.RETURN_PLANNERS`, `planner.scenario.SCENARIOS`), spelt
+#: out for the help texts so that building a parser does not load the planner and numba (`gcs plan`
+#: starts its picture helper before it loads them); a test checks that they agree with the planner's.
+STRATEGIES = ("cpio", "exhaustive", "ga", "lawnmower", "pio", "pso")
+RETURN_PLANNERS = ("exact", "st")
+SCENARIOS = ("paper",)
+
 
 def add_search_arguments(p: argparse._ActionsContainer) -> None:
     """How the closed search runs (`SearchOptions`)."""
-    from planner.dtscs import RETURN_PLANNERS
-    from planner.search import STRATEGIES
-
     d = SearchOptions
     p.add_argument("--seed", type=int, default=d.seed, help="seed for targets, sensor draws and optimisers")
     p.add_argument("--np", dest="np_steps", type=int, default=d.np_steps, help="Np, steps of look-ahead (Definition 4)")

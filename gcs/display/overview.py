@@ -1,18 +1,33 @@
 """A PNG picture of a plan: the prior map, no-fly zones, known and key regions, every UAV's
 closed path in its own colour (search solid, return dashed), airports, and targets found or
 missed; the probability of success in the title (total) and the legend (per UAV). Matplotlib
-with the Agg backend; the file is written atomically."""
+with the Agg backend; the file is written atomically.
+
+The picture is drawn in two parts, so that most of it can be drawn before the plan is known:
+the map (`MapLayers`: prior, no-fly zones, regions, cells earlier sorties searched, axes and
+colour bar) and the plan over it (`PlanLayers`: paths, airports, targets, title and legend),
+both plain arrays and text. `OverviewPicture` draws the map when it is made and keeps its
+pixels; `render` puts them back and draws the plan on top. The PNG is the one drawing
+everything at once gives, byte for byte: inside the axes the plan's artists lie above the map's
+(the axes' frame, above the paths, is drawn with the plan), and the ticks, labels and colour
+bar drawn with the map lie outside the axes, which clip the paths. `gcs.plans.make` has its
+pictures helper draw the map while the search runs. Neither matplotlib nor the planner is
+imported before a picture is drawn, so that helper loads neither numba nor the planner."""
 
 from __future__ import annotations
 
+import io
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from gcs.atomic import staged_outputs
-from planner.plan import Plan
-from planner.scenario import Scenario
-from planner.success import expected_finds
+
+if TYPE_CHECKING:
+    from planner.plan import Plan, UavPlan
+    from planner.scenario import Scenario
 
 WIDTH_PX = 1400
 HEIGHT_PX = 1000
@@ -83,6 +98,8 @@ def campaign_outcome(plan: Plan, scenario: Scenario) -> str | None:
     """A later sortie's line: the campaign's probability of success before and after it."""
     if plan.success is None or scenario.looks_before is None or not plan.success.available:
         return None
+    from planner.success import expected_finds
+
     m = scenario.search_map
     before = expected_finds(scenario.success_prior, ~m.no_fly, scenario.sensor.pc, scenario.looks_before)
     available = plan.success.available
@@ -94,7 +111,7 @@ def _rgb(colour: tuple[int, int, int]) -> tuple[float, float, float]:
     return tuple(c / 255.0 for c in colour)  # type: ignore[return-value]
 
 
-def _legs(trajectory) -> tuple[np.ndarray, np.ndarray]:
+def _legs(trajectory: list[Any]) -> tuple[np.ndarray, np.ndarray]:
     """Search and return legs as arrays of 1-based (x, y); the return leg starts where search ended."""
     points = np.array([(p.x + 1, p.y + 1) for p in trajectory], dtype=float).reshape(-1, 2)
     searching = np.array([p.stage.value == "search" for p in trajectory])
@@ -115,7 +132,7 @@ def title_outcome(plan: Plan) -> str:
     return ", ".join(parts)
 
 
-def uav_label(plan: Plan, u) -> str:
+def uav_label(plan: Plan, u: UavPlan) -> str:
     """A UAV's legend entry: its legs and range use; its PoS and why it turned home."""
     label = f"UAV {u.uav_id}: {u.search_steps} + {u.return_steps} of {u.range_steps} steps, eta {u.eta:.0%}"
     more = [f"PoS {plan.success.share_of(u.uav_id):.1%}"] if plan.success else []
@@ -136,106 +153,205 @@ def settings_text(settings: dict) -> str:
 
 
 def warm_up() -> None:
-    """Import matplotlib and render a little text and a line: the first picture of a process
-    then draws at full speed (fonts loaded, caches filled)."""
-    import io
-
+    """Import matplotlib and what a picture draws with (the Agg canvas, collections, lines,
+    patches, the PNG writer); drawing the map ahead then warms the rest (fonts, caches)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
-    from matplotlib.figure import Figure
-    from matplotlib.lines import Line2D
+    import matplotlib.backends.backend_agg
+    import matplotlib.collections
+    import matplotlib.figure
+    import matplotlib.image
+    import matplotlib.legend
+    import matplotlib.lines
+    import matplotlib.patches
 
-    fig = Figure(figsize=(2, 1), dpi=50)
-    ax = fig.add_axes((0.2, 0.2, 0.6, 0.6))
-    ax.plot([0, 1], [0, 1], "--", marker="o")
-    ax.set_title("warm-up", fontsize=12)
-    ax.annotate("A", (0, 0), fontweight="bold")
-    fig.legend(handles=[Line2D([], [], label="warm-up")])
-    fig.savefig(io.BytesIO(), format="png")
+
+@dataclass(frozen=True)
+class MapLayers:
+    """What the picture shows of a scenario, in plain arrays: the prior (a later sortie's belief
+    before it) TEP and no-fly cells, the known and key regions, the cells earlier sorties
+    searched (None for a first sortie) and the colour bar's label."""
+
+    tep: np.ndarray
+    no_fly: np.ndarray
+    regions: dict[str, np.ndarray]
+    searched: np.ndarray | None
+    tep_label: str
+
+
+def map_layers(scenario: Scenario) -> MapLayers:
+    m = scenario.search_map
+    return MapLayers(np.asarray(m.tep), np.asarray(m.no_fly), region_masks(scenario), searched_before(scenario),
+                     "prior TEP" if scenario.looks_before is None else "belief TEP before this sortie")
+
+
+@dataclass(frozen=True)
+class UavLayer:
+    """One UAV's part of the picture: its search and return legs (1-based cells), its airport
+    (0-based cell), its id and its legend entry."""
+
+    search: np.ndarray
+    back: np.ndarray
+    airport: tuple[int, int]
+    uav_id: int
+    label: str
+
+
+@dataclass(frozen=True)
+class PlanLayers:
+    """What the picture shows of a plan over its map, in plain arrays and text: every UAV,
+    targets found and missed (1-based cells) and the title."""
+
+    uavs: tuple[UavLayer, ...]
+    found: np.ndarray
+    missed: np.ndarray
+    title: str
+
+
+def plan_layers(plan: Plan, scenario: Scenario) -> PlanLayers:
+    uavs = tuple(UavLayer(*_legs(u.trajectory), (int(u.airport[0]), int(u.airport[1])), u.uav_id, uav_label(plan, u))
+                 for u in plan.uavs)
+    found = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is not None], dtype=float).reshape(-1, 2)
+    missed = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is None], dtype=float).reshape(-1, 2)
+    campaign = campaign_outcome(plan, scenario)
+    title = (f"{plan.scenario}: {title_outcome(plan)}\n" + (f"{campaign}\n" if campaign else "")
+             + settings_text(plan.settings))
+    return PlanLayers(uavs, found, missed, title)
+
+
+class OverviewPicture:
+    """The overview of one plan over the map of `layers`: the map is drawn when the picture is
+    made (`draw_map` False: with the plan, all at once); `render` draws the plan over it into
+    PNG bytes, `save` writes them. A picture is rendered once; rendered, it keeps only the PNG."""
+
+    def __init__(self, layers: MapLayers, draw_map: bool = True) -> None:
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.collections import LineCollection
+        from matplotlib.figure import Figure
+
+        nx, ny = layers.tep.shape
+        self.shape = (nx, ny)
+        self.layers = layers
+        fig = Figure(figsize=(WIDTH_PX / DPI, HEIGHT_PX / DPI), dpi=DPI)
+        FigureCanvasAgg(fig)
+        ax = fig.add_axes((0.05, 0.07, 0.6, 0.84))
+        extent = (0.5, nx + 0.5, 0.5, ny + 0.5)
+        prior = ax.imshow(layers.tep.T, origin="lower", extent=extent, cmap="Greys", vmin=0.0, vmax=1.6,
+                          interpolation="nearest")
+        overlay = np.zeros((ny, nx, 4))
+        overlay[layers.no_fly.T] = (0.8, 0.1, 0.1, 0.55)
+        self._map: list[Any] = [prior, ax.imshow(overlay, origin="lower", extent=extent, interpolation="nearest")]
+        if layers.searched is not None:
+            self._map.append(ax.imshow(hatch_image(layers.searched, max(2, min(8, 1600 // max(nx, ny)))),
+                                       origin="lower", extent=extent, interpolation="nearest", zorder=1.5))
+        for name, mask in layers.regions.items():
+            if mask.any():
+                segments = mask_outline(mask)
+                segments[..., 0] += 0.5
+                segments[..., 1] = ny + 0.5 - segments[..., 1]
+                self._map.append(ax.add_collection(LineCollection(segments, colors=REGION_COLOURS[name],
+                                                                  linewidths=2.2, zorder=2)))
+        ax.set_xlim(extent[0] - 1, extent[1] + 1)
+        ax.set_ylim(extent[2] - 1, extent[3] + 1)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (cell, east)")
+        ax.set_ylabel("y (cell, north)")
+        self._map += [ax.xaxis, ax.yaxis]
+        cbar = fig.colorbar(prior, cax=fig.add_axes((0.67, 0.3, 0.012, 0.4)))
+        cbar.set_label(layers.tep_label)
+        cbar.ax.set_ylim(0, 1)
+        self._figure: Any = fig
+        self._axes: Any = ax
+        self._background: Any = None
+        self.png: bytes | None = None
+        if draw_map:  # everything but what lies above the paths: the axes' frame (and the title, empty yet)
+            for spine in ax.spines.values():
+                spine.set_visible(False)
+            fig.canvas.draw()
+            self._background = fig.canvas.copy_from_bbox(fig.bbox)
+            for spine in ax.spines.values():
+                spine.set_visible(True)
+
+    def render(self, plan: PlanLayers) -> None:
+        """Draw `plan` over the map into `png`."""
+        from matplotlib.lines import Line2D
+        from matplotlib.patches import Patch
+
+        if self._figure is None:
+            raise RuntimeError("this picture is rendered already")
+        fig, ax = self._figure, self._axes
+        nx, ny = self.shape
+        for i, u in enumerate(plan.uavs):
+            colour = _rgb(uav_colour(i))
+            ax.plot(u.search[:, 0], u.search[:, 1], "-", color=colour, lw=1.8, solid_capstyle="round")
+            if len(u.back):
+                ax.plot(u.back[:, 0], u.back[:, 1], "--", color=colour, lw=2.2, dashes=(3, 1.5))
+                ax.plot(*u.back[0], "o", ms=7, mfc="white", mec=colour, mew=2)
+            ax.plot(u.airport[0] + 1, u.airport[1] + 1, "^", ms=14, color=colour, mec="black", mew=1.2, zorder=5)
+            inward = np.sign([(nx + 1) / 2 - (u.airport[0] + 1), (ny + 1) / 2 - (u.airport[1] + 1)])
+            ax.annotate(f"A{u.uav_id}", (u.airport[0] + 1, u.airport[1] + 1), textcoords="offset points",
+                        xytext=tuple(14 * inward + (0, -5)), ha="center", fontsize=11, fontweight="bold",
+                        color=colour, zorder=6,
+                        bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})
+        found, missed = plan.found, plan.missed
+        ax.plot(found[:, 0], found[:, 1], "*", ms=17, color="gold", mec="black", mew=1.0, zorder=7, ls="none")
+        ax.plot(missed[:, 0], missed[:, 1], "X", ms=11, color="crimson", mec="black", mew=0.8, zorder=7, ls="none")
+        ax.set_title(plan.title, fontsize=12)
+
+        handles = [Line2D([], [], color=_rgb(uav_colour(i)), lw=2.5, label=u.label) for i, u in enumerate(plan.uavs)]
+        handles += [
+            Line2D([], [], color="black", lw=1.8, label="search leg"),
+            Line2D([], [], color="black", lw=2.2, ls="--", dashes=(3, 1.5), label="return leg"),
+            Line2D([], [], marker="o", ls="none", ms=7, mfc="white", mec="black", mew=2, label="switch to return"),
+            Line2D([], [], marker="^", ls="none", ms=12, color="grey", mec="black", label="airport"),
+            Line2D([], [], marker="*", ls="none", ms=15, color="gold", mec="black",
+                   label=f"target found ({len(found)})"),
+            Line2D([], [], marker="X", ls="none", ms=10, color="crimson", mec="black",
+                   label=f"target missed ({len(missed)})"),
+            Patch(color=(0.8, 0.1, 0.1, 0.55), label="no-fly"),
+            Patch(facecolor="none", edgecolor=REGION_COLOURS["known"], lw=2, label="known region"),
+            Patch(facecolor="none", edgecolor=REGION_COLOURS["key"], lw=2, label="key region"),
+        ]
+        if self.layers.searched is not None:
+            handles.append(Patch(facecolor=(0.55, 0.55, 0.55, 0.35), edgecolor=(0.1, 0.1, 0.1, 0.7), hatch="///",
+                                 lw=0, label=f"searched in earlier sorties ({int(self.layers.searched.sum())} cells)"))
+        legend = fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.73, 0.5), fontsize=11,
+                            frameon=False, labelspacing=0.8)
+        canvas = fig.canvas
+        if self._background is None:
+            canvas.draw()
+        else:  # the map's pixels, then the axes without the map's artists (in their order), then the legend
+            canvas.restore_region(self._background)
+            ax.patch.set_visible(False)
+            for artist in self._map:
+                artist.set_visible(False)
+            renderer = canvas.get_renderer()
+            ax.draw(renderer)
+            legend.draw(renderer)
+        from matplotlib.image import imsave
+
+        png = io.BytesIO()
+        imsave(png, canvas.buffer_rgba(), format="png", origin="upper", dpi=DPI)  # as savefig writes it
+        self.png = png.getvalue()
+        self._figure = self._axes = self._background = None
+        self._map = []
+
+    def save(self, path: str | Path) -> Path:
+        """Write the rendered picture to `path`, atomically."""
+        if self.png is None:
+            raise RuntimeError("this picture is not rendered yet")
+        path = Path(path)
+        with staged_outputs([path]) as staged:
+            staged[path].write_bytes(self.png)
+        return path
 
 
 def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
     """Write the overview PNG of `plan` (flown over `scenario`) to `path` (WIDTH_PX x HEIGHT_PX)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    from matplotlib.collections import LineCollection
-    from matplotlib.figure import Figure
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
-
-    path = Path(path)
-    m = scenario.search_map
-    nx, ny = m.shape
-    fig = Figure(figsize=(WIDTH_PX / DPI, HEIGHT_PX / DPI), dpi=DPI)
-    ax = fig.add_axes((0.05, 0.07, 0.6, 0.84))
-    extent = (0.5, nx + 0.5, 0.5, ny + 0.5)
-    prior = ax.imshow(m.tep.T, origin="lower", extent=extent, cmap="Greys", vmin=0.0, vmax=1.6,
-                      interpolation="nearest")
-    overlay = np.zeros((ny, nx, 4))
-    overlay[m.no_fly.T] = (0.8, 0.1, 0.1, 0.55)
-    ax.imshow(overlay, origin="lower", extent=extent, interpolation="nearest")
-    searched = searched_before(scenario)
-    if searched is not None:
-        ax.imshow(hatch_image(searched, max(2, min(8, 1600 // max(nx, ny)))), origin="lower", extent=extent,
-                  interpolation="nearest", zorder=1.5)
-    for name, mask in region_masks(scenario).items():
-        if mask.any():
-            segments = mask_outline(mask)
-            segments[..., 0] += 0.5
-            segments[..., 1] = ny + 0.5 - segments[..., 1]
-            ax.add_collection(LineCollection(segments, colors=REGION_COLOURS[name], linewidths=2.2, zorder=2))
-
-    for i, u in enumerate(plan.uavs):
-        colour = _rgb(uav_colour(i))
-        search, back = _legs(u.trajectory)
-        ax.plot(search[:, 0], search[:, 1], "-", color=colour, lw=1.8, solid_capstyle="round")
-        if len(back):
-            ax.plot(back[:, 0], back[:, 1], "--", color=colour, lw=2.2, dashes=(3, 1.5))
-            ax.plot(*back[0], "o", ms=7, mfc="white", mec=colour, mew=2)
-        ax.plot(u.airport[0] + 1, u.airport[1] + 1, "^", ms=14, color=colour, mec="black", mew=1.2, zorder=5)
-        inward = np.sign([(nx + 1) / 2 - (u.airport[0] + 1), (ny + 1) / 2 - (u.airport[1] + 1)])
-        ax.annotate(f"A{u.uav_id}", (u.airport[0] + 1, u.airport[1] + 1), textcoords="offset points",
-                    xytext=tuple(14 * inward + (0, -5)), ha="center", fontsize=11, fontweight="bold", color=colour,
-                    zorder=6, bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})
-
-    found = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is not None], dtype=float).reshape(-1, 2)
-    missed = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is None], dtype=float).reshape(-1, 2)
-    ax.plot(found[:, 0], found[:, 1], "*", ms=17, color="gold", mec="black", mew=1.0, zorder=7, ls="none")
-    ax.plot(missed[:, 0], missed[:, 1], "X", ms=11, color="crimson", mec="black", mew=0.8, zorder=7, ls="none")
-
-    ax.set_xlim(extent[0] - 1, extent[1] + 1)
-    ax.set_ylim(extent[2] - 1, extent[3] + 1)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (cell, east)")
-    ax.set_ylabel("y (cell, north)")
-    campaign = campaign_outcome(plan, scenario)
-    ax.set_title(f"{plan.scenario}: {title_outcome(plan)}\n" + (f"{campaign}\n" if campaign else "")
-                 + settings_text(plan.settings), fontsize=12)
-    cbar = fig.colorbar(prior, cax=fig.add_axes((0.67, 0.3, 0.012, 0.4)))
-    cbar.set_label("prior TEP" if scenario.looks_before is None else "belief TEP before this sortie")
-    cbar.ax.set_ylim(0, 1)
-
-    handles = [Line2D([], [], color=_rgb(uav_colour(i)), lw=2.5, label=uav_label(plan, u))
-               for i, u in enumerate(plan.uavs)]
-    handles += [
-        Line2D([], [], color="black", lw=1.8, label="search leg"),
-        Line2D([], [], color="black", lw=2.2, ls="--", dashes=(3, 1.5), label="return leg"),
-        Line2D([], [], marker="o", ls="none", ms=7, mfc="white", mec="black", mew=2, label="switch to return"),
-        Line2D([], [], marker="^", ls="none", ms=12, color="grey", mec="black", label="airport"),
-        Line2D([], [], marker="*", ls="none", ms=15, color="gold", mec="black", label=f"target found ({len(found)})"),
-        Line2D([], [], marker="X", ls="none", ms=10, color="crimson", mec="black",
-               label=f"target missed ({len(missed)})"),
-        Patch(color=(0.8, 0.1, 0.1, 0.55), label="no-fly"),
-        Patch(facecolor="none", edgecolor=REGION_COLOURS["known"], lw=2, label="known region"),
-        Patch(facecolor="none", edgecolor=REGION_COLOURS["key"], lw=2, label="key region"),
-    ]
-    if searched is not None:
-        handles.append(Patch(facecolor=(0.55, 0.55, 0.55, 0.35), edgecolor=(0.1, 0.1, 0.1, 0.7), hatch="///", lw=0,
-                             label=f"searched in earlier sorties ({int(searched.sum())} cells)"))
-    fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.73, 0.5), fontsize=11, frameon=False,
-               labelspacing=0.8)
-    with staged_outputs([path]) as staged:
-        fig.savefig(staged[path], format="png", dpi=DPI)
-    return path
+    picture = OverviewPicture(map_layers(scenario))
+    picture.render(plan_layers(plan, scenario))
+    return picture.save(path)

@@ -11,7 +11,6 @@ from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
-import jsonschema
 import numpy as np
 
 from planner.campaign import Belief
@@ -36,11 +35,15 @@ def sortie_schema() -> dict:
 
 def validate_sortie_dict(data: dict) -> None:
     """Raise jsonschema.ValidationError when `data` is not a sortie record."""
+    import jsonschema  # ~0.1 s to import: only where a record is checked, never while a plan is made
+
     jsonschema.validate(data, sortie_schema())
 
 
 def validate_belief_dict(data: dict) -> None:
     """Raise jsonschema.ValidationError when `data` is not a belief map (belief.json)."""
+    import jsonschema
+
     schema = sortie_schema()
     jsonschema.validate(data, {"$ref": "#/$defs/belief", "$defs": schema["$defs"]})
 

@@ -209,7 +209,7 @@ def plan_sorties(area_file: str | Path, area: AreaOptions, search: SearchOptions
     """Sortie 1 of `area_file` (or the sortie `start` says) into the folder `out` (default
     runs/<area file name>); with `sorties` N, N sorties in `sortie<k>/` sub-folders and
     `campaign.json`. `planning` runs and records each sortie's search; every file is published
-    together, then the pictures are drawn."""
+    together, then the pictures (drawn while the searches ran and the files were written) are saved."""
     count = sorties
     if count is not None and not 1 <= count <= MAX_SORTIES:
         raise UserError(f"--sorties must be 1..{MAX_SORTIES}, got {count}")
@@ -240,8 +240,9 @@ def plan_sorties(area_file: str | Path, area: AreaOptions, search: SearchOptions
         mine[BELIEF_FILE] = json.dumps(belief_to_dict(start.belief, start.source)) + "\n"
         files.update({prefix + name: text for name, text in mine.items()})
         planned.append((folder, setup, plan, mine, rrd))
-        start = SortieStart(predicted_after(start.belief, plan, setup.search.scenario.sensor), "predicted",
-                            section["sorties"])
+        if i + 1 < (count or 1):  # the next sortie starts from the belief this one is predicted to leave
+            start = SortieStart(predicted_after(start.belief, plan, setup.search.scenario.sensor), "predicted",
+                                section["sorties"])
     rows, available = section["sorties"], section["expected_targets_in_area"]
     campaign_file = None
     if count is not None:

@@ -8,10 +8,15 @@ Each runs the closed search with a progress bar (on stderr), records it to Rerun
 to, writes the plan files and draws the picture, and returns what it made; printing it is the
 caller's (`gcs.display.plan_tables`). Two helper processes work beside the search
 (`gcs.background`): one loads matplotlib and draws the pictures, one loads rerun and writes the
-recording (when it goes to a file only), so the planning process imports neither."""
+recording (when it goes to a file only), so the planning process imports neither. The pictures
+helper starts first, before this process loads the planner (it is sent plain arrays and text,
+`gcs.display.overview.MapLayers` and `PlanLayers`, and never loads numba), and draws each
+sortie's map while its search runs; the recordings helper starts once the planner is loaded, whose
+step records it reads. This module itself loads neither the planner nor numba."""
 
 from __future__ import annotations
 
+import gc
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
@@ -20,10 +25,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gcs.atomic import write_json_atomic
-from gcs.background import Background
-from gcs.display.overview import draw_overview, warm_up as warm_up_picture
+from gcs.background import Background, Remote
 from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions
-from gcs.plans.plan_file import plan_to_dict
 from gcs.recording.background import BackgroundPlanRecorder
 
 if TYPE_CHECKING:
@@ -40,11 +43,15 @@ def fly_with_progress(search: ClosedSearch, progress: bool = True,
                       on_step: Callable[[StepRecord], None] | None = None) -> Plan:
     """Run `search` to the end with a progress bar on stderr (none when `progress` is False or
     stderr is no terminal), calling `on_step` with every step's record; the plan."""
+    if not progress or not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):  # no bar: tqdm not needed
+        for record in search.run():
+            if on_step is not None:
+                on_step(record)
+        return search.plan()
     from tqdm import tqdm
 
     horizon = max(u.range_steps for u in search.uavs.values())
-    with tqdm(total=horizon, unit="step", desc="planning", disable=not progress or None, leave=False,
-              file=sys.stderr) as bar:
+    with tqdm(total=horizon, unit="step", desc="planning", leave=False, file=sys.stderr) as bar:
         for record in search.run():
             if on_step is not None:
                 on_step(record)
@@ -53,22 +60,60 @@ def fly_with_progress(search: ClosedSearch, progress: bool = True,
     return search.plan()
 
 
+def warm_up_picture() -> None:
+    """In the helper: matplotlib loaded and warmed up while the planner loads and the search runs."""
+    from gcs.display.overview import warm_up
+
+    warm_up()
+
+
 def warm_up_recording() -> None:
     """In the helper: rerun and the recorder, loaded while the search runs."""
     import gcs.recording.plan  # noqa: F401
 
 
-class Planning:
-    """The helpers of one planning run: `fly` runs and records a search, `draw` draws pictures."""
+def load_planner() -> None:
+    """Load the planner and the modules that write its files (numba, shapely, pyproj: about half a
+    second)."""
+    import gcs.plans.campaign  # noqa: F401
 
-    def __init__(self, output: OutputOptions, pictures: Background, recordings: Background | None) -> None:
+
+class Planning:
+    """The helpers of one planning run: `fly` runs and records a search (its picture's map drawn
+    meanwhile, the plan over it as soon as the search ends), `draw` saves the pictures."""
+
+    def __init__(self, output: OutputOptions, pictures: Background, recordings: Background | None,
+                 collect: bool = True) -> None:
         self.output = output
         self._pictures = pictures
         self._recordings = recordings
+        self._rendered: dict[int, tuple[Plan, Scenario, Remote]] = {}  # id(plan) -> its rendered picture
+        self._collect = collect  # the garbage collector to be resumed when the first search starts
+
+    def _resume_collection(self) -> None:
+        """Start collecting garbage again (`planning` paused it), what the set-up made (modules,
+        kernels, the area) moved to the oldest generation first: it lives as long as the run, and
+        young collections need not look at it again."""
+        if self._collect and not gc.isenabled():
+            gc.freeze()
+            gc.unfreeze()
+            gc.enable()
 
     def fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None = None) -> Plan:
         """Run the search with a progress bar, recording every step to Rerun unless disabled: by
-        the recordings helper when it records to a file only, here when it also streams to a viewer."""
+        the recordings helper when it records to a file only, here when it also streams to a viewer.
+        The pictures helper draws the map meanwhile, and the plan over it once it is made."""
+        from gcs.display.overview import OverviewPicture, map_layers, plan_layers
+
+        scenario = search.scenario
+        picture = self._pictures.create(OverviewPicture, map_layers(scenario))
+        self._resume_collection()
+        plan = self._fly(search, rrd, name, cells_to_lat_lon)
+        picture.call("render", plan_layers(plan, scenario))
+        self._rendered[id(plan)] = (plan, scenario, picture)
+        return plan
+
+    def _fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None) -> Plan:
         output = self.output
         if rrd is None and output.rerun_connect is None:
             return fly_with_progress(search, output.progress)
@@ -87,9 +132,19 @@ class Planning:
         return plan
 
     def draw(self, jobs: list[tuple[Plan, Scenario, Path]]) -> list[Path]:
-        """Draw each (plan, scenario, path) in the pictures helper, wait for them and the
-        recordings; the pictures' paths."""
-        indices = [self._pictures.submit(draw_overview, *job) for job in jobs]
+        """Save the picture of each (plan, scenario, path) (drawn in the pictures helper: by `fly`,
+        or now), wait for them and the recordings; the pictures' paths."""
+        from gcs.display.overview import OverviewPicture, map_layers, plan_layers
+
+        indices = []
+        for plan, scenario, path in jobs:
+            rendered = self._rendered.pop(id(plan), None)
+            if rendered is not None and rendered[1] is scenario:
+                picture = rendered[2]
+            else:
+                picture = self._pictures.create(OverviewPicture, map_layers(scenario))
+                picture.call("render", plan_layers(plan, scenario))
+            indices.append(picture.submit("save", path))
         if self._recordings is not None:
             self._recordings.results()
         drawn = self._pictures.results()
@@ -99,13 +154,25 @@ class Planning:
 @contextmanager
 def planning(output: OutputOptions) -> Iterator[Planning]:
     """The helper processes of a run, started now so that they load their libraries while the
-    area is read and the search runs; stopped on leaving."""
-    with ExitStack() as stack:
-        pictures = stack.enter_context(Background(warm_up_picture))
-        recordings = None
-        if output.record and output.rerun_connect is None:
-            recordings = stack.enter_context(Background(warm_up_recording))
-        yield Planning(output, pictures, recordings)
+    planner is loaded, the area read and the search run: the pictures helper first, then (the
+    planner loaded) the recordings helper; stopped on leaving. The garbage collector pauses
+    until the first search starts: loading modules and kernels and reading the area allocate
+    much and free little."""
+    collect = gc.isenabled()
+    gc.disable()
+    try:
+        with ExitStack() as stack:
+            import gcs.display.overview  # noqa: F401  (and numpy, which both processes use: loaded once)
+
+            pictures = stack.enter_context(Background(warm_up_picture))
+            load_planner()
+            recordings = None
+            if output.record and output.rerun_connect is None:
+                recordings = stack.enter_context(Background(warm_up_recording))
+            yield Planning(output, pictures, recordings, collect)
+    finally:
+        if collect:
+            gc.enable()
 
 
 @dataclass(frozen=True)
@@ -130,11 +197,12 @@ def plan_scenario(scenario: str = "paper", search: SearchOptions | None = None, 
     """Plan built-in scenario `scenario` (`planner.scenario.SCENARIOS`) into `out` (a `.json`
     file, or a folder that receives plan.json), with the picture and, unless `output` says
     otherwise, the Rerun recording beside it. Bad options raise UserError before anything is written."""
-    from gcs.plans.planning import build_scenario_search
-
     search = search or SearchOptions()
     output = output or OutputOptions()
     with planning(output) as run:
+        from gcs.plans.plan_file import plan_to_dict
+        from gcs.plans.planning import build_scenario_search
+
         closed = build_scenario_search(scenario, search)
         path = plan_path(out)
         rrd = output.recording_path(path.with_suffix(".rrd"))
@@ -151,10 +219,10 @@ def plan_area(area_file: str | Path, area: AreaOptions | None = None, search: Se
     file name>): plan.json, the missions, paths, belief and picture, and the recording unless
     `output` says otherwise. With `sorties` N, N closed sorties in a row into `out`/sortie<k>/
     and campaign.json (docs/campaigns.md). Bad input raises UserError before anything is written."""
-    from gcs.plans.campaign import plan_sorties
-
     output = output or OutputOptions()
     with planning(output) as run:
+        from gcs.plans.campaign import plan_sorties
+
         return plan_sorties(area_file, area or AreaOptions(), search or SearchOptions(), out, run, sorties=sorties)
 
 
@@ -164,9 +232,9 @@ def continue_campaign(folder: str | Path, out: str | Path | None = None, output:
     fresh batteries and the area and options `folder` was planned with, into `out` (default
     `folder`-sortie<N+1>); with `sorties` N, N sorties. UserError when `folder` is not a finished
     flight of an unchanged plan over an unchanged area file."""
-    from gcs.plans.campaign import continued_start, plan_sorties
-
     output = output or OutputOptions()
     with planning(output) as run:
+        from gcs.plans.campaign import continued_start, plan_sorties
+
         nxt = continued_start(folder, out)
         return plan_sorties(nxt.area_file, nxt.area, nxt.search, nxt.out, run, sorties=sorties, start=nxt.start)

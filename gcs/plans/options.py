@@ -20,10 +20,14 @@ from typing import Any
 
 from gcs.errors import UserError
 from gcs.missions.items import Vehicle
-from planner.area_grid import MAX_CELLS
 
 #: The grid cell side of an area whose file gives none (`AreaOptions.cell_size_m` None).
 DEFAULT_CELL_SIZE_M = 50.0
+
+#: The planner's default largest grid, `planner.area_grid.MAX_CELLS`, spelt out so that the options
+#: (and with them the command line's parsers) load without the planner and numba; a test checks
+#: that the two agree.
+MAX_CELLS = 1_000_000
 
 
 def _as_declared(options: Any) -> None:

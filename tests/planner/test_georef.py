@@ -23,6 +23,24 @@ def test_geodetic_local_round_trip_is_sub_micrometre(lat0, lon0):
     assert np.max(np.abs(lat2 - lat)) < 1e-11 and np.max(np.abs(lon2 - lon)) < 1e-11
 
 
+@pytest.mark.parametrize("lat0, lon0", [(47.397742, 8.545594), (-35.363261, 149.16523), (84.39861077543975, -141.2268),
+                                        (0.0, -179.9)])
+def test_the_frame_converts_exactly_as_from_epsg_4326(lat0, lon0):
+    """The transformers are built from a PROJ-string WGS84 (no database search): the same
+    pipelines as from EPSG:4326, and the same numbers to the last bit."""
+    frame = LocalFrame(lat0, lon0)
+    local = pyproj.CRS.from_proj4(frame.proj_string)
+    forward = pyproj.Transformer.from_crs("EPSG:4326", local, always_xy=True)
+    inverse = pyproj.Transformer.from_crs(local, "EPSG:4326", always_xy=True)
+    assert (frame._forward.definition, frame._inverse.definition) == (forward.definition, inverse.definition)
+    rng = np.random.default_rng(3)
+    lon, lat = lon0 + rng.uniform(-0.2, 0.2, 500), lat0 + rng.uniform(-0.2, 0.2, 500)
+    east, north = rng.uniform(-20_000, 20_000, 500), rng.uniform(-20_000, 20_000, 500)
+    assert np.array_equal(np.stack(frame.geodetic2local(lat, lon)), np.stack(forward.transform(lon, lat)))
+    assert np.array_equal(np.stack(frame.local2geodetic(east, north)), np.stack(inverse.transform(east, north)[::-1]))
+    assert frame.geodetic2en(float(lat[0]), float(lon[0])) == forward.transform(float(lon[0]), float(lat[0]))
+
+
 def test_distance_and_bearing_from_origin_match_the_geodesic():
     frame = LocalFrame(47.397742, 8.545594)
     geod = pyproj.Geod(ellps="WGS84")

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from gcs.cli import given_options
 from gcs.cli.plan_options import (
+    SCENARIOS,
     add_area_arguments,
     add_output_arguments,
     add_search_arguments,
@@ -17,7 +18,6 @@ from gcs.cli.plan_options import (
     plan_options_from,
 )
 from gcs.errors import UserError
-from planner.scenario import SCENARIOS
 
 #: Options that say where outputs go or what is shown, not how to plan: the ones `--continue` takes.
 NOT_PLANNING = frozenset({"out", "quiet", "rrd", "no_rrd", "rerun_connect", "continue_from", "sorties"})

@@ -120,6 +120,28 @@ def test_failures_are_raised_in_the_parent(tmp_path):
     in_fresh_process("check_failures_are_raised_in_the_parent", tmp_path)
 
 
+def check_a_method_of_a_remote_object_runs_as_a_job(tmp_path: Path) -> None:
+    with Background() as helper:
+        first = helper.create(Journal, tmp_path / "first")
+        first.call("note", "one")
+        job = first.submit("note", "two")
+        other = helper.submit(pid_and, "x")
+        results = helper.results()
+    assert results[job] is None and results[other][1] == "x"
+    assert (tmp_path / "first").read_text().split() == ["one", "two"]
+    with Background() as helper:  # after a failed call, the job fails with that failure
+        journal = helper.create(Journal, tmp_path / "second")
+        journal.call("note", "bad")
+        journal.submit("note", "after")
+        with pytest.raises(KeyError, match="bad"):
+            helper.results()
+    assert (tmp_path / "second").read_text() == ""
+
+
+def test_a_method_of_a_remote_object_runs_as_a_job(tmp_path):
+    in_fresh_process("check_a_method_of_a_remote_object_runs_as_a_job", tmp_path)
+
+
 def test_without_fork_the_same_happens_in_the_caller(tmp_path):
     stop = threading.Event()
     other = threading.Thread(target=stop.wait)
@@ -131,10 +153,13 @@ def test_without_fork_the_same_happens_in_the_caller(tmp_path):
             job = helper.submit(pid_and, "x")
             assert (tmp_path / "journal").read_text() == "one\n"  # done at once
             assert helper.results()[job] == (os.getpid(), "x")
+            method = journal.submit("note", "two")
+            assert (tmp_path / "journal").read_text().split() == ["one", "two"]
+            assert helper.results()[method] is None
             helper.submit(fail, "inline too")
             with pytest.raises(ValueError, match="inline too"):
                 helper.results()
-        assert (tmp_path / "journal").read_text().split() == ["one", "closed"]
+        assert (tmp_path / "journal").read_text().split() == ["one", "two", "closed"]
     finally:
         stop.set()
         other.join()

@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from gcs.cli import build_parser, command_parser, given_options
+from gcs.cli import build_parser, command_parser, given_options, plan_options
 from gcs.cli.plan_options import output_options_from, plan_options_from
 from gcs.missions.items import Vehicle
 from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions
@@ -68,3 +68,17 @@ def test_no_namespace_travels_below_the_command_line(path):
         if re.search(r"^\s*(import argparse|from argparse import)", file.read_text(encoding="utf-8"), re.M):
             offenders.append(rel)
     assert offenders == []
+
+
+def test_the_names_the_parsers_list_are_the_planners():
+    """The parsers spell the planner's names and its largest grid out (so that they load without
+    the planner): they are the planner's own."""
+    from planner.area_grid import MAX_CELLS
+    from planner.dtscs import RETURN_PLANNERS
+    from planner.scenario import SCENARIOS
+    from planner.search import STRATEGIES
+
+    assert plan_options.STRATEGIES == tuple(sorted(STRATEGIES))
+    assert plan_options.RETURN_PLANNERS == RETURN_PLANNERS
+    assert plan_options.SCENARIOS == tuple(SCENARIOS)
+    assert AreaOptions().max_cells == MAX_CELLS

@@ -42,6 +42,15 @@ def test_a_command_imports_its_own_modules_only(command):
     assert "matplotlib" not in names and "numba" not in names
 
 
+def test_plan_parses_without_loading_the_planner():
+    """`gcs plan` builds its parser from names alone: its help loads no heavy module (and a run
+    can start its pictures helper before it loads the planner)."""
+    names, run = imported("plan", "--help")
+    assert run.returncode == 0, run.stderr
+    assert "usage: gcs plan" in run.stdout and "cpio" in run.stdout and "paper" in run.stdout
+    assert names & HEAVY == set()
+
+
 def test_every_command_module_is_listed_and_registers_its_name():
     modules = {m.name for m in pkgutil.iter_modules(gcs.cli.commands.__path__) if not m.name.startswith("_")}
     assert modules == set(COMMANDS)

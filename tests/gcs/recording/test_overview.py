@@ -78,3 +78,55 @@ def test_a_later_sortie_hatches_what_earlier_sorties_searched(tmp_path: Path):
     read = int((later.looks_before > 0).sum())
     # the map is drawn in at most 0.6 x 0.84 of the figure: at least half of the read cells changed
     assert changed > 0.5 * read / later.search_map.tep.size * 0.6 * 0.84
+
+
+def _all_at_once(plan, scenario, path: Path) -> Path:
+    from gcs.display.overview import OverviewPicture, map_layers, plan_layers
+
+    picture = OverviewPicture(map_layers(scenario), draw_map=False)
+    picture.render(plan_layers(plan, scenario))
+    return picture.save(path)
+
+
+def test_the_map_drawn_ahead_gives_the_picture_drawn_all_at_once(recorded_run: RecordedRun, tmp_path: Path):
+    """The map is drawn before the plan is known and the plan over it: the same PNG, byte for
+    byte, as drawing everything at once (a first sortie, and a later one with the hatch)."""
+    from planner.campaign import Belief, predicted_after
+    from planner.dtscs import MissionConfig, fly
+
+    cases = [(recorded_run.plan, recorded_run.scenario)]
+    first = cases[0]
+    later = predicted_after(Belief.prior(first[1].search_map), first[0], first[1].sensor).scenario(first[1])
+    cases.append((fly(later, MissionConfig(np_steps=2), seed=4), later))
+    for k, (plan, scenario) in enumerate(cases):
+        ahead = draw_overview(plan, scenario, tmp_path / f"ahead{k}.png").read_bytes()
+        assert ahead == _all_at_once(plan, scenario, tmp_path / f"once{k}.png").read_bytes()
+
+
+def test_the_pictures_helper_is_sent_plain_data(recorded_run: RecordedRun, tmp_path: Path):
+    """What the pictures helper is sent, and drawing it, loads neither the planner nor numba; a
+    picture renders once and keeps only its PNG."""
+    import pickle
+    import subprocess
+    import sys
+
+    import pytest
+
+    from gcs.display.overview import OverviewPicture, map_layers, plan_layers
+
+    layers = map_layers(recorded_run.scenario), plan_layers(recorded_run.plan, recorded_run.scenario)
+    sent = tmp_path / "layers.pickle"
+    sent.write_bytes(pickle.dumps(layers))
+    script = (f"import pickle, sys; from gcs.display.overview import OverviewPicture; "
+              f"m, p = pickle.loads(open({str(sent)!r}, 'rb').read()); OverviewPicture(m).render(p); "
+              f"print(sorted({{n.split('.')[0] for n in sys.modules}} & {{'planner', 'numba'}}))")
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["[]"]
+    picture = OverviewPicture(layers[0])
+    with pytest.raises(RuntimeError, match="not rendered"):
+        picture.save("never.png")
+    picture.render(layers[1])
+    assert picture.png.startswith(b"\x89PNG")
+    with pytest.raises(RuntimeError, match="rendered already"):
+        picture.render(layers[1])
