@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gcs.cli.bus_options import add_bus_arguments, bus_feed_from
-from gcs.cli.link_options import add_link_arguments, connections_from, signing_from
+from gcs.cli.fleet_options import add_fleet_arguments
+from gcs.cli.link_options import connections_from, signing_from
 from gcs.cli.plan_options import (
     add_area_arguments,
     add_output_arguments,
@@ -26,7 +27,7 @@ from gcs.cli.plan_options import (
     output_options_from,
     plan_options_from,
 )
-from gcs.cli.sim_options import add_sim_arguments, connections_or_sim, simulated_fleet
+from gcs.cli.sim_options import connections_or_sim, simulated_fleet
 from gcs.display.status_table import LiveTable, render_summary
 from gcs.errors import UserError
 from gcs.flight.controller import FlyOptions
@@ -45,12 +46,9 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("fly", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
-    p.add_argument("--plan", metavar="DIR", help="a gcs plan --area output folder")
+    add_fleet_arguments(p, "fly")
     p.add_argument("--resume", metavar="DIR", help="take over the flight in progress in DIR after the station that "
                                                    "flew it died (its links, unless --connect is given again)")
-    add_link_arguments(p)
-    add_sim_arguments(p)
-    p.add_argument("--no-fence", action="store_true", help="do not upload geofence and rally points")
     add_bus_arguments(p)
     p.add_argument("--reserve-pct", type=float, default=FlyOptions.reserve_pct,
                    help="battery kept back by the return trigger")
@@ -62,12 +60,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="order UAV home after SECONDS (real time), as the operator's 'r UAV' would")
     p.add_argument("--stdin-orders", action="store_true",
                    help="read return orders ('r ID') from stdin even when it is not a terminal")
-    p.add_argument("--allow-home-offset", action="store_true",
-                   help="fly even when a vehicle's home is more than a cell from its UAV's airport")
     p.add_argument("--arm-timeout", type=float, default=FlyOptions.arm_timeout_s,
                    help="seconds to keep retrying arming while the autopilot refuses (its reasons are shown)")
-    p.add_argument("--ready-timeout", type=float, default=FlyOptions.ready_timeout_s,
-                   help="seconds to wait for each vehicle's GPS fix, position estimate and home")
     p.add_argument("--link-timeout", type=float, default=FlyOptions.link_timeout_s,
                    help="seconds without telemetry before a vehicle is lost")
     p.add_argument("--lost-giveup", type=float, default=FlyOptions.lost_giveup_s,

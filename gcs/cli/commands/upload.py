@@ -10,8 +10,9 @@ import argparse
 import asyncio
 from pathlib import Path
 
-from gcs.cli.link_options import add_link_arguments, signing_from
-from gcs.cli.sim_options import add_sim_arguments, connections_or_sim, simulated_fleet
+from gcs.cli.fleet_options import add_fleet_arguments
+from gcs.cli.link_options import signing_from
+from gcs.cli.sim_options import connections_or_sim, simulated_fleet
 from gcs.errors import UserError
 from gcs.flight.controller import FlyOptions
 from gcs.flight.fly import upload_plan
@@ -21,18 +22,11 @@ from gcs.plans.plan_folder import load_plan_dir
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("upload", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
-    p.add_argument("--plan", metavar="DIR", help="a gcs plan --area output folder")
-    add_link_arguments(p)
-    add_sim_arguments(p)
-    p.add_argument("--no-fence", action="store_true", help="do not upload geofence and rally points")
+    add_fleet_arguments(p, "upload")
     p.add_argument("--timeout", type=float, default=FlyOptions.transfer_timeout_s,
                    help="seconds before a mission message is re-sent")
     p.add_argument("--connect-timeout", type=float, default=FlyOptions.connect_timeout_s,
                    help="seconds to wait for each vehicle's HEARTBEAT")
-    p.add_argument("--ready-timeout", type=float, default=FlyOptions.ready_timeout_s,
-                   help="seconds to wait for each vehicle's GPS fix, position estimate and home")
-    p.add_argument("--allow-home-offset", action="store_true",
-                   help="upload even when a vehicle's home is more than a cell from its UAV's airport")
     p.set_defaults(func=run)
 
 
