@@ -77,7 +77,8 @@ def add_area_arguments(p: argparse.ArgumentParser) -> None:
                    help="plane: length of the final approach on the runway axis (shortened to 250 m where the "
                         "area leaves no room); twice this is kept out of the search range")
     g.add_argument("--approach-alt", dest="approach_alt_m", metavar="METRES", type=float, default=d.approach_alt_m,
-                   help="plane: altitude above the airport at the start of the final approach")
+                   help="plane: altitude above the airport at the start of the final approach (lower where "
+                        "the glide would be steeper than 5 degrees, PX4's FW_LND_ANG)")
     g.add_argument("--margin", dest="margin_m", metavar="METRES", type=float, default=d.margin_m,
                    help="safety buffer: shrink the area and grow the no-fly zones by this much")
     g.add_argument("--default-tep", type=float, default=d.default_tep, help="target probability outside prior regions")

@@ -48,11 +48,21 @@ def mission_path_m(area: AreaGrid, uav: UavPlan, airport_m: tuple[float, float])
 @dataclass(frozen=True)
 class ApproachOptions:
     """A plane's landing approach: `distance_m` out along the runway axis (shortened down to
-    `min_distance_m` where the area or a no-fly zone leaves no room), reached at `alt_m`."""
+    `min_distance_m` where the area or a no-fly zone leaves no room), reached at `alt_m`, or lower
+    where that would make the glide steeper than `max_glide_deg` (PX4 refuses a mission whose
+    glide is steeper than its FW_LND_ANG, 5 degrees by default)."""
 
     distance_m: float = 500.0
     alt_m: float = 30.0
     min_distance_m: float = 250.0
+    max_glide_deg: float = 5.0
+
+    def alt_for(self, distance_m: float) -> float:
+        """The approach altitude over `distance_m` of glide: `alt_m`, lowered (to a tenth of a
+        metre) where it would be steeper than `max_glide_deg` as PX4 rounds it (to 0.1 degree)."""
+        if round(math.degrees(math.atan2(self.alt_m, distance_m)), 1) <= self.max_glide_deg:
+            return self.alt_m
+        return math.floor(distance_m * math.tan(math.radians(self.max_glide_deg)) * 10.0) / 10.0
 
 
 def landing_approach(area: AreaGrid, airport_m: tuple[float, float], heading_deg: float, last_m: np.ndarray,
@@ -99,7 +109,7 @@ def uav_mission(area: AreaGrid, uav: UavPlan, name: str, vehicle: Vehicle, home_
             inner = np.vstack([inner, [airport_m]])
         alat, alon = area.frame.local2geodetic(point[0], point[1])
         landing = LandingApproach(round(float(alat), COORD_DECIMALS), round(float(alon), COORD_DECIMALS),
-                                  options.alt_m)
+                                  options.alt_for(float(np.hypot(*(point - np.asarray(airport_m))))))
         points = np.vstack([points if over_airport else points[:-1], [point], points[-1:]])
     lat, lon = area.frame.local2geodetic(inner[:, 0], inner[:, 1])
     waypoints = [(round(float(a), COORD_DECIMALS), round(float(b), COORD_DECIMALS))
