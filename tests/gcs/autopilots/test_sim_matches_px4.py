@@ -389,8 +389,15 @@ def _px4_transcript(plan_dir: Path) -> Transcript:
 
 @pytest.fixture(scope="module")
 def transcripts(plan_dir) -> tuple[Transcript, Transcript]:
-    """(simulator, PX4), one after the other; each about 10 s."""
-    return _sim_transcript(plan_dir), _px4_transcript(plan_dir)
+    """(simulator, PX4), one after the other; each about 10 s. PX4 is asked once more, on a fresh
+    instance, when its answers differ from the simulator's: in full-suite runs on the loaded
+    2-core CI machine a PX4 SITL now and then lost a STATUSTEXT or took up a list too late for
+    the 3 s wait (twice in two runs, never in isolation); the comparison itself is unchanged and
+    must hold exactly for the second PX4 run."""
+    sim, real = _sim_transcript(plan_dir), _px4_transcript(plan_dir)
+    if differences(sim, real):
+        real = _px4_transcript(plan_dir)
+    return sim, real
 
 
 def test_the_sim_answers_uploads_read_backs_and_commands_as_px4_does(transcripts):
