@@ -92,9 +92,8 @@ def fly_plan(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, *
     sortie = SortieLog(plan)
     journal = FlightJournal.begin(plan, start, recorder)
     controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=stdin_orders, online=online,
-                                       recorder=recorder, bus=bus, signing=signing,
-                                       out=display.line if display is not None else None,
-                                       watchers=[journal, sortie, *([display] if display is not None else [])]))
+                                       recorder=recorder, bus=bus, signing=signing, watchers=[journal, sortie],
+                                       display=display))
     return FlightOutcome(controller, sortie, rrd)
 
 
@@ -113,8 +112,7 @@ def fly_resumed(plan: FleetPlan, state: JournalState, connections: Sequence[str]
     journal = FlightJournal.reopen(plan, state, list(connections), _relative(rrd, Path(plan.folder)))
     links = links_from_the_same_ports(list(connections), state.udp_source_ports)
     controller = asyncio.run(fly_async(plan, links, options, stdin_orders=stdin_orders, recorder=recorder, bus=bus,
-                                       signing=signing, out=display.line if display is not None else None,
-                                       watchers=[journal, sortie, *([display] if display is not None else [])],
+                                       signing=signing, watchers=[journal, sortie], display=display,
                                        resume=Resumption(plan, state)))
     return FlightOutcome(controller, sortie, rrd)
 
@@ -140,18 +138,21 @@ async def fly_async(plan: FleetPlan, connections: Sequence[str | Connection], op
                     stdin_orders: bool = False, online=None, recorder=None, bus=None,
                     listeners: Sequence[FlightListener] = (), signing: SigningKey | None = None,
                     watchers: Sequence = (), resume=None,
-                    out: Callable[[str], None] | None = None) -> FlightController:
+                    out: Callable[[str], None] | None = None, display: Display | None = None) -> FlightController:
     """Fly the plan (or, with `online` an observed search, search with the planner in the loop);
     `recorder` (a `gcs.recording.flight.FlightRecorder`) records it; `bus` (a
     `gcs.bus.flight_feed.BusFeed`) shares it over MQTT; `listeners` get every `FlightEvent`;
     `watchers` (e.g. `gcs.flight.sortie.SortieLog`, `gcs.display.status_table.LiveTable`) are
     held, as the bus and the recorder are (in that order, before them), by their
     `attach(controller)` for the whole flight and see how it ends; `out` takes the controller's
-    lines (default: printed; `LiveTable.line` shows them under the table);
+    lines (default: printed); `display` (a `Display`, e.g. `LiveTable`) is the last watcher and
+    takes the lines under its table;
     with `signing` every link signs what it sends and refuses unsigned traffic;
     `resume` (a `gcs.flight.resume.Resumption`) takes over a flight whose station died: its
     `restore(controller)` runs before anything listens, its `run(controller)` instead of
     `controller.run()`."""
+    if display is not None:
+        out, watchers = display.line, [*watchers, display]
     async with AsyncExitStack() as stack:
         links = await stack.enter_async_context(open_links(connections, signing=signing))
         controller = FlightController(plan, links, options, out)

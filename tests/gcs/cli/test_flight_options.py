@@ -34,3 +34,20 @@ def test_fly_without_flags_flies_with_the_default_options():
     built, defaults = options_from(args, plan), FlyOptions()
     assert {f.name: getattr(built, f.name) for f in fields(FlyOptions)} == \
         {f.name: getattr(defaults, f.name) for f in fields(FlyOptions)}
+
+
+def test_every_knob_the_journal_keeps_has_its_flag_for_resume():
+    """`gcs fly --resume` keeps the journal's value of a knob unless its flag is given again: the
+    flags it knows are exactly the knobs the journal keeps."""
+    from gcs.cli.commands.fly import RESUMED_OPTIONS
+    from gcs.flight.journal import JOURNALED_OPTIONS
+
+    assert sorted(RESUMED_OPTIONS.values()) == sorted(JOURNALED_OPTIONS)
+
+
+def test_upload_refuses_resume_in_one_line(capsys):
+    from gcs.cli import main
+
+    assert main(["upload", "--plan", "somewhere", "--sim", "--resume", "somewhere"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "unrecognized arguments: --resume" in err

@@ -260,6 +260,7 @@ def test_fly_plan_from_python_keeps_the_journal_and_the_sortie_record(plan_dir, 
     import json
     import shutil
 
+    from gcs.display.status_table import LiveTable
     from gcs.flight.fly import fly_plan
     from gcs.flight.journal import JOURNAL_FILE, read_journal
     from gcs.plans.belief_file import SORTIE_FILE
@@ -273,10 +274,14 @@ def test_fly_plan_from_python_keeps_the_journal_and_the_sortie_record(plan_dir, 
     stale = folder / "flight.resume1.rrd"  # an earlier flight's continuation: replaced with it
     stale.write_bytes(b"old")
     options = fast_options(reserve_pct=25.0)
+    drawn: list[str] = []
+    table = LiveTable(every_s=0.05, lines=3, write=drawn.append)
     with fleet_for_plan(plan, speedup=60.0).running() as fleet:
         outcome = fly_plan(plan, fleet.connection_strings(), options, simulated=True,
-                           recorder=new_flight_recorder(plan, folder / "flight.rrd", None))
+                           recorder=new_flight_recorder(plan, folder / "flight.rrd", None), display=table)
     assert outcome.exit_code == 0
+    # the display took the controller's lines and drew the table to the end
+    assert "UAV stage" in drawn[-1] and drawn[-1].count("landed") >= len(plan.uavs)
     assert all(st.stage is Stage.LANDED for st in outcome.controller.status.values())
     state = read_journal(folder)
     assert (folder / JOURNAL_FILE).exists() and state.ended is not None and state.start.sim
