@@ -16,6 +16,7 @@ from shapely.ops import unary_union
 
 from planner.environment import SearchMap, Sensor
 from planner.georef import Grid, LocalFrame
+from planner.motion import MoveCosts, cell_lengths
 from planner.rasterise import block_unsafe_moves, cells_inside, free_cells
 from planner.scenario import Scenario, UavSpec
 
@@ -23,9 +24,9 @@ from planner.scenario import Scenario, UavSpec
 #: alone is 8 * cells int32 per UAV (32 MB per UAV at this size).
 MAX_CELLS = 1_000_000
 
-#: Metres of flight charged per planner step: a diagonal step is cell_size * sqrt(2) long, and the
-#: planner counts every step alike, so a range in metres buys at most range / (cell * sqrt 2) steps.
-DIAGONAL = math.sqrt(2.0)
+#: What a step over a real area charges against the range: its length, in thousandths of a cell
+#: side (`planner.motion.cell_lengths`), so a range in metres is spent as the flown path spends it.
+AREA_MOVE_COSTS = cell_lengths()
 
 #: Legs are checked against the safe region grown by this much: 1 cm, far below any flight
 #: accuracy, absorbs the projection round-off of shapes drawn exactly on cell edges (a diagonal
@@ -98,9 +99,14 @@ def build_area_grid(area_lonlat: BaseGeometry, no_fly_lonlat: list[BaseGeometry]
     return AreaGrid(frame, grid, area_m, no_fly_m, safe_m, legs_m, free, edge_blocked, margin_m)
 
 
-def steps_for_range(range_m: float, cell_size_m: float) -> int:
-    """Planner steps a range in metres pays for, charging every step as a diagonal (worst case)."""
-    return int(math.floor(range_m / (cell_size_m * DIAGONAL) + 1e-9))
+def range_units(range_m: float, cell_size_m: float, costs: MoveCosts = AREA_MOVE_COSTS) -> int:
+    """A range in metres in the move-cost units of `costs` (rounded down: never more than given)."""
+    return int(math.floor(range_m / cell_size_m * costs.straight + 1e-9))
+
+
+def units_m(units: float, cell_size_m: float, costs: MoveCosts = AREA_MOVE_COSTS) -> float:
+    """Move-cost units in metres."""
+    return units * cell_size_m / costs.straight
 
 
 def airport_cell(area: AreaGrid, east_m: float, north_m: float, label: str) -> tuple[int, int]:
@@ -158,7 +164,9 @@ def area_search_map(area: AreaGrid, priors: list[PriorCells], default_tep: float
 def area_scenario(name: str, area: AreaGrid, priors: list[PriorCells], uavs: list[UavSpec],
                   targets_m: list[tuple[float, float]], default_tep: float, default_eu: float,
                   sensor: Sensor) -> Scenario:
-    """The planner scenario of an area; targets are local points (placed in their cell)."""
+    """The planner scenario of an area; targets are local points (placed in their cell). UAV
+    ranges are in `AREA_MOVE_COSTS` units (`range_units`)."""
     targets = [area.grid.cell_of(e, n) for e, n in targets_m]
     return Scenario(name, area_search_map(area, priors, default_tep, default_eu), uavs,
-                    np.array(targets, dtype=np.int64).reshape(-1, 2), sensor)
+                    np.array(targets, dtype=np.int64).reshape(-1, 2), sensor, move_costs=AREA_MOVE_COSTS,
+                    unit_m=units_m(1, area.grid.cell_size_m))

@@ -4,6 +4,11 @@ Every UAV searches while one more search step still leaves it able to get home w
 (eq. 23, read as T_i1(k) + T_i2(k) <= T_i), and switches to the return stage at the last step
 that does (eq. 24). Return orders and range changes may arrive at any step.
 
+Steps are the time index k: every UAV moves one cell per step, and two UAVs never share a cell at
+a step. What a step charges against the range is the scenario's `MoveCosts`: one unit per step
+in the paper (T_i counts steps), its length over a real area (a diagonal is sqrt 2 cells), so a
+range in metres is spent as the flown path spends it.
+
 `ClosedSearch` is a step-by-step state machine: each `step()` returns a `StepRecord` that
 loggers and live front-ends read; `run()` flies to the end and returns the `Plan`."""
 
@@ -17,7 +22,7 @@ import numpy as np
 
 from planner.environment import footprint_cells, sense
 from planner.horizon import Flyer, HorizonValue, block_size, horizon_window, team_fields, visit_reward
-from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
+from planner.motion import HEADING_DX, HEADING_DY, OC3, STEPS, MoveCosts, OrientationConstraint
 from planner.plan import Plan, ReturnReason, Stage, TargetOutcome, TrajectoryPoint, UavPlan
 from planner.range_check import check_return
 from planner.return_exact import follow_table, return_around_reservations, return_table
@@ -34,7 +39,8 @@ RETURN_PLANNERS = ("exact", "st")
 
 @dataclass(frozen=True)
 class MissionConfig:
-    """Settings of one closed search. `reserve_steps` is kept back from every range check.
+    """Settings of one closed search. `reserve_steps` axis steps (cell sides) of range are kept
+    back from every range check.
 
     The switch follows Algorithm 3: the strategy picks its best path, and when that path's first
     step would leave the UAV unable to get home (eq. 24) the UAV returns now. With
@@ -69,7 +75,7 @@ class MissionConfig:
 
 @dataclass(frozen=True)
 class RangeStatus:
-    """The return trigger's inputs for one UAV after a step (all in steps)."""
+    """The return trigger's inputs for one UAV after a step (in the scenario's move-cost units)."""
 
     range_left: int
     return_cost: int
@@ -108,7 +114,8 @@ class _Uav:
     x: int
     y: int
     heading: int
-    range_steps: int
+    range_units: int
+    flown: int = 0
     stage: Stage = Stage.SEARCH
     search_steps: int = 0
     return_steps: int = 0
@@ -122,17 +129,14 @@ class _Uav:
     trajectory: list[TrajectoryPoint] = field(default_factory=list)
 
     @property
-    def steps_flown(self) -> int:
-        return self.search_steps + self.return_steps
-
-    @property
     def home_cost(self) -> int:
         return int(self.table[self.heading, self.x, self.y])
 
 
 def first_step_feasible(table: np.ndarray, successors: np.ndarray, blocked: np.ndarray, pose: tuple[int, int, int],
-                        steps_flown: int, range_steps: int) -> bool:
-    """Whether any next step keeps steps_flown + 1 + (steps home) within the range: eq. (23) at k+1."""
+                        flown: int, range_units: int, costs: MoveCosts = STEPS) -> bool:
+    """Whether any next step keeps flown + (its cost) + (cost home after it) within the range:
+    eq. (23) at k+1."""
     x, y, h = pose
     nx, ny = blocked.shape
     for g in successors[h]:
@@ -140,7 +144,7 @@ def first_step_feasible(table: np.ndarray, successors: np.ndarray, blocked: np.n
             break
         qx, qy = x + HEADING_DX[g], y + HEADING_DY[g]
         if 0 <= qx < nx and 0 <= qy < ny and not blocked[qx, qy]:
-            if not check_return(range_steps - steps_flown, int(table[g, qx, qy])).must_return:
+            if not check_return(range_units - flown, int(table[g, qx, qy]), step=costs.of(int(g))).must_return:
                 return True
     return False
 
@@ -163,6 +167,8 @@ class ClosedSearch:
         self.strategy = strategy or make_strategy(self.config.strategy)
         self.map = scenario.search_map.copy()
         self.successors = self.config.oc.successors
+        self.costs = scenario.move_costs
+        self.reserve = self.config.reserve_steps * self.costs.straight
         self.target_grid = scenario.target_grid()
         airports = np.array([u.airport for u in scenario.uavs], dtype=np.int64)
         self.fa_map = airport_reward_map(self.map.shape, airports)
@@ -181,20 +187,25 @@ class ClosedSearch:
         self._home_steps: dict[int, np.ndarray] = {}
         self.uavs: dict[int, _Uav] = {}
         for spec in scenario.uavs:
-            table = return_table(self.map.no_fly, spec.airport, self.config.oc)
+            table = return_table(self.map.no_fly, spec.airport, self.config.oc, self.costs)
             pose = (spec.airport[0], spec.airport[1], spec.heading)
             if not first_step_feasible(table, self.successors, self.map.no_fly, pose, 0,
-                                       spec.range_steps - self.config.reserve_steps):
-                raise ValueError(f"UAV {spec.uav_id}: range {spec.range_steps} steps is too short to leave "
-                                 f"its airport ({spec.airport[0] + 1}, {spec.airport[1] + 1}) and come back "
+                                       spec.range_units - self.reserve, self.costs):
+                raise ValueError(f"UAV {spec.uav_id}: range {self._range_text(spec.range_units)} is too short to "
+                                 f"leave its airport ({spec.airport[0] + 1}, {spec.airport[1] + 1}) and come back "
                                  f"under {self.config.oc.name}")
-            uav = _Uav(spec, table, spec.airport[0], spec.airport[1], spec.heading, spec.range_steps)
+            uav = _Uav(spec, table, spec.airport[0], spec.airport[1], spec.heading, spec.range_units)
             uav.trajectory.append(TrajectoryPoint(0, uav.x, uav.y, uav.heading, Stage.SEARCH))
             self.uavs[spec.uav_id] = uav
         self.tally = SuccessTally(scenario.success_prior, ~scenario.search_map.no_fly, scenario.sensor.pc, self.uavs,
                                   scenario.looks_before)
         self._count_looks([(uid, u.x, u.y) for uid, u in self.uavs.items()])
         self._simulate_sensing([(uid, u.x, u.y) for uid, u in self.uavs.items()], 0)
+
+    def _range_text(self, units: int) -> str:
+        if self.costs.unit_steps:
+            return f"{units} steps"
+        return f"{units / self.costs.straight:.1f} cell sides"
 
     @property
     def done(self) -> bool:
@@ -205,11 +216,12 @@ class ClosedSearch:
         self._uav(uav_id)
         self._orders.add(uav_id)
 
-    def set_range(self, uav_id: int, range_steps: int) -> None:
-        """Change a UAV's range T_i mid-task; a cut below what the way home needs sends it home."""
-        if range_steps < 1:
+    def set_range(self, uav_id: int, range_units: int) -> None:
+        """Change a UAV's range T_i mid-task (move-cost units); a cut below what the way home
+        needs sends it home."""
+        if range_units < self.costs.cheapest:
             raise ValueError("range must be at least 1 step")
-        self._uav(uav_id).range_steps = int(range_steps)
+        self._uav(uav_id).range_units = int(range_units)
 
     def set_position(self, uav_id: int, cell: tuple[int, int]) -> None:
         """A searching UAV was observed in `cell` (heading kept): the next decision starts there.
@@ -257,11 +269,11 @@ class ClosedSearch:
         x, y, h = pose
         if int(uav.table[h, x, y]) > budget:
             return None
-        path = follow_table(uav.table, pose, self.successors, self.map.no_fly)
+        path = follow_table(uav.table, pose, self.successors, self.map.no_fly, self.costs)
         if not any((start_step + 1 + i, c[0], c[1]) in reserved for i, c in enumerate(path)):
             return path
         return return_around_reservations(uav.table, pose, start_step, budget, self.successors, self.map.no_fly,
-                                          reserved)
+                                          reserved, self.costs)
 
     def _ways_home(self, exclude: int) -> dict[int, list[tuple[int, int]]]:
         """Every other flying UAV's way home from now on: committed returns and searchers' plans."""
@@ -275,10 +287,10 @@ class ClosedSearch:
         path = uav.home_path
         if self.config.return_planner == "st" and path:
             others = self._ways_home(uav.spec.uav_id)
-            budget = uav.range_steps - uav.steps_flown
+            budget = uav.range_units - uav.flown
             st = st_return(self.map.no_fly, (uav.x, uav.y, uav.heading), uav.spec.airport, self.successors,
                            uav.table, self.config.np_steps, budget, make_strategy(self.config.st_tracker).best_path,
-                           others, k)
+                           others, k, self.costs)
             taken = {(i, c[0], c[1]) for rows in others.values() for i, c in enumerate(rows)}
             if st is not None and not any((i, c[0], c[1]) in taken for i, c in enumerate(st.path)):
                 path = st.path
@@ -310,15 +322,16 @@ class ClosedSearch:
             turning: tuple[_Uav, ReturnReason] | None = None
             for u in searchers:
                 d = answers.get(u.spec.uav_id)
-                budget = u.range_steps - self.config.reserve_steps - u.steps_flown - 1
                 if d is None:
                     feasible = first_step_feasible(u.table, self.successors, self.map.no_fly, (u.x, u.y, u.heading),
-                                                   u.steps_flown, u.range_steps - self.config.reserve_steps)
+                                                   u.flown, u.range_units - self.reserve, self.costs)
                     turning = (u, ReturnReason.BOXED_IN if feasible else ReturnReason.RANGE)
                     break
                 x, y, h = d.first_step()
-                if check_return(u.range_steps - u.steps_flown, int(u.table[h, x, y]),
-                                reserve_steps=self.config.reserve_steps).must_return:
+                step = self.costs.of(h)
+                budget = u.range_units - self.reserve - u.flown - step
+                if check_return(u.range_units - u.flown, int(u.table[h, x, y]), reserve=self.reserve,
+                                step=step).must_return:
                     turning = (u, ReturnReason.RANGE)
                     break
                 path = self._plan_home(u, (x, y, h), k + 1, budget, reserved)
@@ -341,11 +354,11 @@ class ClosedSearch:
                 predicted[u.spec.uav_id] = u.predicted
         prune = self.config.range_aware_search
         windows = self._horizon_windows(searchers)
-        states = [Searcher(u.spec.uav_id, u.x, u.y, u.heading, u.steps_flown,
-                           u.range_steps - self.config.reserve_steps if prune else -1, u.table,
+        states = [Searcher(u.spec.uav_id, u.x, u.y, u.heading, u.flown,
+                           u.range_units - self.reserve if prune else -1, u.table,
                            windows.get(u.spec.uav_id)) for u in searchers]
         return StepProblem(self.map.tep, self.map.eu, self.map.no_fly, self.fa_map, self.weights, self.successors,
-                           self.config.np_steps, states, committed, predicted)
+                           self.config.np_steps, states, committed, predicted, move_costs=self.costs.by_heading)
 
     def _horizon_windows(self, searchers: list[_Uav]) -> dict[int, np.ndarray]:
         """Each searcher's horizon-value window (none when the option is off). The fields are
@@ -358,10 +371,11 @@ class ClosedSearch:
         ids = [u.spec.uav_id for u in searchers]
         if self._horizon_ids != ids or k - self._horizon_step >= settings.period(self.map.shape):
             flyers = []
+            cell = self.costs.straight
             for u in searchers:
                 if u.spec.uav_id not in self._home_steps:
-                    self._home_steps[u.spec.uav_id] = u.table.min(axis=0).astype(np.int64)
-                flyers.append(Flyer((u.x, u.y), u.range_steps - self.config.reserve_steps - u.steps_flown,
+                    self._home_steps[u.spec.uav_id] = u.table.min(axis=0).astype(np.int64) // cell
+                flyers.append(Flyer((u.x, u.y), (u.range_units - self.reserve - u.flown) // cell,
                                     self._home_steps[u.spec.uav_id]))
             reward = visit_reward(self.map.tep, self.map.eu, self.weights, self.map.no_fly)
             radius = self.config.np_steps if settings.radius is None else settings.radius
@@ -382,7 +396,7 @@ class ClosedSearch:
                 continue
             if uid in self._orders:
                 returns.append(self._start_return(u, ReturnReason.ORDER))
-            elif u.steps_flown + u.home_cost > u.range_steps - self.config.reserve_steps:
+            elif u.flown + u.home_cost > u.range_units - self.reserve:
                 returns.append(self._start_return(u, ReturnReason.RANGE_CUT))
         self._orders.clear()
 
@@ -396,6 +410,7 @@ class ClosedSearch:
                 continue
             if u.stage is Stage.SEARCH:
                 u.x, u.y, u.heading = decisions[uid].first_step()
+                u.flown += self.costs.of(u.heading)
                 u.home_path = u.next_home_path
                 u.search_steps += 1
                 rest = decisions[uid].path[1:, :2]
@@ -403,6 +418,7 @@ class ClosedSearch:
                 u.predicted[: len(rest)] = rest
             elif u.return_plan:
                 u.x, u.y, u.heading = u.return_plan.popleft()
+                u.flown += self.costs.of(u.heading)
                 u.return_steps += 1
             else:
                 u.stage = Stage.LANDED
@@ -414,8 +430,7 @@ class ClosedSearch:
 
         self._count_looks(moved)
         reports, found = self._simulate_sensing(moved, k)
-        ranges = {uid: RangeStatus(u.range_steps - u.steps_flown, u.home_cost,
-                                   u.range_steps - u.steps_flown - u.home_cost)
+        ranges = {uid: RangeStatus(u.range_units - u.flown, u.home_cost, u.range_units - u.flown - u.home_cost)
                   for uid, u in self.uavs.items()}
         poses = {uid: (u.x, u.y, u.heading, u.stage) for uid, u in self.uavs.items()}
         return StepRecord(k, poses, decisions, returns, reports, found, ranges, self.map.tep, self.map.eu,
@@ -471,7 +486,7 @@ class ClosedSearch:
 
     def run(self, max_steps: int | None = None) -> Iterator[StepRecord]:
         """Yield every step's record until all UAVs have landed."""
-        limit = max_steps or (max(u.range_steps for u in self.uavs.values()) + 1)
+        limit = max_steps or (max(u.range_units for u in self.uavs.values()) // self.costs.cheapest + 1)
         while not self.done:
             if self.step_index > limit:
                 raise RuntimeError("the mission did not end within the range")
@@ -479,17 +494,20 @@ class ClosedSearch:
 
     def plan(self) -> Plan:
         """The closed trajectories and outcomes so far."""
-        uavs = [UavPlan(u.spec.uav_id, u.spec.airport, u.spec.heading, u.range_steps, list(u.trajectory),
-                        u.search_steps, u.return_steps, u.return_reason, u.return_step, u.tracking_efficiency)
+        uavs = [UavPlan(u.spec.uav_id, u.spec.airport, u.spec.heading, u.range_units, list(u.trajectory),
+                        u.search_steps, u.return_steps, u.return_reason, u.return_step, u.tracking_efficiency,
+                        u.flown)
                 for u in self.uavs.values()]
         targets = [TargetOutcome(int(x), int(y), self.found_step[i], self.found_by[i])
                    for i, (x, y) in enumerate(self.scenario.targets)]
         settings = {"np": self.config.np_steps, "oc": self.config.oc.name, "strategy": self.strategy.name,
                     "return_planner": self.config.return_planner, "reserve_steps": self.config.reserve_steps}
+        if not self.costs.unit_steps:
+            settings["move_costs"] = {"straight": self.costs.straight, "diagonal": self.costs.diagonal}
         if self.config.horizon is not None:
             settings["horizon_value"] = self.config.horizon.as_dict(self.config.np_steps, self.map.shape)
         return Plan(self.scenario.name, *self.map.shape, self.map.no_fly.copy(), uavs, targets, self.false_alarms,
-                    settings, self.success())
+                    settings, self.success(), self.costs, self.scenario.unit_m)
 
     def success(self) -> Success:
         """Expected targets found by the trajectories so far, under the scenario's prior and

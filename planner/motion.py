@@ -6,6 +6,7 @@ Cells are (x, y) with x east and y north, 0-based inside the code.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -78,3 +79,51 @@ def heading_between(dx: int, dy: int) -> int:
         if HEADING_DX[h] == dx and HEADING_DY[h] == dy:
             return h
     raise ValueError(f"({dx}, {dy}) is not a one-cell move")
+
+
+@dataclass(frozen=True)
+class MoveCosts:
+    """What one step charges against a UAV's range, in integer units: an axis move (N, E, S, W)
+    and a diagonal one.
+
+    The paper counts every step alike (`STEPS`: the range T_i is a number of steps). Over a real
+    area a step costs its length (`cell_lengths()`): a diagonal is sqrt(2) cells long, so a range
+    in metres is spent as the planned path really spends it. Integer units keep the exact return
+    table and every range check exact; `cell_lengths(1000)` counts thousandths of a cell side,
+    the diagonal rounded up (1415), so a plan never charges less than its true length."""
+
+    straight: int = 1
+    diagonal: int = 1
+
+    def __post_init__(self) -> None:
+        if self.straight < 1 or self.diagonal < 1:
+            raise ValueError(f"move costs must be positive integers, got {self.straight}, {self.diagonal}")
+
+    @property
+    def by_heading(self) -> np.ndarray:
+        """Cost of a move along each heading 0..7 (int64[8])."""
+        return np.array([self.straight if h % 2 == 0 else self.diagonal for h in range(8)], dtype=np.int64)
+
+    def of(self, heading: int) -> int:
+        return self.straight if heading % 2 == 0 else self.diagonal
+
+    @property
+    def cheapest(self) -> int:
+        return min(self.straight, self.diagonal)
+
+    @property
+    def unit_steps(self) -> bool:
+        """Every move costs one unit: ranges are counted in steps, as in the paper."""
+        return self.straight == self.diagonal == 1
+
+
+STEPS = MoveCosts(1, 1)
+
+#: Units per cell side of `cell_lengths()`: a thousandth of a cell (5 cm on 50 m cells).
+LENGTH_UNITS_PER_CELL = 1000
+
+
+def cell_lengths(units_per_cell: int = LENGTH_UNITS_PER_CELL) -> MoveCosts:
+    """Moves charged by their length: `units_per_cell` per axis move, that times sqrt(2),
+    rounded up, per diagonal."""
+    return MoveCosts(units_per_cell, math.ceil(units_per_cell * math.sqrt(2.0)))

@@ -7,6 +7,7 @@ from enum import Enum
 
 import numpy as np
 
+from planner.motion import STEPS, MoveCosts
 from planner.success import Success
 
 
@@ -37,21 +38,30 @@ class TrajectoryPoint:
 
 @dataclass
 class UavPlan:
+    """One UAV's closed trajectory. `range_units` is its range T_i and `used_units` what the
+    trajectory spends of it, both in the plan's move-cost units (`Plan.move_costs`)."""
+
     uav_id: int
     airport: tuple[int, int]
     start_heading: int
-    range_steps: int
+    range_units: int
     trajectory: list[TrajectoryPoint]
     search_steps: int
     return_steps: int
     return_reason: ReturnReason | None
     return_step: int | None
     tracking_efficiency: float | None = None
+    used_units: int | None = None
+
+    @property
+    def spent(self) -> int:
+        """Range the trajectory spends: `used_units`, or one unit per step when not given."""
+        return self.search_steps + self.return_steps if self.used_units is None else self.used_units
 
     @property
     def eta(self) -> float:
-        """Range utilisation of eq. (25)."""
-        return (self.search_steps + self.return_steps) / self.range_steps
+        """Range utilisation of eq. (25): (T_i1 + T_i2) / T_i, over what the steps cost."""
+        return self.spent / self.range_units
 
     @property
     def closed(self) -> bool:
@@ -69,6 +79,9 @@ class TargetOutcome:
 
 @dataclass
 class Plan:
+    """Every UAV's closed trajectory and what was found. Ranges are in `move_costs` units, each
+    `unit_m` metres long over a real area (None: abstract steps, as in the paper)."""
+
     scenario: str
     nx: int
     ny: int
@@ -78,6 +91,12 @@ class Plan:
     false_alarms: int
     settings: dict[str, object] = field(default_factory=dict)
     success: Success | None = None
+    move_costs: MoveCosts = STEPS
+    unit_m: float | None = None
+
+    def metres(self, units: float) -> float | None:
+        """Move-cost units in metres; None for a plan without a scale (the paper's steps)."""
+        return None if self.unit_m is None else units * self.unit_m
 
     @property
     def targets_found(self) -> int:

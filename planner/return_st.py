@@ -7,7 +7,8 @@ pull toward home (`homing_map`) breaks the ties between paths that collect the s
 
 The tracker is any `best_path` of a search strategy: basic PIO as in the paper (MissionConfig's
 default), or exhaustive choice, the exact optimum of eq. (21) at each step. Each step keeps the way
-home feasible within the budget (the exact table's check), so ST never runs out of range."""
+home feasible within the budget (the exact table's check, in the table's units: steps or
+lengths), so ST never runs out of range."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planner.motion import HEADING_DX, HEADING_DY
+from planner.motion import HEADING_DX, HEADING_DY, STEPS, MoveCosts
 from planner.return_exact import UNREACHABLE
 from planner.search.competition import BestPath, others_for
 from planner.search.problem import Searcher, StepProblem
@@ -98,10 +99,12 @@ def key_cell_map(shape: tuple[int, int], cells: list[tuple[int, int]]) -> np.nda
 
 def st_return(blocked: np.ndarray, pose: tuple[int, int, int], goal: tuple[int, int], successors: np.ndarray,
               home_table: np.ndarray, np_steps: int, budget: int, best_path: BestPath,
-              reserved: dict[int, list[tuple[int, int]]] | None = None, start_step: int = 0) -> StReturn | None:
-    """Track the A* path home from `pose` under the OC (Operators 1-4). `reserved[uav]` lists
-    another vehicle's cells from step start_step+1 on; they are never shared. None when the
-    tracker finds no feasible step (boxed in by reservations)."""
+              reserved: dict[int, list[tuple[int, int]]] | None = None, start_step: int = 0,
+              costs: MoveCosts = STEPS) -> StReturn | None:
+    """Track the A* path home from `pose` under the OC (Operators 1-4), spending at most
+    `budget` (units of `costs`, as `home_table`). `reserved[uav]` lists another vehicle's cells
+    from step start_step+1 on; they are never shared. None when the tracker finds no feasible
+    step (boxed in by reservations)."""
     x, y, h = pose
     if home_table[h, x, y] >= UNREACHABLE or home_table[h, x, y] > budget:
         return None
@@ -113,6 +116,8 @@ def st_return(blocked: np.ndarray, pose: tuple[int, int, int], goal: tuple[int, 
     weights = np.array([1.0, 0.0, 0.0, 1.0])
     path: list[tuple[int, int, int]] = []
     tracked = 0
+    spent = 0
+    move_costs = costs.by_heading
     while (x, y) != goal:
         flown = len(path)
         future = {}
@@ -123,13 +128,14 @@ def st_return(blocked: np.ndarray, pose: tuple[int, int, int], goal: tuple[int, 
                     block[q] = rows[flown + q]
             future[uav] = block
         problem = StepProblem(key, zeros, blocked, homing, weights, successors, np_steps,
-                              [], future, {}, tep_once=True)
-        searcher = Searcher(-1, x, y, h, flown, budget, home_table)
+                              [], future, {}, tep_once=True, move_costs=move_costs)
+        searcher = Searcher(-1, x, y, h, spent, budget, home_table)
         others, hard = others_for(problem, -1, {})
         decision = best_path(problem, searcher, others, hard)
         if decision is None:
             return None
         x, y, h = decision.first_step()
+        spent += int(move_costs[h])
         path.append((x, y, h))
         if (x, y) in key_set and key[x, y] > 0:
             tracked += 1

@@ -53,16 +53,16 @@ def separation_reward(d_min: float) -> float:
 @njit
 def score_paths(choices: np.ndarray, x0: int, y0: int, h0: int, successors: np.ndarray, tep: np.ndarray,
                 eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray, others: np.ndarray, others_hard: np.ndarray,
-                weights: np.ndarray, steps_flown: int, range_steps: int, home_table: np.ndarray, tep_once: bool,
-                scores: np.ndarray, depths: np.ndarray, cells: np.ndarray) -> int:
+                weights: np.ndarray, flown: int, budget: int, move_costs: np.ndarray, home_table: np.ndarray,
+                tep_once: bool, scores: np.ndarray, depths: np.ndarray, cells: np.ndarray) -> int:
     """Score every row of `choices` (n x Np turn choices) from pose (x0, y0, h0).
 
     Writes `scores[i]` = J1 of the path's valid prefix, `depths[i]` = that prefix's length and
     `cells[i, q]` = (x, y, heading) of step q+1. A path stops (eq. 8) where it leaves the grid,
     enters a blocked cell or a pose with no way home at all (a dead end of the OC), or meets a
     vehicle whose path is hard (`others_hard`) on the same cell at the same step; its first step
-    must also leave the range feasible: steps_flown + 1 + home_table[h1, x1, y1] <= range_steps
-    (range_steps < 0 disables the check).
+    must also leave the range feasible: flown + move_costs[h1] + home_table[h1, x1, y1] <= budget
+    (budget < 0 disables the check; costs in the units of `planner.motion.MoveCosts`).
     `others[j, q]` = (x, y) of vehicle j at step q+1, x < 0 where unknown.
     EU term: the reduction chi/2 of a visit, halved again for each earlier visit on the same path.
     With `tep_once`, a cell's TEP counts only at its first visit on the path (ST tracking)."""
@@ -106,8 +106,8 @@ def score_paths(choices: np.ndarray, x0: int, y0: int, h0: int, successors: np.n
                 break
             if home_table[g, qx, qy] >= 1073741824:
                 break
-            if q == 0 and range_steps >= 0:
-                if steps_flown + 1 + home_table[g, qx, qy] > range_steps:
+            if q == 0 and budget >= 0:
+                if flown + move_costs[g] + home_table[g, qx, qy] > budget:
                     break
             d2_min = -1
             clash = False

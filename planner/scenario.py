@@ -10,16 +10,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from planner.environment import SearchMap, Sensor
+from planner.motion import STEPS, MoveCosts
 
 
 @dataclass(frozen=True)
 class UavSpec:
-    """One UAV: its airport cell (0-based x, y), start heading (0..7) and range in steps."""
+    """One UAV: its airport cell (0-based x, y), start heading (0..7) and range T_i in the
+    scenario's move-cost units (`Scenario.move_costs`: steps in the paper, thousandths of a cell
+    side over a real area)."""
 
     uav_id: int
     airport: tuple[int, int]
     heading: int
-    range_steps: int
+    range_units: int
 
 
 @dataclass
@@ -38,6 +41,8 @@ class Scenario:
     sensor: Sensor = field(default_factory=Sensor)
     p0: np.ndarray | None = None
     looks_before: np.ndarray | None = None
+    move_costs: MoveCosts = STEPS
+    unit_m: float | None = None
 
     def __post_init__(self) -> None:
         self.targets = np.asarray(self.targets, dtype=np.int64).reshape(-1, 2)
@@ -57,7 +62,7 @@ class Scenario:
                 raise ValueError(f"UAV {uav.uav_id}: airport ({x + 1}, {y + 1}) is shared with another UAV")
             if not 0 <= uav.heading < 8:
                 raise ValueError(f"UAV {uav.uav_id}: heading must be 0..7, got {uav.heading}")
-            if uav.range_steps < 1:
+            if uav.range_units < self.move_costs.cheapest:
                 raise ValueError(f"UAV {uav.uav_id}: range must be at least 1 step")
             seen.add((x, y))
         if len({u.uav_id for u in self.uavs}) != len(self.uavs):

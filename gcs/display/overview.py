@@ -134,7 +134,12 @@ def title_outcome(plan: Plan) -> str:
 
 def uav_label(plan: Plan, u: UavPlan) -> str:
     """A UAV's legend entry: its legs and range use; its PoS and why it turned home."""
-    label = f"UAV {u.uav_id}: {u.search_steps} + {u.return_steps} of {u.range_steps} steps, eta {u.eta:.0%}"
+    steps = f"UAV {u.uav_id}: {u.search_steps} + {u.return_steps} steps"
+    if plan.unit_m is None:
+        label = f"{steps} of {u.range_units}, eta {u.eta:.0%}"
+    else:
+        used_km, range_km = plan.metres(u.spent) / 1000, plan.metres(u.range_units) / 1000
+        label = f"{steps}, {used_km:.2f} of {range_km:.2f} km, eta {u.eta:.0%}"
     more = [f"PoS {plan.success.share_of(u.uav_id):.1%}"] if plan.success else []
     if u.return_reason:
         more.append(f"returned at step {u.return_step}: {u.return_reason.value}")

@@ -16,14 +16,19 @@ if TYPE_CHECKING:
 
 
 def summary_table(plan: Plan) -> str:
-    """Per UAV its legs, range use and probability of success (expected targets found, and that
-    as a share of what the prior puts in the area); then the totals, and the simulated finds."""
+    """Per UAV its legs, range use (steps; over a real area the metres of range left for the
+    grid, `grid m`, and the grid path's length, `flown m`: the mission table adds the airport legs
+    and a plane's landing circuit to both) and probability of success
+    (expected targets found, and that as a share of what the prior puts in the area); then the
+    totals, and the simulated finds."""
     found_by: dict[int, int] = {}
     for t in plan.targets:
         if t.found_by is not None:
             found_by[t.found_by] = found_by.get(t.found_by, 0) + 1
     pos = plan.success
-    rows = [f"{'UAV':>3}  {'airport':>9}  {'search':>6}  {'return':>6}  {'range':>5}  {'eta':>6}  {'E[found]':>8}  "
+    metric = plan.unit_m is not None
+    ranges = f"{'grid m':>8}  {'flown m':>8}" if metric else f"{'range':>5}"
+    rows = [f"{'UAV':>3}  {'airport':>9}  {'search':>6}  {'return':>6}  {ranges}  {'eta':>6}  {'E[found]':>8}  "
             f"{'PoS':>6}  {'found':>5}  return reason"]
     for u in plan.uavs:
         airport = f"({u.airport[0] + 1},{u.airport[1] + 1})"
@@ -31,7 +36,9 @@ def summary_table(plan: Plan) -> str:
         expected = (f"{pos.by_uav.get(u.uav_id, 0.0):>8.2f}  {pos.share_of(u.uav_id):>6.1%}" if pos
                     else f"{'-':>8}  {'-':>6}")
         found = found_by.get(u.uav_id, 0) if len(plan.targets) else "-"
-        rows.append(f"{u.uav_id:>3}  {airport:>9}  {u.search_steps:>6}  {u.return_steps:>6}  {u.range_steps:>5}  "
+        used = (f"{plan.metres(u.range_units):>8.0f}  {plan.metres(u.spent):>8.0f}" if metric
+                else f"{u.range_units:>5}")
+        rows.append(f"{u.uav_id:>3}  {airport:>9}  {u.search_steps:>6}  {u.return_steps:>6}  {used}  "
                     f"{u.eta:>6.1%}  {expected}  {found:>5}  {reason}")
     if pos is not None:
         rows.append(f"probability of success {pos.share:.1%}: expected targets found {pos.expected:.2f} of the "
@@ -43,14 +50,17 @@ def summary_table(plan: Plan) -> str:
 
 
 def mission_table(setup: AreaSetup, files: dict[str, str]) -> str:
-    """Per UAV of an area plan its name, altitude and layer, range, path length and waypoints
-    (as plan.json in `files` has them); the altitude layers and the grid."""
+    """Per UAV of an area plan its name, altitude and layer, range and what the plan uses of it
+    (the grid path, the airport legs and a plane's landing circuit), the mission path's length and
+    waypoints (as plan.json in `files` has them); the altitude layers and the grid."""
     data = json.loads(files["plan.json"])
-    rows = [f"{'UAV':>3}  {'name':<16} {'alt m':>6} {'layer':>5} {'range m':>8} {'path m':>8} {'waypoints':>9}"]
+    rows = [f"{'UAV':>3}  {'name':<16} {'alt m':>6} {'layer':>5} {'range m':>8} {'used m':>8} {'used':>6} "
+            f"{'path m':>8} {'waypoints':>9}"]
     for u in data["uavs"]:
         layer = u.get("altitude_layer")
         rows.append(f"{u['id']:>3}  {u['name'][:16]:<16} {u['altitude_m']:>6.0f} {layer or '-':>5} "
-                    f"{u['range_m']:>8.0f} {u['length_m']:>8.0f} {len(u['waypoints']):>9}")
+                    f"{u['range_m']:>8.0f} {u['range_used_m']:>8.0f} {u['range_used_m'] / u['range_m']:>6.1%} "
+                    f"{u['length_m']:>8.0f} {len(u['waypoints']):>9}")
     layers = setup.layers
     above = "the ground below" if setup.altitude_reference is AltitudeReference.TERRAIN else "each airport"
     if layers.levels_m:

@@ -35,10 +35,10 @@ def run(settings: ExperimentSettings) -> list:
             for i, seed in enumerate(seeds):
                 result = fly_mission(settings.scenario(seed), config, seed, keep_records=(i == 0))
                 for u in result.plan.uavs:
-                    rows.append([oc.name, seed, u.uav_id, u.search_steps, u.return_steps, u.range_steps, u.eta])
+                    rows.append([oc.name, seed, u.uav_id, u.search_steps, u.return_steps, u.range_units, u.eta])
                 for record in result.records:
                     for uid, status in record.ranges.items():
-                        rng = result.plan.uavs[[p.uav_id for p in result.plan.uavs].index(uid)].range_steps
+                        rng = result.plan.uavs[[p.uav_id for p in result.plan.uavs].index(uid)].range_units
                         flown = rng - status.range_left
                         curves.append([oc.name, uid, record.step, (flown + status.return_cost) / rng])
                 bar.update(1)

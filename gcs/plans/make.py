@@ -50,7 +50,7 @@ def fly_with_progress(search: ClosedSearch, progress: bool = True,
         return search.plan()
     from tqdm import tqdm
 
-    horizon = max(u.range_steps for u in search.uavs.values())
+    horizon = max(u.range_units for u in search.uavs.values()) // search.costs.cheapest
     with tqdm(total=horizon, unit="step", desc="planning", leave=False, file=sys.stderr) as bar:
         for record in search.run():
             if on_step is not None:

@@ -69,7 +69,7 @@ def _core_dict(plan: Plan, seed: int | None, no_fly: list[list[int]]) -> dict:
                 "id": u.uav_id,
                 "airport": [u.airport[0] + 1, u.airport[1] + 1],
                 "start_heading": u.start_heading,
-                "range": u.range_steps,
+                "range": u.range_units,
                 "search_steps": u.search_steps,
                 "return_steps": u.return_steps,
                 "eta": round(u.eta, 6),

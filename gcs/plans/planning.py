@@ -27,13 +27,14 @@ from gcs.plans.area_file import AreaFile, read_area_file
 from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, SearchOptions
 from gcs.plans.plan_file import plan_to_dict
 from planner.area_grid import (
-    DIAGONAL,
+    AREA_MOVE_COSTS,
     AreaGrid,
     PriorCells,
     airport_cell,
     area_scenario,
     build_area_grid,
-    steps_for_range,
+    range_units,
+    units_m,
 )
 from planner.campaign import Belief, sortie_seed
 from planner.dtscs import ClosedSearch, MissionConfig
@@ -53,6 +54,7 @@ class AreaSetup:
     search: ClosedSearch
     ranges_m: dict[int, float]
     layers: AltitudeLayers
+    overheads_m: dict[int, float]
     vehicle: Vehicle
     altitude_reference: AltitudeReference = AltitudeReference.HOME
     approach: ApproachOptions = ApproachOptions()
@@ -183,7 +185,7 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
     landing_m = 2 * approach.distance_m if vehicle is Vehicle.PLANE else 0.0
     try:
         grid = build_area_grid(source.area, list(source.no_fly), cell, area.margin_m, area.max_cells)
-        uavs, ranges_m = [], {}
+        uavs, ranges_m, overheads_m = [], {}, {}
         for ap in source.airports:
             uav_id = ap.index + 1
             label = f"airport {ap.name!r} (UAV {uav_id})"
@@ -192,15 +194,18 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
             range_m = (ap.range_m or (ap.endurance_s * speed if ap.endurance_s else None)
                        or area.range_m or area.endurance_s * speed)
             ce, cn = grid.grid.centre_m(x, y)
-            to_cell_m = float(math.hypot(ce - east, cn - north))
-            steps = steps_for_range(range_m - 2 * to_cell_m - landing_m, cell)
-            if steps < 2:
-                raise ValueError(f"{label}: range {range_m:.0f} m is {max(steps, 0)} steps of {cell * DIAGONAL:.1f} m; "
-                                 f"it cannot leave its airport and come back")
+            overhead_m = 2 * float(math.hypot(ce - east, cn - north)) + landing_m
+            units = range_units(range_m - overhead_m, cell)
+            if units < 2 * AREA_MOVE_COSTS.straight:
+                raise ValueError(f"{label}: range {range_m:.0f} m leaves {max(range_m - overhead_m, 0):.0f} m over the "
+                                 f"{cell:g} m cells once {overhead_m:.0f} m to the airport's cell and back"
+                                 f"{' and the landing circuit' if landing_m else ''} are taken off; it cannot leave "
+                                 "its airport and come back")
             if landing_m:
                 landing_approach(grid, (east, north), ap.heading * 45.0, np.array([east, north]), approach, label)
-            uavs.append(UavSpec(uav_id, (x, y), ap.heading, steps))
+            uavs.append(UavSpec(uav_id, (x, y), ap.heading, units))
             ranges_m[uav_id] = range_m
+            overheads_m[uav_id] = overhead_m
         layers = altitude_layers([ap.altitude_m for ap in source.airports], area.altitude_m, area.altitude_step_m,
                                  area.ceiling_m)
         targets = []
@@ -216,7 +221,7 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
     except ValueError as exc:
         raise UserError(f"{area_file}: {exc}") from None
     reference = AltitudeReference.TERRAIN if area.terrain_follow else AltitudeReference.HOME
-    return AreaSetup(source, grid, closed, ranges_m, layers, vehicle, reference, approach, belief)
+    return AreaSetup(source, grid, closed, ranges_m, layers, overheads_m, vehicle, reference, approach, belief)
 
 
 def _rings_lat_lon(geometry) -> tuple[list, list]:
@@ -254,6 +259,8 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
                                "lat_lon": [mission.approach.lat_deg, mission.approach.lon_deg],
                                "alt_m": mission.approach.alt_m},
                            "range_m": round(setup.ranges_m[u.uav_id], 3),
+                           "range_used_m": round(units_m(u.spent, area.grid.cell_size_m)
+                                                 + setup.overheads_m[u.uav_id], 3),
                            "airport_lat_lon": [ap.lat_deg, ap.lon_deg],
                            "waypoints": [[a, b] for a, b in mission.waypoints],
                            "length_m": round(flown.length_m, 3)}

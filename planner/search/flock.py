@@ -13,8 +13,8 @@ Fitness. `best_two` ranks paths by the length of their valid prefix first (eq. 8
 it leaves the region, meets a hard vehicle or loses its way home) and J1 second; the scalar
 fitness `depth * DEPTH_WEIGHT + J1` gives the same order, since |J1| < 31 per step.
 
-Flock layout (arrays only, so every kernel can use it): `poses[g] = (x, y, heading, steps flown)`,
-`range_steps[g]`, `home_tables[g]` and `horizons[g]` (the horizon-value window around the UAV,
+Flock layout (arrays only, so every kernel can use it): `poses[g] = (x, y, heading, range flown)`,
+`budgets[g]`, `home_tables[g]` and `horizons[g]` (the horizon-value window around the UAV,
 G x 0 x 0 when the option is off) per subgroup g; `others` holds first `n_fixed` rows of other
 vehicles' cells (committed or predicted), then one row per subgroup for its current best path,
 which the other subgroups score against (cooperation) and its own scoring ignores."""
@@ -78,9 +78,9 @@ def decode_positions(positions: np.ndarray, branching: int, choices: np.ndarray)
 
 
 @njit
-def evaluate_flock(g: int, choices: np.ndarray, n: int, poses: np.ndarray, range_steps: np.ndarray,
-                   home_tables: np.ndarray, horizons: np.ndarray, successors: np.ndarray, tep: np.ndarray,
-                   eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray, others: np.ndarray,
+def evaluate_flock(g: int, choices: np.ndarray, n: int, poses: np.ndarray, budgets: np.ndarray,
+                   move_costs: np.ndarray, home_tables: np.ndarray, horizons: np.ndarray, successors: np.ndarray,
+                   tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray, others: np.ndarray,
                    others_hard: np.ndarray, n_fixed: int, weights: np.ndarray, tep_once: bool, scores: np.ndarray,
                    depths: np.ndarray, cells: np.ndarray, fitness: np.ndarray) -> None:
     """Score the first n rows of `choices` for subgroup g against everything in `others` but
@@ -91,8 +91,8 @@ def evaluate_flock(g: int, choices: np.ndarray, n: int, poses: np.ndarray, range
     for q in range(others.shape[1]):
         others[row, q, 0] = -1
     score_paths(choices[:n], poses[g, 0], poses[g, 1], poses[g, 2], successors, tep, eu, blocked, fa_map, others,
-                others_hard, weights, poses[g, 3], range_steps[g], home_tables[g], tep_once, scores[:n], depths[:n],
-                cells[:n])
+                others_hard, weights, poses[g, 3], budgets[g], move_costs, home_tables[g], tep_once, scores[:n],
+                depths[:n], cells[:n])
     add_terminal_value(scores[:n], depths[:n], cells[:n], poses[g, 0], poses[g, 1], horizons[g])
     others[row] = saved
     for i in range(n):
@@ -112,9 +112,9 @@ def share_best_cells(others: np.ndarray, row: int, cells_row: np.ndarray, depth:
 
 
 def flock_inputs(searchers: list[Searcher]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """`poses`, `range_steps`, `home_tables` and `horizons` for the flock layout."""
-    poses = np.array([[s.x, s.y, s.heading, s.steps_flown] for s in searchers], dtype=np.int64).reshape(-1, 4)
-    ranges = np.array([s.range_steps for s in searchers], dtype=np.int64)
+    """`poses`, `budgets`, `home_tables` and `horizons` for the flock layout."""
+    poses = np.array([[s.x, s.y, s.heading, s.flown] for s in searchers], dtype=np.int64).reshape(-1, 4)
+    ranges = np.array([s.budget for s in searchers], dtype=np.int64)
     return poses, ranges, _stacked_tables(tuple(s.home_table for s in searchers)), stacked_horizons(searchers)
 
 

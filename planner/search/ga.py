@@ -36,9 +36,10 @@ class GaParams:
 
 
 @njit
-def ga_population(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarray, horizons: np.ndarray,
-                  successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray,
-                  others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray, tep_once: bool,
+def ga_population(poses: np.ndarray, budgets: np.ndarray, move_costs: np.ndarray, home_tables: np.ndarray,
+                  horizons: np.ndarray, successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray,
+                  fa_map: np.ndarray, others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray,
+                  tep_once: bool,
                   population: np.ndarray, tournaments: np.ndarray, crossover_draws: np.ndarray,
                   mask_draws: np.ndarray, mutation_draws: np.ndarray, mutation_values: np.ndarray,
                   crossover_rate: float, mutation_rate: float, elites: int, best_choice: np.ndarray, trace: np.ndarray
@@ -54,8 +55,8 @@ def ga_population(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.nd
     child_scores = np.empty(n)
     children = np.empty((n, m), dtype=np.int64)
     child_fitness = np.empty(n)
-    evaluate_flock(0, population, n, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
-                   others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness)
+    evaluate_flock(0, population, n, poses, budgets, move_costs, home_tables, horizons, successors, tep, eu, blocked,
+                   fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness)
     evaluations = n
     best = 0
     for a in range(1, n):
@@ -86,8 +87,8 @@ def ga_population(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.nd
                 if mutation_draws[t, a, q] < mutation_rate:
                     gene = mutation_values[t, a, q]
                 children[a, q] = gene
-        evaluate_flock(0, children[elites:], n - elites, poses, range_steps, home_tables, horizons, successors, tep,
-                       eu, blocked, fa_map, others, others_hard, n_fixed, weights, tep_once, child_scores[elites:],
+        evaluate_flock(0, children[elites:], n - elites, poses, budgets, move_costs, home_tables, horizons, successors,
+                       tep, eu, blocked, fa_map, others, others_hard, n_fixed, weights, tep_once, child_scores[elites:],
                        depths, cells, child_fitness[elites:])
         evaluations += n - elites
         population[:] = children
@@ -128,8 +129,8 @@ class GaStrategy(PopulationOptimiser):
         rows, hard = others_with_groups(others, others_hard, 1, m)
         best = np.zeros(m, dtype=np.int64)
         trace = np.empty(t + 1)
-        evaluations = ga_population(poses, ranges, tables, horizons, successors, problem.tep, problem.eu,
-                                    problem.blocked, problem.fa_map, rows, hard, others.shape[0], problem.weights,
-                                    problem.tep_once, population, tournaments, crossover, masks, mutations, values,
-                                    p.crossover_rate, rate, p.elites, best, trace)
+        evaluations = ga_population(poses, ranges, problem.move_costs, tables, horizons, successors, problem.tep,
+                                    problem.eu, problem.blocked, problem.fa_map, rows, hard, others.shape[0],
+                                    problem.weights, problem.tep_once, population, tournaments, crossover, masks,
+                                    mutations, values, p.crossover_rate, rate, p.elites, best, trace)
         return best, int(evaluations), trace

@@ -94,16 +94,18 @@ def landmark_centre(positions: np.ndarray, fitness: np.ndarray, n: int) -> np.nd
 
 
 @njit
-def _refresh_best(g: int, poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarray, horizons: np.ndarray,
-                  successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray,
-                  others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray, tep_once: bool,
+def _refresh_best(g: int, poses: np.ndarray, budgets: np.ndarray, move_costs: np.ndarray, home_tables: np.ndarray,
+                  horizons: np.ndarray, successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray,
+                  fa_map: np.ndarray, others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray,
+                  tep_once: bool,
                   best_choices: np.ndarray, best_fitness: np.ndarray, best_scores: np.ndarray,
                   best_depths: np.ndarray, one_choice: np.ndarray, one_score: np.ndarray, one_depth: np.ndarray,
                   one_cells: np.ndarray, one_fitness: np.ndarray) -> None:
     """Re-score subgroup g's best path against the others' current bests (their moves change it)."""
     one_choice[0] = best_choices[g]
-    evaluate_flock(g, one_choice, 1, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
-                   others, others_hard, n_fixed, weights, tep_once, one_score, one_depth, one_cells, one_fitness)
+    evaluate_flock(g, one_choice, 1, poses, budgets, move_costs, home_tables, horizons, successors, tep, eu, blocked,
+                   fa_map, others, others_hard, n_fixed, weights, tep_once, one_score, one_depth, one_cells,
+                   one_fitness)
     best_fitness[g] = one_fitness[0]
     best_scores[g] = one_score[0]
     best_depths[g] = one_depth[0]
@@ -126,9 +128,10 @@ def _keep_best(g: int, n: int, choices: np.ndarray, positions: np.ndarray, fitne
 
 
 @njit
-def pio_flocks(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarray, horizons: np.ndarray,
-               successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray,
-               others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray, tep_once: bool,
+def pio_flocks(poses: np.ndarray, budgets: np.ndarray, move_costs: np.ndarray, home_tables: np.ndarray,
+               horizons: np.ndarray, successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray,
+               fa_map: np.ndarray, others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray,
+               tep_once: bool,
                positions: np.ndarray, compass_draws: np.ndarray, landmark_draws: np.ndarray,
                compass_coefficient: float, min_flock: int, best_choices: np.ndarray, best_scores: np.ndarray,
                best_depths: np.ndarray, trace: np.ndarray) -> int:
@@ -160,8 +163,9 @@ def pio_flocks(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarr
 
     for g in range(groups):
         decode_positions(positions[g], branching, choices)
-        evaluate_flock(g, choices, flock, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked,
-                       fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness[g])
+        evaluate_flock(g, choices, flock, poses, budgets, move_costs, home_tables, horizons, successors, tep, eu,
+                       blocked, fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells,
+                       fitness[g])
         evaluations += flock
         _keep_best(g, flock, choices, positions[g], fitness[g], scores, depths, cells, others, n_fixed,
                    best_positions, best_choices, best_fitness, best_scores, best_depths)
@@ -171,9 +175,9 @@ def pio_flocks(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarr
         decay = np.exp(-compass_coefficient * u)
         for g in range(groups):
             if groups > 1:
-                _refresh_best(g, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
-                              others, others_hard, n_fixed, weights, tep_once, best_choices, best_fitness, best_scores,
-                              best_depths, one_choice, one_score, one_depth, one_cells, one_fitness)
+                _refresh_best(g, poses, budgets, move_costs, home_tables, horizons, successors, tep, eu, blocked,
+                              fa_map, others, others_hard, n_fixed, weights, tep_once, best_choices, best_fitness,
+                              best_scores, best_depths, one_choice, one_score, one_depth, one_cells, one_fitness)
                 evaluations += 1
             for a in range(flock):
                 for q in range(m):
@@ -182,8 +186,9 @@ def pio_flocks(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarr
                     velocities[g, a, q] = v
                     positions[g, a, q] = clamp_position(positions[g, a, q] + v, branching)
             decode_positions(positions[g], branching, choices)
-            evaluate_flock(g, choices, flock, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked,
-                           fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness[g])
+            evaluate_flock(g, choices, flock, poses, budgets, move_costs, home_tables, horizons, successors, tep, eu,
+                           blocked, fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells,
+                           fitness[g])
             evaluations += flock
             _keep_best(g, flock, choices, positions[g], fitness[g], scores, depths, cells, others, n_fixed,
                        best_positions, best_choices, best_fitness, best_scores, best_depths)
@@ -194,9 +199,9 @@ def pio_flocks(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarr
         n_new = landmark_flock_size(n, min_flock)
         for g in range(groups):
             if groups > 1:
-                _refresh_best(g, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
-                              others, others_hard, n_fixed, weights, tep_once, best_choices, best_fitness, best_scores,
-                              best_depths, one_choice, one_score, one_depth, one_cells, one_fitness)
+                _refresh_best(g, poses, budgets, move_costs, home_tables, horizons, successors, tep, eu, blocked,
+                              fa_map, others, others_hard, n_fixed, weights, tep_once, best_choices, best_fitness,
+                              best_scores, best_depths, one_choice, one_score, one_depth, one_cells, one_fitness)
                 evaluations += 1
             order = np.argsort(-fitness[g, :n], kind="mergesort")
             for a in range(n_new):
@@ -211,8 +216,9 @@ def pio_flocks(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarr
                     positions[g, a, q] = clamp_position(
                         positions[g, a, q] + landmark_draws[v, g, a, q] * (centre[q] - positions[g, a, q]), branching)
             decode_positions(positions[g, :n_new], branching, choices)
-            evaluate_flock(g, choices, n_new, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked,
-                           fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness[g])
+            evaluate_flock(g, choices, n_new, poses, budgets, move_costs, home_tables, horizons, successors, tep, eu,
+                           blocked, fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells,
+                           fitness[g])
             evaluations += n_new
             _keep_best(g, n_new, choices, positions[g], fitness[g], scores, depths, cells, others, n_fixed,
                        best_positions, best_choices, best_fitness, best_scores, best_depths)
@@ -251,10 +257,10 @@ def run_pio(problem: StepProblem, searchers: list[Searcher], fixed: np.ndarray, 
     best_scores = np.empty(groups)
     best_depths = np.empty(groups, dtype=np.int64)
     trace = np.empty((groups, 1 + params.compass_iterations + params.landmark_iterations))
-    evaluations = pio_flocks(poses, ranges, tables, horizons, successors, problem.tep, problem.eu, problem.blocked,
-                             problem.fa_map, others, hard, fixed.shape[0], problem.weights, problem.tep_once,
-                             positions, compass, landmark, params.compass_coefficient, params.min_flock,
-                             best, best_scores, best_depths, trace)
+    evaluations = pio_flocks(poses, ranges, problem.move_costs, tables, horizons, successors, problem.tep, problem.eu,
+                             problem.blocked, problem.fa_map, others, hard, fixed.shape[0], problem.weights,
+                             problem.tep_once, positions, compass, landmark, params.compass_coefficient,
+                             params.min_flock, best, best_scores, best_depths, trace)
     return best, others, trace, int(evaluations)
 
 

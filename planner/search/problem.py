@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from planner.motion import STEPS
 from planner.reward import add_terminal_value, best_two, score_paths
 
 NO_HORIZON = np.zeros((0, 0))
@@ -13,15 +14,17 @@ NO_HORIZON = np.zeros((0, 0))
 
 @dataclass(frozen=True)
 class Searcher:
-    """A UAV in the search stage at this step. `horizon`, when given, is the value of ending a
-    path on each cell around the UAV (`planner.horizon.horizon_window`), added to J1."""
+    """A UAV in the search stage at this step: its pose, the range it has `flown` and its
+    `budget` (range T_i less the reserve, in the units of the problem's `move_costs`; -1: no
+    range check in the candidates, eq. 8). `horizon`, when given, is the value of ending a path
+    on each cell around the UAV (`planner.horizon.horizon_window`), added to J1."""
 
     uav_id: int
     x: int
     y: int
     heading: int
-    steps_flown: int
-    range_steps: int
+    flown: int
+    budget: int
     home_table: np.ndarray = field(repr=False)
     horizon: np.ndarray | None = field(default=None, repr=False)
 
@@ -50,6 +53,7 @@ class StepProblem:
     committed: dict[int, np.ndarray]
     predicted: dict[int, np.ndarray]
     tep_once: bool = False
+    move_costs: np.ndarray = field(default_factory=lambda: STEPS.by_heading)
 
     @property
     def branching(self) -> int:
@@ -93,7 +97,7 @@ class PathScorer:
         depths = np.empty(n, dtype=np.int64)
         cells = np.zeros((n, p.np_steps, 3), dtype=np.int64)
         score_paths(choices, s.x, s.y, s.heading, p.successors, p.tep, p.eu, p.blocked, p.fa_map,
-                    self.others, self.others_hard, p.weights, s.steps_flown, s.range_steps, s.home_table,
+                    self.others, self.others_hard, p.weights, s.flown, s.budget, p.move_costs, s.home_table,
                     p.tep_once, scores, depths, cells)
         add_terminal_value(scores, depths, cells, s.x, s.y, s.horizon_window)
         self.evaluations += n

@@ -37,9 +37,10 @@ class PsoParams:
 
 
 @njit
-def pso_swarm(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarray, horizons: np.ndarray,
-              successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray,
-              others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray, tep_once: bool,
+def pso_swarm(poses: np.ndarray, budgets: np.ndarray, move_costs: np.ndarray, home_tables: np.ndarray,
+              horizons: np.ndarray, successors: np.ndarray, tep: np.ndarray, eu: np.ndarray, blocked: np.ndarray,
+              fa_map: np.ndarray, others: np.ndarray, others_hard: np.ndarray, n_fixed: int, weights: np.ndarray,
+              tep_once: bool,
               positions: np.ndarray, velocities: np.ndarray, r_personal: np.ndarray, r_social: np.ndarray,
               inertia: float, c_personal: float, c_social: float, best_choice: np.ndarray, trace: np.ndarray) -> int:
     """One swarm (subgroup 0 of the flock layout); positions and velocities: C x Np, updated in
@@ -70,8 +71,8 @@ def pso_swarm(poses: np.ndarray, range_steps: np.ndarray, home_tables: np.ndarra
                     velocities[a, q] = v
                     positions[a, q] = clamp_position(positions[a, q] + v, branching)
         decode_positions(positions, branching, choices)
-        evaluate_flock(0, choices, n, poses, range_steps, home_tables, horizons, successors, tep, eu, blocked, fa_map,
-                       others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness)
+        evaluate_flock(0, choices, n, poses, budgets, move_costs, home_tables, horizons, successors, tep, eu, blocked,
+                       fa_map, others, others_hard, n_fixed, weights, tep_once, scores, depths, cells, fitness)
         evaluations += n
         for a in range(n):
             if fitness[a] > personal_fitness[a]:
@@ -109,8 +110,8 @@ class PsoStrategy(PopulationOptimiser):
         rows, hard = others_with_groups(others, others_hard, 1, problem.np_steps)
         best = np.zeros(problem.np_steps, dtype=np.int64)
         trace = np.empty(p.iterations + 1)
-        evaluations = pso_swarm(poses, ranges, tables, horizons, successors, problem.tep, problem.eu, problem.blocked,
-                                problem.fa_map, rows, hard, others.shape[0], problem.weights, problem.tep_once,
-                                positions, velocities, r_personal, r_social, p.inertia, p.c_personal, p.c_social,
-                                best, trace)
+        evaluations = pso_swarm(poses, ranges, problem.move_costs, tables, horizons, successors, problem.tep,
+                                problem.eu, problem.blocked, problem.fa_map, rows, hard, others.shape[0],
+                                problem.weights, problem.tep_once, positions, velocities, r_personal, r_social,
+                                p.inertia, p.c_personal, p.c_social, best, trace)
         return best, int(evaluations), trace

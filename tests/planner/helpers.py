@@ -6,15 +6,17 @@ from __future__ import annotations
 import numpy as np
 
 from planner.environment import SearchMap, Sensor
-from planner.motion import HEADING_DX, HEADING_DY, OrientationConstraint
+from planner.motion import HEADING_DX, HEADING_DY, STEPS, MoveCosts, OrientationConstraint
 from planner.plan import Plan
 from planner.return_exact import UNREACHABLE, return_table
 from planner.scenario import Scenario, UavSpec
 
 
 def random_scenario(seed: int, nx: int = 14, ny: int = 12, n_uavs: int = 3, range_steps: int = 40,
-                    blocked_fraction: float = 0.12, oc: OrientationConstraint | None = None) -> Scenario | None:
-    """A small random scenario whose airports can leave and come back, or None if the draw has none."""
+                    blocked_fraction: float = 0.12, oc: OrientationConstraint | None = None,
+                    costs: MoveCosts = STEPS) -> Scenario | None:
+    """A small random scenario whose airports can leave and come back, or None if the draw has
+    none. Ranges are `range_steps` axis steps (cell sides), charged by `costs`."""
     rng = np.random.default_rng(seed)
     no_fly = rng.random((nx, ny)) < blocked_fraction
     tep = rng.random((nx, ny))
@@ -28,19 +30,20 @@ def random_scenario(seed: int, nx: int = 14, ny: int = 12, n_uavs: int = 3, rang
         x, y = (int(v) for v in free[picks[i]])
         heading = int(rng.integers(8))
         if oc is not None:
-            table = return_table(no_fly, (x, y), oc)
+            table = return_table(no_fly, (x, y), oc, costs)
             ok = False
             for g in oc.successors[heading]:
                 if g < 0:
                     break
                 qx, qy = x + HEADING_DX[g], y + HEADING_DY[g]
-                if 0 <= qx < nx and 0 <= qy < ny and not no_fly[qx, qy] and 1 + table[g, qx, qy] <= range_steps:
+                if 0 <= qx < nx and 0 <= qy < ny and not no_fly[qx, qy] \
+                        and costs.of(int(g)) + table[g, qx, qy] <= range_steps * costs.straight:
                     ok = True
             if not ok:
                 return None
-        uavs.append(UavSpec(i + 1, (x, y), heading, range_steps))
+        uavs.append(UavSpec(i + 1, (x, y), heading, range_steps * costs.straight))
     targets = free[picks[n_uavs:]]
-    return Scenario("random", SearchMap(tep, eu, no_fly), uavs, targets, Sensor(0.9, 0.1))
+    return Scenario("random", SearchMap(tep, eu, no_fly), uavs, targets, Sensor(0.9, 0.1), move_costs=costs)
 
 
 def assert_plan_safe(plan: Plan, scenario: Scenario, oc: OrientationConstraint) -> None:
@@ -55,7 +58,9 @@ def assert_plan_safe(plan: Plan, scenario: Scenario, oc: OrientationConstraint) 
         traj = u.trajectory
         assert (traj[0].x, traj[0].y, traj[0].heading) == (*spec.airport, spec.heading), "starts at its airport pose"
         assert (traj[-1].x, traj[-1].y) == spec.airport, f"UAV {u.uav_id} ends at its airport"
-        assert len(traj) - 1 <= u.range_steps, f"UAV {u.uav_id} flew {len(traj) - 1} > range {u.range_steps}"
+        spent = sum(scenario.move_costs.of(p.heading) for p in traj[1:])
+        assert spent <= u.range_units, f"UAV {u.uav_id} spent {spent} > range {u.range_units}"
+        assert u.spent == spent and u.eta <= 1.0
         assert u.search_steps + u.return_steps == len(traj) - 1
         seen_return = False
         for a, b in zip(traj, traj[1:]):
@@ -100,4 +105,34 @@ def brute_force_steps_home(blocked: np.ndarray, goal: tuple[int, int], oc: Orien
                     seen.add((qx, qy, g))
                     nxt.append((qx, qy, g))
         frontier = nxt
+    return int(UNREACHABLE)
+
+
+def brute_force_cost_home(blocked: np.ndarray, goal: tuple[int, int], oc: OrientationConstraint,
+                          start: tuple[int, int, int], costs: MoveCosts) -> int:
+    """Forward Dijkstra with a heap over (cell, heading) from one start pose, each move charged
+    by `costs`: the reference for the weighted table."""
+    import heapq
+
+    nx, ny = blocked.shape
+    if start[:2] == goal:
+        return 0
+    best = {start: 0}
+    frontier = [(0, start)]
+    while frontier:
+        cost, (x, y, h) = heapq.heappop(frontier)
+        if (x, y) == goal:
+            return cost
+        if cost > best[(x, y, h)]:
+            continue
+        for g in range(8):
+            if not oc.allows(h, g):
+                continue
+            qx, qy = x + int(HEADING_DX[g]), y + int(HEADING_DY[g])
+            if not (0 <= qx < nx and 0 <= qy < ny) or blocked[qx, qy]:
+                continue
+            nxt, c = (qx, qy, g), cost + costs.of(g)
+            if c < best.get(nxt, int(UNREACHABLE)):
+                best[nxt] = c
+                heapq.heappush(frontier, (c, nxt))
     return int(UNREACHABLE)

@@ -112,7 +112,7 @@ def test_split_sorties_are_each_closed_and_legal_and_the_campaign_adds_up(seed, 
     for _ in range(sorties):
         searched, plan = _sortie(scenario, belief, seed, oc, np_steps)
         assert_plan_safe(plan, searched, oc)
-        assert [u.range_steps for u in plan.uavs] == [u.range_steps for u in scenario.uavs]  # fresh batteries
+        assert [u.range_units for u in plan.uavs] == [u.range_units for u in scenario.uavs]  # fresh batteries
         counts = look_counts(plan, scenario.sensor.footprint_radius)
         whole = expected_finds(scenario.search_map.tep, searchable, pc, belief.looks + counts)
         assert belief.expected(pc) + plan.success.expected == pytest.approx(whole, rel=1e-9, abs=1e-9)

@@ -6,7 +6,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 import gcs.flight.return_trigger
 from planner.dtscs import ClosedSearch, MissionConfig, first_step_feasible, fly
-from planner.motion import OC3, OC4, OC8
+from planner.motion import OC3, OC4, OC8, STEPS, cell_lengths
 from planner.plan import ReturnReason, Stage
 from planner.range_check import check_return
 from planner.scenario import paper_scenario
@@ -18,10 +18,12 @@ OCS = [OC3, OC4, OC8]
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
 @given(seed=st.integers(0, 100_000), oc_index=st.integers(0, 2), np_steps=st.integers(1, 4),
        n_uavs=st.integers(1, 4), range_steps=st.integers(12, 45), return_planner=st.sampled_from(["exact", "st"]),
-       range_aware=st.booleans())
-def test_random_closed_plans_are_safe(seed, oc_index, np_steps, n_uavs, range_steps, return_planner, range_aware):
+       range_aware=st.booleans(), costs=st.sampled_from([STEPS, cell_lengths()]))
+def test_random_closed_plans_are_safe(seed, oc_index, np_steps, n_uavs, range_steps, return_planner, range_aware,
+                                      costs):
+    """Steps charged as steps (the paper) or as lengths (a real area): the invariants hold."""
     oc = OCS[oc_index]
-    scenario = random_scenario(seed, n_uavs=n_uavs, range_steps=range_steps, oc=oc)
+    scenario = random_scenario(seed, n_uavs=n_uavs, range_steps=range_steps, oc=oc, costs=costs)
     if scenario is None:
         return
     config = MissionConfig(np_steps=np_steps, oc=oc, return_planner=return_planner, range_aware_search=range_aware)
@@ -56,7 +58,7 @@ def test_return_orders_and_range_changes_keep_plans_safe(seed, order_step, cut):
     for u in plan.uavs:
         on_way_home_at_cut = u.uav_id == second and u.return_step is not None and u.return_step <= cut_step
         if not on_way_home_at_cut:
-            assert len(u.trajectory) - 1 <= u.range_steps
+            assert len(u.trajectory) - 1 <= u.range_units
         if u.return_reason is ReturnReason.RANGE_CUT:
             assert u.uav_id == second and u.return_step == cut_step
     assert_plan_safe_except_range(plan, scenario)
@@ -66,7 +68,7 @@ def assert_plan_safe_except_range(plan, scenario):
     import copy
     relaxed = copy.deepcopy(plan)
     for u in relaxed.uavs:
-        u.range_steps = max(u.range_steps, len(u.trajectory) - 1)
+        u.range_units = max(u.range_units, len(u.trajectory) - 1)
     assert_plan_safe(relaxed, scenario, OC3)
 
 
@@ -91,7 +93,7 @@ def test_the_switch_is_the_last_step_that_gets_home():
     for event in (e for r in records for e in r.returns):
         uav = search.uavs[event.uav_id]
         assert event.reason is ReturnReason.RANGE
-        assert event.step + event.return_steps <= uav.range_steps
+        assert event.step + event.return_steps <= uav.range_units
         assert uav.search_steps == event.step
 
 

@@ -24,7 +24,7 @@ from planner.horizon import (
     team_fields,
     team_shares,
 )
-from planner.motion import OC3, OC4, OC8
+from planner.motion import OC3, OC4, OC8, STEPS
 from planner.reward import add_terminal_value, score_paths
 from planner.scenario import Scenario, UavSpec, paper_scenario
 from planner.search import STRATEGIES
@@ -148,7 +148,7 @@ def test_terminal_value_reads_the_last_cell_and_an_empty_window_adds_nothing():
     choices = all_choices(3, 3)
     n = len(choices)
     args = (choices, 4, 4, 2, OC3.successors, tep, eu, blocked, np.zeros((9, 9)), np.full((0, 3, 2), -1, np.int64),
-            np.zeros(0, bool), np.array([0.3, 0.3, 0.3, 0.1]), 0, -1, table, False)
+            np.zeros(0, bool), np.array([0.3, 0.3, 0.3, 0.1]), 0, -1, STEPS.by_heading, table, False)
     scores, depths, cells = np.empty(n), np.empty(n, np.int64), np.zeros((n, 3, 3), np.int64)
     score_paths(*args, scores, depths, cells)
     plain = scores.copy()
@@ -184,7 +184,7 @@ def test_off_searchers_carry_no_window_and_score_plain_j1():
     scores, depths, cells = PathScorer(problem, s, others, np.zeros(0, bool))(choices)
     want = np.empty(len(choices)), np.empty(len(choices), np.int64), np.zeros((len(choices), 3, 3), np.int64)
     score_paths(choices, s.x, s.y, s.heading, problem.successors, problem.tep, problem.eu, problem.blocked,
-                problem.fa_map, others, np.zeros(0, bool), problem.weights, s.steps_flown, s.range_steps,
+                problem.fa_map, others, np.zeros(0, bool), problem.weights, s.flown, s.budget, problem.move_costs,
                 s.home_table, False, *want)
     assert np.array_equal(scores, want[0]) and np.array_equal(depths, want[1])
     on = ClosedSearch(paper_scenario(1, range_steps=60), MissionConfig(np_steps=3, horizon=HorizonValue()), seed=1)

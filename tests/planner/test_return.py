@@ -2,11 +2,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from planner.motion import HEADING_DX, HEADING_DY, OC3, OC4, OC5, OC8
+from planner.motion import HEADING_DX, HEADING_DY, OC3, OC4, OC5, OC8, cell_lengths
 from planner.return_exact import UNREACHABLE, follow_table, return_around_reservations, return_table
 from planner.return_st import astar_cells, key_cell_map, st_return
 from planner.search.exhaustive import ExhaustiveStrategy
-from tests.planner.helpers import brute_force_steps_home
+from tests.planner.helpers import brute_force_cost_home, brute_force_steps_home
 
 OCS = [OC3, OC4, OC5, OC8]
 
@@ -32,6 +32,49 @@ def test_table_equals_brute_force_bfs(seed, oc_index):
                 continue
             for h in range(8):
                 assert table[h, x, y] == brute_force_steps_home(blocked, goal, oc, (x, y, h)), (x, y, h)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), oc_index=st.integers(0, 3), units=st.sampled_from([1000, 7, 2]))
+def test_length_table_equals_brute_force_dijkstra(seed, oc_index, units):
+    """Charged by length (a diagonal costs sqrt 2 axis moves, rounded up), the table is the
+    lowest cost home under the OC from every pose."""
+    oc, costs = OCS[oc_index], cell_lengths(units)
+    blocked, goal = _grid(seed)
+    table = return_table(blocked, goal, oc, costs)
+    nx, ny = blocked.shape
+    for x in range(nx):
+        for y in range(ny):
+            if blocked[x, y]:
+                continue
+            for h in range(8):
+                assert table[h, x, y] == brute_force_cost_home(blocked, goal, oc, (x, y, h), costs), (x, y, h)
+
+
+@pytest.mark.parametrize("oc", OCS, ids=lambda o: o.name)
+@pytest.mark.parametrize("seed", range(5))
+def test_a_followed_length_path_costs_what_the_table_says(oc, seed):
+    costs = cell_lengths()
+    blocked, goal = _grid(seed, 12, 10)
+    table = return_table(blocked, goal, oc, costs)
+    for x, y in np.argwhere(~blocked)[::3]:
+        for h in (0, 3, 6):
+            if table[h, x, y] >= UNREACHABLE:
+                continue
+            path = follow_table(table, (int(x), int(y), h), oc.successors, blocked, costs)
+            assert sum(costs.of(g) for _, _, g in path) == table[h, x, y]
+            assert path == [] or path[-1][:2] == goal
+            _assert_valid_path(path, (x, y, h), blocked, oc)
+
+
+def test_a_length_return_prefers_the_shorter_path_to_the_fewer_steps():
+    """Across an open field to a goal 4 east, 2 north: 4 steps either way under 8OC, but two
+    diagonals and two axis moves are shorter than a staircase that ends further off; the weighted
+    table charges 2 x 1415 + 2 x 1000."""
+    blocked = np.zeros((9, 9), bool)
+    table = return_table(blocked, (6, 4), OC8, cell_lengths())
+    assert table[2, 2, 2] == 2 * 1415 + 2 * 1000
+    assert return_table(blocked, (6, 4), OC8)[2, 2, 2] == 4
 
 
 def _assert_valid_path(path, start, blocked, oc):

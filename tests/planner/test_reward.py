@@ -3,14 +3,15 @@ import math
 import numpy as np
 import pytest
 
-from planner.motion import HEADING_DX, HEADING_DY, OC3, OC4, OC8
+from planner.motion import HEADING_DX, HEADING_DY, OC3, OC4, OC8, STEPS, cell_lengths
 from planner.return_exact import UNREACHABLE, return_table
 from planner.reward import airport_reward_map, best_two, score_paths
 from planner.search.exhaustive import all_choices
 
 
-def reference_score(choice, pose, succ, tep, eu, blocked, fa, others, hard, w, flown, rng_steps, table, tep_once):
-    """J1 of eq. (7)-(11) written plainly, one path at a time."""
+def reference_score(choice, pose, succ, tep, eu, blocked, fa, others, hard, w, flown, budget, costs, table, tep_once):
+    """J1 of eq. (7)-(11) written plainly, one path at a time; the first step must leave
+    flown + its cost + the way home within `budget` (eq. 8)."""
     x, y, h = pose
     nx, ny = tep.shape
     total, cells = 0.0, []
@@ -21,7 +22,7 @@ def reference_score(choice, pose, succ, tep, eu, blocked, fa, others, hard, w, f
         qx, qy = x + HEADING_DX[g], y + HEADING_DY[g]
         if not (0 <= qx < nx and 0 <= qy < ny) or blocked[qx, qy] or table[g, qx, qy] >= UNREACHABLE:
             break
-        if q == 0 and rng_steps >= 0 and flown + 1 + table[g, qx, qy] > rng_steps:
+        if q == 0 and budget >= 0 and flown + costs.of(int(g)) + table[g, qx, qy] > budget:
             break
         dists = [math.dist((o[q][0], o[q][1]), (qx, qy)) for o in others if o[q][0] >= 0]
         if any(o[q][0] == qx and o[q][1] == qy and hd for o, hd in zip(others, hard)):
@@ -35,15 +36,16 @@ def reference_score(choice, pose, succ, tep, eu, blocked, fa, others, hard, w, f
     return total, len(cells), cells
 
 
+@pytest.mark.parametrize("costs", [STEPS, cell_lengths()], ids=["steps", "lengths"])
 @pytest.mark.parametrize("oc", [OC3, OC4, OC8])
 @pytest.mark.parametrize("seed", range(4))
-def test_score_paths_matches_reference(oc, seed):
+def test_score_paths_matches_reference(oc, seed, costs):
     rng = np.random.default_rng(seed)
     nx, ny, np_steps = 9, 8, 4
     blocked = rng.random((nx, ny)) < 0.15
     blocked[4, 4] = False
     tep, eu = rng.random((nx, ny)), rng.random((nx, ny))
-    table = return_table(blocked, (0, 0) if not blocked[0, 0] else (4, 4), oc)
+    table = return_table(blocked, (0, 0) if not blocked[0, 0] else (4, 4), oc, costs)
     fa = airport_reward_map((nx, ny), np.array([[0, 0], [8, 7]]))
     others = rng.integers(-1, 8, size=(2, np_steps, 2))
     hard = np.array([True, False])
@@ -53,12 +55,13 @@ def test_score_paths_matches_reference(oc, seed):
     n = len(choices)
     scores, depths, cells = np.empty(n), np.empty(n, np.int64), np.zeros((n, np_steps, 3), np.int64)
     for tep_once in (False, True):
-        for rng_steps in (-1, 12):
-            score_paths(choices, 4, 4, 2, succ, tep, eu, blocked, fa, others, hard, w, 3, rng_steps, table,
-                        tep_once, scores, depths, cells)
+        for budget in (-1, 12 * costs.straight):
+            score_paths(choices, 4, 4, 2, succ, tep, eu, blocked, fa, others, hard, w, 3 * costs.straight, budget,
+                        costs.by_heading, table, tep_once, scores, depths, cells)
             for i, choice in enumerate(choices):
                 ref_total, ref_depth, ref_cells = reference_score(choice, (4, 4, 2), succ, tep, eu, blocked, fa,
-                                                                 others, hard, w, 3, rng_steps, table, tep_once)
+                                                                 others, hard, w, 3 * costs.straight, budget, costs,
+                                                                 table, tep_once)
                 assert depths[i] == ref_depth
                 assert scores[i] == pytest.approx(ref_total)
                 assert [tuple(c) for c in cells[i, :ref_depth]] == ref_cells
@@ -73,13 +76,15 @@ def test_revisit_on_one_path_earns_halved_eu():
     scores, depths, cells = np.empty(1), np.empty(1, np.int64), np.zeros((1, 2, 3), np.int64)
     w = np.array([0.0, 1.0, 0.0, 0.0])
     score_paths(choices, 2, 2, 0, OC8.successors, tep, eu, blocked, np.zeros((5, 5)),
-                np.full((0, 2, 2), -1, np.int64), np.zeros(0, bool), w, 0, -1, table, False, scores, depths, cells)
+                np.full((0, 2, 2), -1, np.int64), np.zeros(0, bool), w, 0, -1, STEPS.by_heading, table, False, scores,
+                depths, cells)
     assert scores[0] == pytest.approx(0.4 + 0.4)
     # north, then back south onto the start, then north again onto the first cell: 0.4 + 0.4 + 0.2
     choices = np.array([[0, 4, 0]])
     scores, depths, cells = np.empty(1), np.empty(1, np.int64), np.zeros((1, 3, 3), np.int64)
     score_paths(choices, 2, 2, 0, OC8.successors, tep, eu, blocked, np.zeros((5, 5)),
-                np.full((0, 3, 2), -1, np.int64), np.zeros(0, bool), w, 0, -1, table, False, scores, depths, cells)
+                np.full((0, 3, 2), -1, np.int64), np.zeros(0, bool), w, 0, -1, STEPS.by_heading, table, False, scores,
+                depths, cells)
     assert scores[0] == pytest.approx(0.4 + 0.4 + 0.2)
 
 

@@ -71,19 +71,21 @@ def _waypoint_file(path: Path) -> list:
             os.environ["MAVLINK20"] = saved
 
 
-def test_paper_area_reproduces_the_built_in_paper_scenario(planned, tmp_path):
-    """Area plans look past the horizon by default; the built-in scenario does with the option."""
+def test_paper_area_is_the_built_in_paper_scenario_flown_in_metres(planned, tmp_path):
+    """The paper's region on real coordinates: the same grid, no-fly cells and targets as the
+    built-in scenario; its ranges are metres (3700 m of 20 m cells, the built-in 130 steps charged
+    as diagonals), spent by length, so every UAV flies more of the region than the 130 steps."""
     assert main(["plan", "--scenario", "paper", "--seed", "0", "--horizon-value", "--out", str(tmp_path / "paper.json"),
                  "--quiet"]) == 0
     built_in = _load(tmp_path / "paper.json")
     from_area = _load(planned["paper"] / "plan.json")
     assert from_area["grid"]["no_fly"] == built_in["grid"]["no_fly"]
-    assert from_area["targets"] == built_in["targets"]
+    assert [(t["x"], t["y"]) for t in from_area["targets"]] == [(t["x"], t["y"]) for t in built_in["targets"]]
+    assert "move_costs" not in built_in["settings"]
+    assert from_area["settings"]["move_costs"] == {"straight": 1000, "diagonal": 1415}
     for a, b in zip(from_area["uavs"], built_in["uavs"]):
-        assert a["range"] == b["range"] == 130
-        assert [(p["x"], p["y"], p["heading"]) for p in a["trajectory"]] == \
-               [(p["x"], p["y"], p["heading"]) for p in b["trajectory"]]
-    assert from_area["summary"] == built_in["summary"]
+        assert b["range"] == 130 and a["range_m"] == 3700 and a["range"] == 3700 / 20 * 1000
+        assert len(a["trajectory"]) > len(b["trajectory"]) and a["range_used_m"] / a["range_m"] >= 0.97
 
 
 @pytest.mark.parametrize("name", EXAMPLES)

@@ -16,7 +16,7 @@ from gcs.missions.items import Vehicle
 from gcs.plans.make import plan_area, plan_scenario
 from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions, options_from_record, options_record
 from gcs.plans.planning import build_area_search, build_scenario_search
-from planner.area_grid import DIAGONAL
+from planner.area_grid import AREA_MOVE_COSTS
 from planner.motion import constraint_by_name
 from tests.gcs.plans.conftest import small_area
 
@@ -52,8 +52,10 @@ def test_an_area_search_from_typed_options(area_file):
     assert (sensor.pc, sensor.pf, sensor.footprint_radius) == (0.8, 0.05, 1)
     # west: range_m 3000 from the file; south-east: endurance_s 250 at 10 m/s
     assert setup.ranges_m == {1: 3000.0, 2: 2500.0}
-    for u in closed.scenario.uavs:  # charged as if every step were diagonal
-        assert 0 < u.range_steps <= setup.ranges_m[u.uav_id] // (40 * DIAGONAL)
+    assert closed.scenario.move_costs == AREA_MOVE_COSTS and closed.scenario.unit_m == 40 / 1000
+    for u in closed.scenario.uavs:  # metres in thousandths of a 40 m cell, less the legs to the airport's cell
+        overhead = setup.overheads_m[u.uav_id]
+        assert u.range_units == int((setup.ranges_m[u.uav_id] - overhead) / 40 * 1000) and 0 <= overhead < 2 * 40
     assert setup.layers.altitudes_m == {1: 30.0, 2: 40.0}
     off = build_area_search(area_file, search=replace(search, horizon_value=False))
     assert off.search.config.horizon is None and off.area.grid.cell_size_m == 30  # the file's cell size
@@ -68,7 +70,7 @@ def test_defaults_are_the_options_defaults(area_file):
 def test_a_built_in_scenario_from_typed_options():
     closed = build_scenario_search("paper", SearchOptions(seed=5, np_steps=2, range_steps=40))
     assert closed.seed == 5 and closed.config.np_steps == 2 and closed.config.horizon is None  # the paper's J1
-    assert all(u.range_steps == 40 for u in closed.scenario.uavs)
+    assert all(u.range_units == 40 for u in closed.scenario.uavs)
     assert build_scenario_search(search=SearchOptions(horizon_value=True)).config.horizon is not None
     with pytest.raises(UserError, match="unknown scenario 'moon'"):
         build_scenario_search("moon")

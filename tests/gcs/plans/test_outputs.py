@@ -121,14 +121,24 @@ def test_a_plane_without_room_for_its_approach_is_one_line(run_gcs, area_doc):
     assert code == 2 and err.count("\n") == 1 and "no room for a landing approach" in err and not out.exists()
 
 
-def test_endurance_and_range_convert_to_conservative_steps(run_gcs, area_doc):
+def test_ranges_in_metres_are_spent_by_length(run_gcs, area_doc):
+    """range_m and endurance_s x speed are metres; each step is charged its length (a diagonal
+    sqrt 2 cells), so the mission path uses the range to within the last step or two, never more."""
     code, err, out = run_gcs(area_doc, "--speed", "10")
     assert code == 0, err
-    uavs = json.loads((out / "plan.json").read_text())["uavs"]
+    plan = json.loads((out / "plan.json").read_text())
+    assert plan["settings"]["move_costs"] == {"straight": 1000, "diagonal": 1415}
+    uavs = plan["uavs"]
     assert uavs[0]["range_m"] == 3000 and uavs[1]["range_m"] == 2500      # range_m; 250 s at 10 m/s
     for u in uavs:
-        assert u["range"] <= u["range_m"] / (30 * 2 ** 0.5)               # every step paid as a diagonal
-        assert u["length_m"] <= u["range_m"]
+        cell_m = plan["grid"]["georef"]["cell_size_m"]
+        steps = u["trajectory"]
+        grid_m = sum(cell_m * (2 ** 0.5 if p["heading"] % 2 else 1.0) for p in steps[1:])
+        assert u["length_m"] <= u["range_used_m"] + 0.01 <= u["range_m"] + 0.01
+        assert 0 <= u["range_used_m"] - u["length_m"] <= 0.00057 * u["range_m"]  # diagonals rounded up, 1415
+        assert grid_m <= u["range"] * cell_m / 1000 + 1e-6 and u["eta"] == pytest.approx(
+            sum(1415 if p["heading"] % 2 else 1000 for p in steps[1:]) / u["range"], abs=1e-6)
+        assert u["range_used_m"] >= 0.97 * u["range_m"] - 2 * 1.415 * cell_m
 
 
 def test_cell_size_option_overrides_the_file(run_gcs, area_doc):

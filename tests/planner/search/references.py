@@ -39,7 +39,8 @@ class Scorer:
         others, hard = self.others(g)
         x, y, h, flown = (int(v) for v in self.poses[g])
         score_paths(rows, x, y, h, self.successors, self.p.tep, self.p.eu, self.p.blocked, self.p.fa_map, others, hard,
-                    self.p.weights, flown, int(self.ranges[g]), self.tables[g], self.p.tep_once, scores, depths, cells)
+                    self.p.weights, flown, int(self.ranges[g]), self.p.move_costs, self.tables[g], self.p.tep_once,
+                    scores, depths, cells)
         if self.horizons is not None and self.horizons.shape[1] > 0:
             centre = (self.horizons.shape[1] - 1) // 2
             for i in range(n):

@@ -43,8 +43,8 @@ def test_pio_kernel_matches_reference(random_problem, seed, groups, compass, hor
     best = np.zeros((groups, problem.np_steps), dtype=np.int64)
     trace = np.empty((groups, 1 + compass.shape[0] + 5))
     moved = positions.copy()
-    evaluations = pio_flocks(poses, ranges, tables, horizons, successors, problem.tep, problem.eu, problem.blocked,
-                             problem.fa_map, others, hard, 0, problem.weights, False, moved, compass,
+    evaluations = pio_flocks(poses, ranges, problem.move_costs, tables, horizons, successors, problem.tep, problem.eu,
+                             problem.blocked, problem.fa_map, others, hard, 0, problem.weights, False, moved, compass,
                              landmark, params.compass_coefficient, params.min_flock, best, np.empty(groups),
                              np.empty(groups, dtype=np.int64), trace)
     ref_best, ref_trace, ref_evaluations, ref_positions = reference_pio(
@@ -72,9 +72,9 @@ def test_pso_kernel_matches_reference(random_problem, seed, horizon):
     best = np.zeros(m, dtype=np.int64)
     trace = np.empty(t + 1)
     moved = positions.copy()
-    evaluations = pso_swarm(poses, ranges, tables, horizons, successors, problem.tep, problem.eu, problem.blocked,
-                            problem.fa_map, others, hard, 0, problem.weights, False, moved, velocities.copy(), r1, r2,
-                            0.7298, 1.49618, 1.49618, best, trace)
+    evaluations = pso_swarm(poses, ranges, problem.move_costs, tables, horizons, successors, problem.tep, problem.eu,
+                            problem.blocked, problem.fa_map, others, hard, 0, problem.weights, False, moved,
+                            velocities.copy(), r1, r2, 0.7298, 1.49618, 1.49618, best, trace)
     ref_best, ref_trace, ref_evaluations, ref_positions = reference_pso(scorer, k, positions, velocities, r1, r2,
                                                                         0.7298, 1.49618, 1.49618)
     assert best.tolist() == ref_best
@@ -98,9 +98,10 @@ def test_ga_kernel_matches_reference(random_problem, seed, horizon):
     others, hard = others_with_groups(fixed, np.zeros(0, bool), 1, m)
     best = np.zeros(m, dtype=np.int64)
     trace = np.empty(t + 1)
-    evaluations = ga_population(poses, ranges, tables, horizons, successors, problem.tep, problem.eu, problem.blocked,
-                                problem.fa_map, others, hard, 0, problem.weights, False, population.copy(),
-                                tournaments, crossover, masks, mutations, values, 0.9, 0.25, 2, best, trace)
+    evaluations = ga_population(poses, ranges, problem.move_costs, tables, horizons, successors, problem.tep,
+                                problem.eu, problem.blocked, problem.fa_map, others, hard, 0, problem.weights, False,
+                                population.copy(), tournaments, crossover, masks, mutations, values, 0.9, 0.25, 2,
+                                best, trace)
     ref_best, ref_trace, ref_evaluations = reference_ga(scorer, population, tournaments, crossover, masks, mutations,
                                                         values, 0.9, 0.25, 2)
     assert best.tolist() == ref_best

@@ -44,7 +44,7 @@ def assert_closed_and_safe(plan, scenario, oc):
         spec, traj = specs[u.uav_id], u.trajectory
         assert (traj[0].x, traj[0].y, traj[0].heading) == (*spec.airport, spec.heading)
         assert (traj[-1].x, traj[-1].y) == spec.airport
-        assert len(traj) - 1 <= spec.range_steps
+        assert len(traj) - 1 <= spec.range_units
         for a, b in itertools.pairwise(traj):
             assert oc.allows(a.heading, b.heading), f"UAV {u.uav_id} turns {a.heading}->{b.heading} at {b.step}"
             assert (b.x - a.x, b.y - a.y) == (HEADING_DX[b.heading], HEADING_DY[b.heading])
