@@ -86,17 +86,17 @@ def _ardupilot_rows(root: Path, speedup: float) -> list[str]:
     rows = []
     copter = Site(COPTERS.airports[:1]).plan(root / "copter")
     with ArduPilotSitl("copter", home=COPTERS.home(0), speedup=speedup) as sitl:
-        rows += _rows("ArduCopter", copter, _fly(copter, sitl.gcs_port, "--cruise-speed", "5"), speedup)
+        rows += _rows("ArduCopter", copter, _fly(copter, sitl.gcs_port), speedup)
     plane = PLANE.plan(root / "plane", "--vehicle", "plane", "--approach-m", "400")
     with ArduPilotSitl("plane", home=PLANE.home(0), speedup=speedup, params={"NAVL1_PERIOD": 10}) as sitl:
-        rows += _rows("ArduPlane", plane, _fly(plane, sitl.gcs_port, "--cruise-speed", "22"), speedup)
+        rows += _rows("ArduPlane", plane, _fly(plane, sitl.gcs_port), speedup)
     pair = COPTERS.plan(root / "pair")
     port = free_udp_port()
     with ExitStack() as stack:
         stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=speedup))
         stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(1), sysid=2, gcs_port=port, speedup=speedup,
                                           params={"BATT_CAPACITY": 2000}))
-        rows += _rows("2 ArduCopters, UAV 2 2000 mAh", pair, _fly(pair, port, "--cruise-speed", "5"), speedup)
+        rows += _rows("2 ArduCopters, UAV 2 2000 mAh", pair, _fly(pair, port), speedup)
     return rows
 
 
@@ -104,14 +104,14 @@ def _px4_rows(root: Path, speedup: float) -> list[str]:
     rows = []
     copter = Site(COPTERS.airports[:1]).plan(root / "px4")
     with Px4Sitl(home=COPTERS.home(0)[:3], speedup=speedup, params=STEADY_BATTERY) as px4:
-        rows += _rows("PX4 copter", copter, _fly(copter, [px4.gcs_connection], "--cruise-speed", "5"), speedup)
+        rows += _rows("PX4 copter", copter, _fly(copter, [px4.gcs_connection]), speedup)
     mixed = COPTERS.plan(root / "mixed")
     port = free_udp_port()
     with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=speedup), \
             Px4Sitl(home=COPTERS.home(1)[:3], sysid=2, speedup=speedup,
                     params={"SIM_BAT_DRAIN": 300.0, "SIM_BAT_MIN_PCT": 0.0}) as px4:
         rows += _rows("ArduCopter + PX4 (UAV 2, 300 s battery)", mixed,
-                      _fly(mixed, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], "--cruise-speed", "5"), speedup)
+                      _fly(mixed, [f"udpin:127.0.0.1:{port}", px4.gcs_connection]), speedup)
     return rows
 
 

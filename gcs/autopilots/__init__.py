@@ -80,6 +80,23 @@ class Autopilot(str, Enum):
             streams[mavlink.MAVLINK_MSG_ID_EKF_STATUS_REPORT] = 1.0
         return streams
 
+    def optional_streams_hz(self) -> dict[int, float]:
+        """Telemetry worth having but not needed (asked for, and quietly done without when
+        refused): the wind estimate the return trigger prices a way home with, ArduPilot's WIND
+        (where it comes from) or PX4's WIND_COV (its velocity)."""
+        if self is Autopilot.ARDUPILOT:
+            return {mavlink.MAVLINK_MSG_ID_WIND: 1.0}
+        if self is Autopilot.PX4:
+            return {mavlink.MAVLINK_MSG_ID_WIND_COV: 1.0}
+        return {}
+
+    def capacity_param(self) -> str | None:
+        """The parameter holding the battery capacity (mAh) the autopilot counts its percentage
+        with: ArduPilot's BATT_CAPACITY, PX4's BAT1_CAPACITY (-1 when not set)."""
+        if self is Autopilot.ARDUPILOT:
+            return "BATT_CAPACITY"
+        return "BAT1_CAPACITY" if self is Autopilot.PX4 else None
+
     def readiness_signals(self) -> tuple[str, ...]:
         """What says the vehicle may be armed besides a 3-D fix, a home and a position: ArduPilot's
         EKF position flags ("ekf"), PX4's pre-arm bit in SYS_STATUS health ("prearm"), which PX4

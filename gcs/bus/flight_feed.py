@@ -52,7 +52,7 @@ class FlightFeed:
             self.bus.telemetry(Telemetry(
                 uid, st.stage.value, lat_deg=st.lat_deg if has_position else None,
                 lon_deg=st.lon_deg if has_position else None, alt_m=st.rel_alt_m, heading_deg=st.heading_deg,
-                battery_pct=st.battery_pct, range_left_steps=_or_none(st.range_left), margin_steps=_or_none(st.margin)))
+                battery_pct=st.battery_pct, range_left_m=_or_none(st.range_left), margin_m=_or_none(st.margin)))
 
     def on_event(self, event: FlightEvent, now: float) -> None:
         if isinstance(event, LinkChanged):
@@ -93,7 +93,7 @@ class FlightFeed:
             return f"unknown UAV {command.uav} (the fleet has {', '.join(map(str, sorted(status)))})"
         targets = sorted(status) if command.uav is None else [command.uav]
         if command.kind is CommandKind.RANGE:
-            self.c.set_range(command.uav, command.range_steps)
+            self.c.set_range(command.uav, command.range_m)
             return None
         active = [u for u in targets if status[u].stage.value not in _FINAL]
         if command.uav is not None and not active:

@@ -160,8 +160,8 @@ class Telemetry:
     alt_m: float | None = None
     heading_deg: float | None = None
     battery_pct: float | None = None
-    range_left_steps: float | None = None
-    margin_steps: float | None = None
+    range_left_m: float | None = None
+    margin_m: float | None = None
     t_s: float | None = None
 
     def payload(self, fleet: str) -> dict:
@@ -172,7 +172,7 @@ class Telemetry:
                 "t_s": self.t_s if self.t_s is not None else time.time(),
                 "lat_deg": _finite(self.lat_deg), "lon_deg": _finite(self.lon_deg), "alt_m": _finite(self.alt_m),
                 "heading_deg": _finite(heading), "battery_pct": _finite(self.battery_pct), "stage": self.stage,
-                "range_left_steps": _finite(self.range_left_steps), "margin_steps": _finite(self.margin_steps)}
+                "range_left_m": _finite(self.range_left_m), "margin_m": _finite(self.margin_m)}
 
 
 def event_payload(fleet: str, station: str, session: str, uav: int, seq: int, kind: str, reason: str | None,
@@ -206,7 +206,7 @@ def reply_payload(fleet: str, station: str, request_id: str | None, reason: str 
 
 class CommandKind(str, Enum):
     RETURN = "return"  # fly the planned way home
-    RANGE = "range"  # the UAV's range changed (planner steps)
+    RANGE = "range"  # the UAV's range changed (metres along its plan from take-off)
     ABORT = "abort"  # autopilot RTL at once
 
 
@@ -217,14 +217,14 @@ class Command:
     request_id: str
     kind: CommandKind
     uav: int | None
-    range_steps: int | None = None
+    range_m: float | None = None
     sender: str | None = None
 
     def payload(self) -> dict:
         out: dict = {"v": VERSION, "request_id": self.request_id, "kind": self.kind.value,
                      "uav": "all" if self.uav is None else self.uav}
-        if self.range_steps is not None:
-            out["range_steps"] = self.range_steps
+        if self.range_m is not None:
+            out["range_m"] = self.range_m
         if self.sender is not None:
             out["sender"] = self.sender
         return out
@@ -253,7 +253,7 @@ def parse_command(raw: bytes) -> Command:
         raise InvalidCommand(f"invalid command: {errors[0]}", request_id)
     uav = data["uav"]
     return Command(data["request_id"], CommandKind(data["kind"]), None if uav == "all" else int(uav),
-                   data.get("range_steps"), data.get("sender"))
+                   data.get("range_m"), data.get("sender"))
 
 
 def encode(payload: dict) -> bytes:

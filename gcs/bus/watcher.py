@@ -181,8 +181,8 @@ def render_fleet(watcher: FleetWatcher) -> str:
         rows.append(f"{uid:>3} {view.stage:<10} {_num(t.get('lat_deg'), '.6f'):>11} "
                     f"{_num(t.get('lon_deg'), '.6f'):>12} {_num(t.get('alt_m'), '.1f'):>6} "
                     f"{_num(t.get('heading_deg'), '.0f'):>5} {_num(t.get('battery_pct'), '.0f'):>6} "
-                    f"{_num(t.get('range_left_steps'), '.1f'):>6} "
-                    f"{_num(t.get('margin_steps'), '.1f'):>6} {view.station[:10]:<10} {last}")
+                    f"{_num(t.get('range_left_m'), '.0f'):>6} "
+                    f"{_num(t.get('margin_m'), '.0f'):>6} {view.station[:10]:<10} {last}")
     if len(rows) == 1:
         rows.append("(no UAV on the broker yet)")
     return "\n".join(rows)

@@ -40,10 +40,11 @@ def _cell(plan: FleetPlan, st: VehicleStatus) -> str:
 
 def render_table(controller: FlightController) -> str:
     """One row per vehicle: stage, mode, position, altitude, cell, battery, range left and
-    return margin (planner steps), detections."""
+    return margin (metres of cruise: what the charge above the reserve still buys, and what is left of
+    it once the way home is paid), detections."""
     plan = controller.plan
     head = (f"{'UAV':>3} {'stage':<10} {'mode':<9} {'lat':>11} {'lon':>12} {'alt m':>6} {'cell':>9} "
-            f"{'batt %':>6} {'range':>6} {'margin':>6} {'hits':>4}  note")
+            f"{'batt %':>6} {'range m':>7} {'margin m':>8} {'hits':>4}  note")
     rows = [head]
     for uid, st in sorted(controller.status.items()):
         hits = sum(d.hit for d in st.detections)
@@ -51,7 +52,7 @@ def render_table(controller: FlightController) -> str:
         lon = _num(st.lon_deg, ".6f") if st.has_position else "-"
         rows.append(f"{uid:>3} {st.stage.value:<10} {st.mode_name[:9]:<9} {lat:>11} {lon:>12} "
                     f"{st.rel_alt_m:>6.1f} {_cell(plan, st):>9} {_num(st.battery_pct, '.0f'):>6} "
-                    f"{_num(st.range_left, '.1f'):>6} {_num(st.margin, '.1f'):>6} {hits:>4}  {st.note[:60]}")
+                    f"{_num(st.range_left, '.0f'):>7} {_num(st.margin, '.0f'):>8} {hits:>4}  {st.note[:60]}")
     return "\n".join(rows)
 
 
@@ -75,10 +76,11 @@ def targets_found(controller: FlightController) -> tuple[set[tuple[int, int]], i
 
 def render_summary(controller: FlightController) -> str:
     """Per vehicle: how it ended, where (distance from its own airport), battery at landing, why
-    it returned, readings; then the fleet's targets found."""
+    it returned, the charge it used from launch to touch-down against what its energy profile
+    predicted at launch for what it flew, readings; then the fleet's landings and targets."""
     plan = controller.plan
-    rows = [f"{'UAV':>3} {'name':<12} {'end':<8} {'from airport m':>14} {'batt %':>6} {'returned':<10} "
-            f"{'looks':>5} {'hits':>4}  note"]
+    rows = [f"{'UAV':>3} {'name':<12} {'end':<11} {'from airport m':>14} {'batt %':>6} {'returned':<10} "
+            f"{'used mAh':>8} {'predicted':>9} {'looks':>5} {'hits':>4}  note"]
     for uid, st in sorted(controller.status.items()):
         task = plan.uavs[uid]
         away = "-"
@@ -87,13 +89,18 @@ def render_summary(controller: FlightController) -> str:
             e1, n1 = plan.local_m(st.lat_deg, st.lon_deg)
             away = f"{math.hypot(e1 - e0, n1 - n0):.1f}"
         batt = st.battery_at_landing if st.battery_at_landing is not None else st.battery_pct
-        rows.append(f"{uid:>3} {task.name[:12]:<12} {st.stage.value:<8} {away:>14} {_num(batt, '.0f'):>6} "
-                    f"{st.return_reason or 'plan':<10} {len(st.detections):>5} {sum(d.hit for d in st.detections):>4}"
-                    f"  {st.note[:70]}")
+        account = controller.vehicles[uid].energy_account()
+        used = f"{account.used_mah:>8.0f} {account.predicted_mah:>5.0f} {account.error:>+4.0%}" if account \
+            else f"{'-':>8} {'-':>9}"
+        rows.append(f"{uid:>3} {task.name[:12]:<12} {st.stage.value:<11} {away:>14} {_num(batt, '.0f'):>6} "
+                    f"{st.return_reason or 'plan':<10} {used} {len(st.detections):>5} "
+                    f"{sum(d.hit for d in st.detections):>4}  {st.note[:70]}")
     found, false_alarms = targets_found(controller)
     landed = sum(st.stage.value == "landed" for st in controller.status.values())
-    rows.append(f"{landed}/{len(controller.status)} landed; targets found {len(found)}/{len(plan.targets)}, "
-                f"positive readings elsewhere {false_alarms}")
+    away_ids = [str(uid) for uid, st in sorted(controller.status.items()) if st.stage.value == "landed away"]
+    rows.append(f"{landed}/{len(controller.status)} landed at their airports"
+                + (f"; LANDED AWAY: UAV {', '.join(away_ids)}" if away_ids else "")
+                + f"; targets found {len(found)}/{len(plan.targets)}, positive readings elsewhere {false_alarms}")
     return "\n".join(rows)
 
 

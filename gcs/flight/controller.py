@@ -37,10 +37,12 @@ from gcs.flight.events import (
     StageChanged,
     TookOff,
 )
-from gcs.flight.return_trigger import RangeModel, check_return, estimate_range_steps, landing_seconds
+from gcs.flight.vehicle_flight import Legs, VehicleFlight
 from gcs.links import CommandError, LinkError, LinkStatus, MavLink, mavlink
 from gcs.plans.plan_folder import FleetPlan
+from gcs.plans.vehicle_file import stock_profile
 from gcs.telemetry.status import FINAL_STAGES, Stage, VehicleStatus
+from planner.energy import EnergyProfile
 from planner.return_exact import follow_table
 
 
@@ -51,16 +53,31 @@ class FlightAborted(UserError):
 
 
 
+#: Farther than this from its airport a vehicle has landed away, by airframe: a copter lands on its
+#: spot, a plane rolls out along its runway.
+LANDED_AWAY_M = {"copter": 25.0, "plane": 150.0}
+
 REFUSED_FOR_NOW = (mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED, mavlink.MAV_RESULT_FAILED)
 
 
 @dataclass
 class FlyOptions:
-    """Knobs of a flight; times are real (wall-clock) seconds unless named otherwise."""
+    """Knobs of a flight; times are real (wall-clock) seconds unless named otherwise.
 
-    speed_m_s: float = 10.0
+    `profiles[uav]`: the energy profile of the vehicle flying as that UAV (`gcs fly --vehicles`);
+    a UAV without one gets its autopilot's stock profile (`gcs.plans.vehicle_file.stock_profile`).
+    `confirm_s`: vehicle seconds the return trigger must hold before it is acted on.
+    `fit_charge`: a vehicle whose charge cannot pay for its plan flies a range cut to its charge
+    instead of being kept on the ground. `vehicles_file`: the vehicles.json the profiles this
+    flight learns are merged into. `landed_away_m[airframe]`: farther than this from its airport a
+    vehicle has landed away."""
+
     reserve_pct: float = 30.0
-    descent_m_s: float = 1.5
+    profiles: dict[int, EnergyProfile] = field(default_factory=dict)
+    confirm_s: float = 3.0
+    fit_charge: bool = False
+    vehicles_file: str | None = None
+    landed_away_m: dict[str, float] = field(default_factory=lambda: dict(LANDED_AWAY_M))
     link_timeout_s: float = 3.0
     lost_giveup_s: float = 20.0
     connect_timeout_s: float = 15.0
@@ -88,15 +105,17 @@ class FlightController:
         self.links = links
         self.options = options = options or FlyOptions()
         self.out = out or (lambda line: print(line, flush=True))
-        self.status = {uid: VehicleStatus(uid) for uid in plan.uavs}
+        self.vehicles = {uid: VehicleFlight(plan, task, self._profile(uid, task.vehicle.value),
+                                            reserve_pct=options.reserve_pct, confirm_s=options.confirm_s)
+                         for uid, task in plan.uavs.items()}
+        self.status = {uid: v.status for uid, v in self.vehicles.items()}
         self.link_of: dict[int, MavLink] = {}
         self.reading_component: dict[int, int] = {}  # a vehicle's readings come from this component
-        self.operator_range: dict[int, int] = {}  # ranges (steps from take-off) set by the operator
-        self._range_by_order: dict[int, bool] = {}  # the operator's range, not the battery, binds
-        self.model = RangeModel(step_m=plan.cell_size_m * math.sqrt(2.0), speed_m_s=options.speed_m_s,
-                                reserve_pct=options.reserve_pct, descent_m_s=options.descent_m_s)
+        self.operator_range: dict[int, float] = {}  # ranges (metres along the plan from take-off) set by the operator
         self._track_m = {uid: np.array([plan.local_m(p.lat_deg, p.lon_deg) for p in task.trajectory])
                          for uid, task in plan.uavs.items()}
+        self._along_m = {uid: np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(track, axis=0).T))])
+                         for uid, track in self._track_m.items()}
         self._orders: list[tuple[int, str]] = []
         self._busy: set[int] = set()
         self._stay_on_ground: set[int] = set()
@@ -131,6 +150,7 @@ class FlightController:
         self.link_of.setdefault(uid, link)
         readings, airborne, mode = len(status.detections), status.airborne_seen, status.mode_name
         status.update(msg, time.monotonic())
+        self.vehicles[uid].on_message(msg)
         if status.airborne_seen and not airborne:
             self.emit(TookOff(uid, status.rel_alt_m, status.mode_name))
         if status.mode_name != mode:
@@ -206,16 +226,27 @@ class FlightController:
             raise ValueError(f"unknown UAV {uid} (the plan has {', '.join(map(str, sorted(self.status)))})")
         self._orders.append((uid, reason))
 
-    def set_range(self, uid: int, steps: int) -> None:
-        """The operator's new range T_i for a UAV, in steps counted from take-off: from now on
-        the vehicle searches only while the way home still fits in it (as in the planner, eq.
-        23), whatever its battery would allow. ValueError for an unknown UAV or a range < 1."""
+    def set_range(self, uid: int, range_m: float) -> None:
+        """The operator's new range T_i for a UAV, in metres along its plan from take-off: from
+        now on the vehicle searches only while the way home still fits in it (as in the planner,
+        eq. 23), whatever its battery would allow. ValueError for an unknown UAV or a range that
+        is not a positive number of metres."""
         if uid not in self.status:
             raise ValueError(f"unknown UAV {uid} (the plan has {', '.join(map(str, sorted(self.status)))})")
-        if steps < 1:
-            raise ValueError(f"range must be at least 1 step, not {steps}")
-        self.operator_range[uid] = steps
-        self.say(uid, f"range set to {steps} steps ({self.status[uid].track_index} flown)")
+        if not (math.isfinite(range_m) and range_m > 0):
+            raise ValueError(f"range must be a positive number of metres, not {range_m:g}")
+        self.operator_range[uid] = float(range_m)
+        self.say(uid, f"range set to {range_m:.0f} m ({self.flown_along_plan_m(uid):.0f} m flown)")
+
+    def flown_along_plan_m(self, uid: int) -> float:
+        """Metres of the plan behind the vehicle: its trajectory's length up to the pose it is at."""
+        along = self._along_m[uid]
+        return float(along[min(self.status[uid].track_index, len(along) - 1)])
+
+    def _profile(self, uid: int, airframe: str, autopilot: str = "ardupilot") -> EnergyProfile:
+        """The energy profile the vehicle flying as `uid` is priced with: the one given for it, else
+        its autopilot's stock profile for its airframe."""
+        return self.options.profiles.get(uid) or stock_profile(autopilot, airframe)
 
     def interrupt(self) -> None:
         """Ctrl-C: bring everyone home, then stop."""
@@ -307,6 +338,7 @@ class FlightController:
             return False
         if not self._home_matches(uid):
             return False
+        await self._battery_setup(uid)
         for name, value in st.autopilot.param_changes_before_arming(st.fixed_wing, task.approach is not None).items():
             if await self.set_param(uid, name, value):
                 self.say(uid, f"{name} set to {value:g}: RTL lands on the runway through the mission's landing sequence"
@@ -346,6 +378,46 @@ class FlightController:
                       f"({report.resends} re-sends{', legacy MISSION_REQUEST used' if report.legacy_requests else ''})")
         return True
 
+    async def _battery_setup(self, uid: int) -> None:
+        """Before the flight: the vehicle's stock profile for its autopilot and airframe (unless
+        one was given), the pack capacity its autopilot counts with, and its board's unique id
+        (AUTOPILOT_VERSION, the key of its learned profile)."""
+        st, vehicle = self.status[uid], self.vehicles[uid]
+        autopilot = (st.autopilot or Autopilot.GENERIC).value
+        airframe = "plane" if st.fixed_wing else "copter"
+        vehicle.autopilot = autopilot
+        if uid not in self.options.profiles:
+            vehicle.set_profile(stock_profile(autopilot, airframe))
+        name = (st.autopilot or Autopilot.GENERIC).capacity_param()
+        if name is not None:
+            capacity = await self.get_param(uid, name)
+            if capacity is not None and capacity > 0:
+                vehicle.fuel.set_capacity(capacity)
+        try:
+            await self.command(uid, mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+                               retries=2)
+        except CommandError:
+            pass  # keyed by its system id
+
+    async def get_param(self, uid: int, name: str, timeout_s: float = 1.0, tries: int = 3) -> float | None:
+        """PARAM_REQUEST_READ by name; the value, or None when the vehicle does not answer (an
+        unknown name gets no answer from ArduPilot)."""
+        link = self.link_of[uid]
+        raw = name.encode()
+        for _ in range(tries):
+            async with link.listen(uid, ("PARAM_VALUE",)) as queue:
+                link.send(mavlink.MAVLink_param_request_read_message(uid, mavlink.MAV_COMP_ID_AUTOPILOT1, raw, -1))
+                end = time.monotonic() + timeout_s
+                while (left := end - time.monotonic()) > 0:
+                    try:
+                        msg = await asyncio.wait_for(queue.get(), left)
+                    except TimeoutError:
+                        break
+                    param_id = msg.param_id if isinstance(msg.param_id, str) else msg.param_id.decode(errors="replace")
+                    if param_id.rstrip("\x00") == name:
+                        return float(msg.param_value)
+        return None
+
     async def request_streams(self, uid: int) -> None:
         """Ask the vehicle for the telemetry its autopilot needs (`Autopilot.streams_hz`); a
         stream it refuses is noted in `unsupported_streams` and said."""
@@ -357,6 +429,11 @@ class FlightController:
                 st.unsupported_streams.add(msg_id)
                 name = mavlink.mavlink_map[msg_id].msgname if msg_id in mavlink.mavlink_map else msg_id
                 self.say(uid, f"stream {name} not set ({exc}); using what the vehicle sends")
+        for msg_id, hz in st.autopilot.optional_streams_hz().items():
+            try:
+                await self.command(uid, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz, retries=1)
+            except CommandError:
+                st.unsupported_streams.add(msg_id)
 
     async def _wait_ready(self, uid: int) -> bool:
         """Until `VehicleStatus.waiting_for` is empty, showing what is missing (and the
@@ -408,6 +485,8 @@ class FlightController:
         but could not be started is disarmed again: nothing is left armed on the ground."""
         opts, st = self.options, self.status[uid]
         autopilot = st.autopilot or Autopilot.GENERIC
+        if not self._charge_covers_plan(uid):
+            return False
         self.set_stage(uid, Stage.ARMING)
         mode = autopilot.arm_mode(st.fixed_wing)
         if mode is not None:
@@ -446,6 +525,41 @@ class FlightController:
                                                   + ("disarmed again" if disarmed else "COULD NOT DISARM: check it"))
                 return False
         self.set_stage(uid, Stage.SEARCH, "mission started")
+        return True
+
+    def _charge_covers_plan(self, uid: int) -> bool:
+        """Before arming: does the charge the vehicle reports now pay for its plan (launch, the
+        mission path, the landing) and leave the reserve, at its profile's prices? When it does
+        not, the vehicle stays on the ground (FAILED, naming both figures), or with `fit_charge`
+        flies a range cut to what its charge pays for. A charge not reported yet is not checked."""
+        vehicle, st, task = self.vehicles[uid], self.status[uid], self.plan.uavs[uid]
+        fuel, profile = vehicle.fuel, vehicle.profile
+        have = fuel.remaining_mah
+        if have is None:
+            self.say(uid, "warning: no battery report yet; its charge is not checked against its plan")
+            return True
+        path_m = float(self.plan.raw_uav(uid).get("length_m", self._along_m[uid][-1]))
+        reserve = fuel.reserve_mah(self.options.reserve_pct)
+        ends = profile.launch_cost_mah(task.altitude_m) + profile.landing_cost_mah(task.altitude_m)
+        need = ends + fuel.rate_mah_per_m * path_m + reserve
+        pct = f"{st.battery_pct:.0f}%" if st.battery_pct is not None else "charge"
+        if have >= need:
+            self.say(uid, f"charge {pct} ({have:.0f} of {fuel.capacity_mah:.0f} mAh) pays for its {path_m:.0f} m plan: "
+                          f"{need:.0f} mAh with the {self.options.reserve_pct:g}% reserve")
+            return True
+        covers_m = fuel.cruise_m_for(have - reserve - ends)
+        what = (f"charge {pct} = {have:.0f} mAh pays for {covers_m:.0f} m of its plan's {path_m:.0f} m (the plan needs "
+                f"{need:.0f} mAh with the {self.options.reserve_pct:g}% reserve of a {fuel.capacity_mah:.0f} mAh pack)")
+        if not self.options.fit_charge:
+            self.set_stage(uid, Stage.FAILED, f"not armed: {what}; charge it, or fly a range cut to its charge "
+                                              "(--fit-charge)")
+            return False
+        overhead = max(0.0, path_m - float(self._along_m[uid][-1]))
+        if covers_m - overhead <= 0:
+            self.set_stage(uid, Stage.FAILED, f"not armed: {what}, not even the way out and back")
+            return False
+        self.operator_range[uid] = covers_m - overhead
+        self.say(uid, f"{what}: flying a range cut to {covers_m - overhead:.0f} m along its plan (--fit-charge)")
         return True
 
     async def _start_mission(self, uid: int, patience_s: float = 3.0) -> None:
@@ -518,7 +632,7 @@ class FlightController:
         current step (the exact table's path), straight runs merged, ending at the airport cell."""
         pose = self._pose_next(uid)
         table = self.plan.return_table(uid)
-        path = [pose] + follow_table(table, pose, self.plan.oc.successors, self.plan.no_fly)
+        path = [pose] + follow_table(table, pose, self.plan.oc.successors, self.plan.no_fly, self.plan.move_costs)
         keep = [path[0]] + [path[i] for i in range(1, len(path) - 1) if path[i + 1][2] != path[i][2]] + [path[-1]]
         return [self.plan.cell_lat_lon(x, y) for x, y, _ in keep] if len(path) > 1 else \
             [self.plan.cell_lat_lon(pose[0], pose[1])]
@@ -591,35 +705,58 @@ class FlightController:
         st.track_index = i
         st.steps_flown = float(i)
 
-    def _landing_circuit_steps(self, uid: int) -> float:
+    def _circuit_legs(self, uid: int) -> Legs:
         """A plane flies out to its approach point and back before it lands (a copter lands where
-        the way home ends): those metres in steps."""
+        the way home ends): those legs, in metres."""
         task = self.plan.uavs[uid]
         if task.approach is None:
-            return 0.0
-        out = _distance_m(self.plan, task.airport_lat_lon, (task.approach.lat_deg, task.approach.lon_deg))
-        return 2.0 * out / self.model.step_m
+            return []
+        airport = np.array(self.plan.local_m(*task.airport_lat_lon))
+        approach = np.array(self.plan.local_m(task.approach.lat_deg, task.approach.lon_deg))
+        out = approach - airport
+        return [(float(out[0]), float(out[1])), (float(-out[0]), float(-out[1]))]
+
+    def _home_legs(self, uid: int, index: int) -> Legs:
+        """The planned way home from trajectory pose `index` (the exact table's path under the OC),
+        cell centre to cell centre, and on to the airport point: legs in metres, kept per pose."""
+        vehicle = self.vehicles[uid]
+        legs = vehicle.home_legs.get(index)
+        if legs is None:
+            p = self.plan.uavs[uid].trajectory[index]
+            pose = (p.x, p.y, p.heading)
+            path = [pose] + follow_table(self.plan.return_table(uid), pose, self.plan.oc.successors, self.plan.no_fly,
+                                         self.plan.move_costs)
+            points = np.array([self.plan.grid.centre_m(x, y) for x, y, _ in path]
+                              + [self.plan.local_m(*self.plan.uavs[uid].airport_lat_lon)])
+            legs = [(float(e), float(n)) for e, n in np.diff(points, axis=0)]
+            vehicle.home_legs[index] = legs
+        return legs
 
     def evaluate(self, uid: int) -> bool:
-        """Update range and margin of one searching vehicle; True when it must turn home now."""
-        st, task = self.status[uid], self.plan.uavs[uid]
-        st.range_left = estimate_range_steps(st.battery_pct, st.time_remaining_s, list(st.battery_samples), self.model,
-                                             landing_seconds(task.altitude_m, self.model))
-        ordered = max(0.0, self.operator_range[uid] - st.track_index) if uid in self.operator_range else math.inf
-        self._range_by_order[uid] = ordered < st.range_left
-        st.range_left = min(st.range_left, ordered)
-        if st.stage is not Stage.SEARCH or not st.airborne_seen:
-            return False
-        # the loop sees a vehicle every tick, not every step: look a few steps further ahead
-        ahead = task.trajectory[st.track_index + 1: st.track_index + 1 + self.options.lookahead_steps]
-        if not ahead or ahead[0].stage != "search":
+        """The return trigger's check for one searching vehicle (`VehicleFlight.evaluate`): the
+        next `lookahead_steps` poses of its plan, the way home from each, the landing circuit;
+        True when it must turn home now. Its status shows the range left and margin (metres)."""
+        vehicle, st, task = self.vehicles[uid], self.status[uid], self.plan.uavs[uid]
+        start = st.track_index + 1
+        ahead = task.trajectory[start: start + self.options.lookahead_steps]
+        if not ahead or ahead[0].stage != "search" or not st.has_position:
+            vehicle.decision = None
             st.margin = math.inf  # the plan's own return (or its end): already the lowest-cost way home
             return False
-        cost = max(self.plan.steps_home(uid, (p.x, p.y, p.heading)) + j for j, p in enumerate(ahead)
-                   if p.stage == "search")
-        check = check_return(st.range_left, cost, self._landing_circuit_steps(uid))
-        st.margin = check.margin
-        return check.must_return
+        track = self._track_m[uid]
+        here = np.array(self.plan.local_m(st.lat_deg, st.lon_deg))
+        steps_ahead, home = [], []
+        for j, p in enumerate(ahead):
+            if p.stage != "search":
+                break
+            points = np.vstack([[here], track[start: start + j + 1]])
+            steps_ahead.append([(float(e), float(n)) for e, n in np.diff(points, axis=0)])
+            home.append(self._home_legs(uid, start + j))
+        ordered = None
+        if uid in self.operator_range:
+            ordered = max(0.0, self.operator_range[uid] - self.flown_along_plan_m(uid))
+        vehicle.evaluate(steps_ahead, home, self._circuit_legs(uid), ordered)
+        return st.airborne_seen and st.stage is Stage.SEARCH and vehicle.must_return(st.time_boot_s)
 
     def mark_lost(self, uid: int, note: str, now: float, before: Stage | None = None) -> None:
         """Stage LOST from `now` (monotonic): heard again, the vehicle gets `before` back (by
@@ -641,12 +778,36 @@ class FlightController:
                 self.set_stage(uid, self._stage_before_loss.pop(uid, Stage.SEARCH), "link back")
         if st.stage in (Stage.SEARCH, Stage.RETURN, Stage.RTL) and st.airborne_seen and not st.airborne \
                 and (not st.armed or st.landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND):
-            st.battery_at_landing = st.battery_pct
-            self.set_stage(uid, Stage.LANDED, f"battery {st.battery_pct:.0f}%" if st.battery_pct is not None else "")
+            self._touched_down(uid)
         elif st.stage is Stage.SEARCH and st.mode_name in ("RTL", "LAND") and uid not in self._busy:
             st.return_reason = "autopilot"
             self.set_stage(uid, Stage.RTL,
                            f"autopilot switched to {st.mode_name} ({st.last_text or 'no reason given'})")
+
+    def _touched_down(self, uid: int) -> None:
+        """Down after flying: LANDED at its airport, or LANDED_AWAY (where it is, for the crew that
+        must fetch it) farther than `landed_away_m` from it; then what the flight cost against
+        what its profile predicted at launch."""
+        st, task, vehicle = self.status[uid], self.plan.uavs[uid], self.vehicles[uid]
+        st.battery_at_landing = st.battery_pct
+        battery = f"battery {st.battery_pct:.0f}%" if st.battery_pct is not None else "battery unknown"
+        if st.has_position:
+            away = _distance_m(self.plan, (st.lat_deg, st.lon_deg), task.airport_lat_lon)
+            st.landed_from_airport_m = away
+            limit = self.options.landed_away_m.get(task.vehicle.value, 25.0)
+            if away > limit:
+                self.set_stage(uid, Stage.LANDED_AWAY,
+                               f"LANDED AWAY at {st.lat_deg:.6f}, {st.lon_deg:.6f}, {away:.0f} m from its airport "
+                               f"{task.name!r} ({battery}): fetch it")
+            else:
+                self.set_stage(uid, Stage.LANDED, f"{battery}, {away:.1f} m from its airport")
+        else:
+            self.set_stage(uid, Stage.LANDED, battery)
+        account = vehicle.energy_account()
+        if account is not None:
+            self.say(uid, f"energy: used {account.used_mah:.0f} mAh from launch to touch-down; its profile predicted "
+                          f"{account.predicted_mah:.0f} mAh for the {account.cruise_m:.0f} m it cruised "
+                          f"({account.error:+.1%})")
 
     def finished(self, now: float) -> bool:
         for uid, st in self.status.items():
@@ -674,15 +835,26 @@ class FlightController:
                 continue
             self._advance_track(uid)
             if self.evaluate(uid):
-                st = self.status[uid]
-                needs = f"the way home needs {st.range_left - st.margin:.1f}: returning"
-                if self._range_by_order.get(uid):
-                    self.say(uid, f"the ordered range of {self.operator_range[uid]} steps leaves {st.range_left:.1f}, "
-                                  + needs)
-                    self.spawn(self.send_home(uid, "range"))
-                else:
-                    self.say(uid, f"battery {st.battery_pct:.0f}% covers {st.range_left:.1f} steps, " + needs)
-                    self.spawn(self.send_home(uid, "battery"))
+                self.say(uid, self._why_home(uid))
+                decision = self.vehicles[uid].decision
+                self.spawn(self.send_home(uid, "range" if decision is not None and decision.by_order else "battery"))
+
+    def _why_home(self, uid: int) -> str:
+        """The trigger's reason, in the operator's terms."""
+        vehicle, st = self.vehicles[uid], self.status[uid]
+        decision, fuel = vehicle.decision, vehicle.fuel
+        assert decision is not None
+        if decision.by_order:
+            ordered = decision.ordered
+            assert ordered is not None
+            return (f"the ordered range of {self.operator_range[uid]:.0f} m leaves {ordered.range_left:.0f} m, "
+                    f"the way home needs {ordered.cost:.0f} m: returning")
+        remaining = fuel.remaining_mah or 0.0
+        pct = f"{st.battery_pct:.0f}%" if st.battery_pct is not None else f"{remaining:.0f} mAh"
+        return (f"battery {pct} ({remaining:.0f} mAh) pays for {decision.range_left_m:.0f} m above the "
+                f"{self.options.reserve_pct:g}% reserve and the landing; the way home is {decision.home_m:.0f} m "
+                f"({decision.home_mah:.0f} mAh with the landing, at {fuel.rate_mah_per_m:.2f} mAh/m in the wind): "
+                "returning")
 
     async def monitor(self) -> None:
         """Run the GCS loop until all vehicles have landed (or failed, or stayed lost)."""

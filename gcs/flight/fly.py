@@ -2,7 +2,8 @@
 
 `fly_plan` flies a plan anew and `fly_resumed` takes over a flight whose station died: each keeps
 the flight's journal (`gcs.flight.journal`, what a restarted station resumes from) and its
-sortie record (`gcs.flight.sortie`), and returns a `FlightOutcome`. Both are what `gcs fly` calls;
+sortie record (`gcs.flight.sortie`), and returns a `FlightOutcome`; a new flight also writes the
+energy profiles it taught (`gcs.flight.profiles`, vehicles.json). Both are what `gcs fly` calls;
 `fly_async` beneath them joins the links, one `FlightController`, its listeners and watchers,
 operator orders, and the online planner or a resumed flight when asked for.
 
@@ -24,6 +25,7 @@ from gcs.flight.controller import FlightAborted, FlightController, FlyOptions
 from gcs.flight.events import FlightListener
 from gcs.flight.journal import JOURNALED_OPTIONS, FlightJournal, JournalState, journal_options, new_start
 from gcs.flight.orders import start_stdin_reader
+from gcs.flight.profiles import save_learned
 from gcs.flight.sortie import SortieLog
 from gcs.links import SigningKey, open_links
 from gcs.links.connection import Connection
@@ -59,7 +61,8 @@ class FlightOutcome:
 
     @property
     def exit_code(self) -> int:
-        """0 when every vehicle landed, 130 when the operator interrupted the flight, else 1."""
+        """0 when every vehicle landed at its airport, 130 when the operator interrupted the flight,
+        else 1 (a vehicle landed away, failed or was lost)."""
         if self.controller.interrupted:
             return 130
         return 0 if all(st.stage is Stage.LANDED for st in self.controller.status.values()) else 1
@@ -94,6 +97,8 @@ def fly_plan(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, *
     controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=stdin_orders, online=online,
                                        recorder=recorder, bus=bus, signing=signing, watchers=[journal, sortie],
                                        display=display))
+    _, line = save_learned(folder, controller.vehicles, options.vehicles_file)
+    controller.say(None, line)
     return FlightOutcome(controller, sortie, rrd)
 
 

@@ -105,7 +105,7 @@ class VehicleRecord:
     battery_t: list[float] = field(default_factory=list)
     readings: list[Detection] = field(default_factory=list)
     reading_component: int | None = None
-    operator_range: int | None = None
+    operator_range: float | None = None
 
     @property
     def flying_stage(self) -> Stage:
@@ -219,7 +219,8 @@ def _fold(path: Path, records: list[dict], torn: int) -> JournalState:
             v.battery_samples.append((float(r["time_boot_s"]), float(r["pct"]), float(r["steps"])))
             v.battery_t.append(t)
         elif kind == "range":
-            v.operator_range = int(r["steps"])
+            if "range_m" in r:  # journals before ranges were metres kept steps: not resumed
+                v.operator_range = float(r["range_m"])
         elif kind == "resume":
             state.resumed_t.append(t)
             if r.get("rrd"):
@@ -251,7 +252,7 @@ class FlightJournal:
         self._t0 = time.monotonic()
         self._track: dict[int, tuple[float, float]] = {}
         self._battery: dict[int, float] = {}
-        self._range: dict[int, int] = {}
+        self._range: dict[int, float] = {}
         self._controller: FlightController | None = None
 
     @classmethod
@@ -390,10 +391,10 @@ class FlightJournal:
                 if boot_s > newest:
                     self.write("battery", uid, time_boot_s=boot_s, pct=pct, steps=steps)
                     self._battery[uid] = newest = boot_s
-            steps = controller.operator_range.get(uid)
-            if steps is not None and self._range.get(uid) != steps:
-                self._range[uid] = steps
-                self.write("range", uid, steps=steps)
+            range_m = controller.operator_range.get(uid)
+            if range_m is not None and self._range.get(uid) != range_m:
+                self._range[uid] = range_m
+                self.write("range", uid, range_m=round(range_m, 3))
         if time.monotonic() - self._last_sync >= SYNC_EVERY_S:
             self._sync()
 
@@ -426,8 +427,8 @@ def _utc_now() -> str:
 
 
 #: the `FlyOptions` fields a flight's journal keeps: a resumed flight flies with them unless given again
-JOURNALED_OPTIONS = ("speed_m_s", "reserve_pct", "descent_m_s", "link_timeout_s", "lost_giveup_s", "arm_timeout_s",
-                     "ready_timeout_s", "fence", "check_home")
+JOURNALED_OPTIONS = ("reserve_pct", "link_timeout_s", "lost_giveup_s", "arm_timeout_s", "ready_timeout_s", "fence",
+                     "check_home")
 
 
 def journal_options(options: FlyOptions) -> dict:

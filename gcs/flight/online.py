@@ -24,7 +24,6 @@ import math
 import time
 
 from gcs.flight.events import ReadingReceived
-from gcs.flight.return_trigger import estimate_range_steps, landing_seconds
 from gcs.links import CommandError, LinkError, mavlink
 from gcs.telemetry.status import FINAL_STAGES, Stage
 from planner.dtscs import ClosedSearch
@@ -55,7 +54,7 @@ class OnlineFlight:
         self.reading_timeout_s = reading_timeout_s
         self.expected: dict[int, tuple[tuple[int, int], int]] = {}
         self.reported: dict[int, tuple[int, int]] = {}
-        self._range_cap: dict[int, int] = {}
+        self._range_cap: dict[int, int] = {}  # planner units
         self._range_set: dict[int, int] = {}
         self.targets: dict[int, tuple[float, float]] = {}
         self.seen: dict[int, int] = dict.fromkeys(self.plan.uavs, 0)
@@ -167,29 +166,31 @@ class OnlineFlight:
     # ---- the loop ----------------------------------------------------------------------
 
     def _battery_range(self) -> None:
-        """Battery range (steps left above the reserve, minus the descent) as the range, re-read
-        every step: a pessimistic early estimate (the climb drains fast) must not cut the search
-        for good. Never above the planned range, or a range an operator set since."""
+        """Battery range as the range, re-read every step: what the fuel gauge says the charge
+        above the reserve and the landing still buys (metres of cruise, in planner units), added
+        to what was flown. Never above the planned range, or a range an operator set since."""
+        unit_m = self.plan.cell_size_m / self.plan.move_costs.straight
         for uid, st in self.c.status.items():
             u = self.search.uavs[uid]
             if u.stage is not PlanStage.SEARCH:
                 continue
-            if u.range_steps != self._range_set.get(uid, u.range_steps):
-                self._range_cap[uid] = u.range_steps  # changed by someone else
+            if u.range_units != self._range_set.get(uid, u.range_units):
+                self._range_cap[uid] = u.range_units  # changed by someone else
             if uid in self.c.operator_range:
-                self._range_cap[uid] = self.c.operator_range[uid]
-            cap = self._range_cap.setdefault(uid, u.range_steps)
-            st.steps_flown = float(u.steps_flown)
-            left = estimate_range_steps(st.battery_pct, st.time_remaining_s, list(st.battery_samples), self.c.model,
-                                        landing_seconds(self.plan.uavs[uid].altitude_m, self.c.model))
-            st.range_left = left
+                self._range_cap[uid] = int(self.c.operator_range[uid] / unit_m)
+            cap = self._range_cap.setdefault(uid, u.range_units)
+            vehicle = self.c.vehicles[uid]
+            fuel = vehicle.fuel
             want = cap
-            if math.isfinite(left):
-                want = min(cap, max(1, u.steps_flown + int(left)))
-            if want != u.range_steps:
+            if fuel.remaining_mah is not None:
+                left_m = fuel.cruise_m_for(fuel.remaining_mah - fuel.reserve_mah(vehicle.reserve_pct)
+                                           - vehicle.profile.landing_cost_mah(self.plan.uavs[uid].altitude_m))
+                st.range_left = left_m
+                want = min(cap, max(self.plan.move_costs.cheapest, u.flown + int(left_m / unit_m)))
+            if want != u.range_units:
                 self.search.set_range(uid, want)
             self._range_set[uid] = want
-            st.margin = u.range_steps - u.steps_flown - u.home_cost
+            st.margin = (u.range_units - u.flown - u.home_cost) * unit_m
 
     async def _fly_step(self, uids: set[int]) -> None:
         """Steer `uids` to their cells until every one has reported its cell (the reading comes

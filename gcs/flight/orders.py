@@ -1,8 +1,9 @@
-"""Orders an operator types during a flight: `return ID`, `return all`, `range ID STEPS`."""
+"""Orders an operator types during a flight: `return ID`, `return all`, `range ID METRES`."""
 
 from __future__ import annotations
 
 import asyncio
+import math
 import sys
 import threading
 from dataclasses import dataclass
@@ -14,18 +15,19 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True, slots=True)
 class OperatorOrder:
-    """One typed order: `kind` "return" (uav None: every UAV) or "range" (`steps`)."""
+    """One typed order: `kind` "return" (uav None: every UAV) or "range" (`range_m`, metres along
+    the UAV's plan from take-off)."""
 
     kind: str
     uav: int | None
-    steps: int | None = None
+    range_m: float | None = None
 
 
-ORDER_HELP = "type 'return ID', 'return all' or 'range ID STEPS' ('r ID' for short)"
+ORDER_HELP = "type 'return ID', 'return all' or 'range ID METRES' ('r ID' for short)"
 
 
 def parse_order(line: str) -> OperatorOrder:
-    """`return ID` / `r ID` / `rtl ID`, `return all`, `range ID STEPS`; ValueError saying what
+    """`return ID` / `r ID` / `rtl ID`, `return all`, `range ID METRES`; ValueError saying what
     was not understood."""
     parts = line.split()
     if not parts:
@@ -37,12 +39,12 @@ def parse_order(line: str) -> OperatorOrder:
         return OperatorOrder("return", _uav_id(parts[1]))
     if verb == "range" and len(parts) == 3:
         try:
-            steps = int(parts[2])
+            metres = float(parts[2])
         except ValueError:
-            raise ValueError(f"range {parts[2]!r} is not a whole number of steps") from None
-        if steps < 1:
-            raise ValueError(f"range must be at least 1 step, not {steps}")
-        return OperatorOrder("range", _uav_id(parts[1]), steps)
+            raise ValueError(f"range {parts[2]!r} is not a number of metres") from None
+        if not (math.isfinite(metres) and metres > 0):
+            raise ValueError(f"range must be a positive number of metres, not {parts[2]}")
+        return OperatorOrder("range", _uav_id(parts[1]), metres)
     raise ValueError(f"unknown order {line.strip()!r}: {ORDER_HELP}")
 
 
@@ -59,8 +61,8 @@ def _uav_id(text: str) -> int:
 def apply_order(controller: FlightController, order: OperatorOrder) -> None:
     """Carry out one operator order; ValueError for an unknown UAV."""
     if order.kind == "range":
-        assert order.uav is not None and order.steps is not None
-        controller.set_range(order.uav, order.steps)
+        assert order.uav is not None and order.range_m is not None
+        controller.set_range(order.uav, order.range_m)
         return
     for uav in sorted(controller.status) if order.uav is None else [order.uav]:
         controller.order_return(uav)

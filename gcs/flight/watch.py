@@ -103,9 +103,9 @@ def _stage_text(event: StageChanged, st: VehicleStatus) -> tuple[str, str]:
         why = f" (reason: {st.return_reason})" if st.return_reason else ""
         trigger = ""
         if _finite(st.range_left):
-            trigger = f"; range left {st.range_left:.1f} steps"
+            trigger = f"; range left {st.range_left:.0f} m"
             if _finite(st.margin):
-                trigger += f", margin {st.margin:.1f}"
+                trigger += f", margin {st.margin:.0f} m"
         battery = f", battery {st.battery_pct:.0f}%" if st.battery_pct is not None else ""
         return f"return triggered{why}: {stage}{note}{trigger}{battery}", "WARN"
     if stage == "landed":

@@ -74,7 +74,9 @@ class AreaOptions:
     """How an area file becomes a grid, ranges and missions (docs/areas.md).
 
     `cell_size_m` None takes the file's `cell_size_m`, else `DEFAULT_CELL_SIZE_M`. An airport that
-    gives neither `range_m` nor `endurance_s` gets `range_m`, else `endurance_s * speed_m_s`.
+    gives neither `range_m` nor `endurance_s` gets `range_m`, else `endurance_s * speed_m_s`; with
+    `vehicles` (a vehicles.json, `gcs.plans.vehicle_file`) each UAV whose vehicle is in it gets the
+    range its energy profile pays for at its altitude, `reserve_pct` of the pack kept back.
     UAVs fly one altitude layer each from `altitude_m` up in `altitude_step_m` steps, never above
     `ceiling_m`, above their airport (or, with `terrain_follow`, the ground below). A plane takes
     off along its runway and lands on an approach of `approach_m` from `approach_alt_m`. The area
@@ -96,6 +98,8 @@ class AreaOptions:
     default_tep: float = 0.5
     default_eu: float = 0.5
     max_cells: int = MAX_CELLS
+    vehicles: str | None = None
+    reserve_pct: float = 30.0
 
     def __post_init__(self) -> None:
         _as_declared(self)

@@ -29,7 +29,7 @@ from gcs.missions.items import (
     waypoint_items,
 )
 from planner.georef import Grid, LocalFrame
-from planner.motion import OrientationConstraint, constraint_by_name
+from planner.motion import STEPS, MoveCosts, OrientationConstraint, constraint_by_name
 from planner.return_exact import UNREACHABLE, return_table
 
 __all__ = ["FleetPlan", "Pose", "UavTask", "load_plan_dir"]
@@ -61,7 +61,7 @@ class UavTask:
     airport_lat_lon: tuple[float, float]
     airport_cell: tuple[int, int]
     start_heading: int
-    range_steps: int
+    range_units: int
     waypoints: list[tuple[float, float]]
     trajectory: list[Pose]
     fence: list[tuple[bool, list[tuple[float, float]]]] = field(default_factory=list)
@@ -143,17 +143,32 @@ class FleetPlan:
         lat, lon = self.frame.local2geodetic(*self.grid.centre_m(x, y))
         return float(lat), float(lon)
 
+    def raw_uav(self, uav_id: int) -> dict:
+        """UAV `uav_id`'s entry of plan.json as written."""
+        return next(u for u in self.raw["uavs"] if int(u["id"]) == uav_id)
+
+    @property
+    def move_costs(self) -> MoveCosts:
+        """What the plan charged a step (its settings' `move_costs`; steps for older plans)."""
+        costs = self.raw.get("settings", {}).get("move_costs")
+        return STEPS if costs is None else MoveCosts(int(costs["straight"]), int(costs["diagonal"]))
+
     def return_table(self, uav_id: int) -> np.ndarray:
-        """Steps home from every (heading, x, y) to this UAV's airport under the plan's OC
-        (`planner.return_exact.return_table`), computed once."""
+        """The lowest cost home from every (heading, x, y) to this UAV's airport under the plan's
+        OC, charged as the plan charged (`planner.return_exact.return_table`), computed once."""
         if uav_id not in self._tables:
-            self._tables[uav_id] = return_table(self.no_fly, self.uavs[uav_id].airport_cell, self.oc)
+            self._tables[uav_id] = return_table(self.no_fly, self.uavs[uav_id].airport_cell, self.oc,
+                                                self.move_costs)
         return self._tables[uav_id]
 
-    def steps_home(self, uav_id: int, pose: tuple[int, int, int]) -> float:
+    def home_m(self, uav_id: int, pose: tuple[int, int, int]) -> float:
+        """Metres of the lowest-cost way home from `pose` over the grid (inf when there is none)."""
         x, y, h = pose
         value = int(self.return_table(uav_id)[h, x, y])
-        return math.inf if value >= UNREACHABLE else float(value)
+        if value >= UNREACHABLE:
+            return math.inf
+        costs = self.move_costs
+        return value * self.cell_size_m / costs.straight if not costs.unit_steps else value * self.cell_size_m
 
 
 def _fail(folder: Path, what: str) -> UserError:

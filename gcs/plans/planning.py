@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +26,7 @@ from gcs.missions.wpl import wpl_text
 from gcs.plans.area_file import AreaFile, read_area_file
 from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, SearchOptions
 from gcs.plans.plan_file import plan_to_dict
+from gcs.plans.vehicle_file import load_vehicles, profile_for_uav
 from planner.area_grid import (
     AREA_MOVE_COSTS,
     AreaGrid,
@@ -59,6 +60,7 @@ class AreaSetup:
     altitude_reference: AltitudeReference = AltitudeReference.HOME
     approach: ApproachOptions = ApproachOptions()
     belief: Belief | None = None
+    range_sources: dict[int, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.belief is None:
@@ -183,16 +185,27 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
                                _positive(area.approach_alt_m, "--approach-alt"), min(250.0, area.approach_m))
     vehicle = Vehicle(area.vehicle)
     landing_m = 2 * approach.distance_m if vehicle is Vehicle.PLANE else 0.0
+    if not 0 <= area.reserve_pct < 100:
+        raise UserError(f"--reserve-pct must be in [0, 100), got {area.reserve_pct:g}")
+    records = load_vehicles(area.vehicles) if area.vehicles else {}
     try:
         grid = build_area_grid(source.area, list(source.no_fly), cell, area.margin_m, area.max_cells)
-        uavs, ranges_m, overheads_m = [], {}, {}
+        layers = altitude_layers([ap.altitude_m for ap in source.airports], area.altitude_m, area.altitude_step_m,
+                                 area.ceiling_m)
+        uavs, ranges_m, overheads_m, sources = [], {}, {}, {}
         for ap in source.airports:
             uav_id = ap.index + 1
             label = f"airport {ap.name!r} (UAV {uav_id})"
             east, north = grid.point_m(ap.lon_deg, ap.lat_deg)
             x, y = airport_cell(grid, east, north, label)
-            range_m = (ap.range_m or (ap.endurance_s * speed if ap.endurance_s else None)
-                       or area.range_m or area.endurance_s * speed)
+            record = profile_for_uav(records, uav_id)
+            if record is not None:
+                range_m = record.profile.range_m(layers.altitudes_m[uav_id], area.reserve_pct)
+                sources[uav_id] = (f"{area.vehicles}: vehicle {record.key}, {record.profile.capacity_mah:.0f} mAh, "
+                                   f"{area.reserve_pct:g}% reserve")
+            else:
+                range_m = (ap.range_m or (ap.endurance_s * speed if ap.endurance_s else None)
+                           or area.range_m or area.endurance_s * speed)
             ce, cn = grid.grid.centre_m(x, y)
             overhead_m = 2 * float(math.hypot(ce - east, cn - north)) + landing_m
             units = range_units(range_m - overhead_m, cell)
@@ -206,8 +219,6 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
             uavs.append(UavSpec(uav_id, (x, y), ap.heading, units))
             ranges_m[uav_id] = range_m
             overheads_m[uav_id] = overhead_m
-        layers = altitude_layers([ap.altitude_m for ap in source.airports], area.altitude_m, area.altitude_step_m,
-                                 area.ceiling_m)
         targets = []
         for t in source.targets:
             east, north = grid.point_m(t.lon_deg, t.lat_deg)
@@ -221,7 +232,7 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
     except ValueError as exc:
         raise UserError(f"{area_file}: {exc}") from None
     reference = AltitudeReference.TERRAIN if area.terrain_follow else AltitudeReference.HOME
-    return AreaSetup(source, grid, closed, ranges_m, layers, overheads_m, vehicle, reference, approach, belief)
+    return AreaSetup(source, grid, closed, ranges_m, layers, overheads_m, vehicle, reference, approach, belief, sources)
 
 
 def _rings_lat_lon(geometry) -> tuple[list, list]:
@@ -261,6 +272,8 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
                            "range_m": round(setup.ranges_m[u.uav_id], 3),
                            "range_used_m": round(units_m(u.spent, area.grid.cell_size_m)
                                                  + setup.overheads_m[u.uav_id], 3),
+                           **({"range_source": setup.range_sources[u.uav_id]}
+                              if u.uav_id in setup.range_sources else {}),
                            "airport_lat_lon": [ap.lat_deg, ap.lon_deg],
                            "waypoints": [[a, b] for a, b in mission.waypoints],
                            "length_m": round(flown.length_m, 3)}

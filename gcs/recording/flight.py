@@ -11,7 +11,7 @@ logged on the `flight_time` timeline (seconds since the GCS loop started, its ow
   (static), `geo/airports`, `geo/targets` (static), `geo/detections` positive readings (the new
   ones in each row; the layout shows all past rows);
 - `uav/<id>/battery` battery %, `uav/<id>/mission` current mission item, `uav/<id>/range/left` and
-  `uav/<id>/range/margin` the return trigger's inputs (steps, when known), `uav/<id>/state`
+  `uav/<id>/range/margin` the return trigger's range left and margin (metres of cruise, when known), `uav/<id>/state`
   stage, flight mode, mission item, altitude, ground speed (values);
 - `events`: take-off, stage changes (return triggered and why, RTL, landed, lost link, link back,
   failures), the start of the plan's own return, flight-mode changes, positive readings (the
@@ -232,9 +232,9 @@ class FlightRecorder:
                                                                                colors=[colour]), static=True)
             self.rec.log(f"uav/{uid}/battery", rr.SeriesLines(names="battery %", colors=colour), static=True)
             self.rec.log(f"uav/{uid}/mission", rr.SeriesLines(names="mission item", colors=colour), static=True)
-            self.rec.log(f"uav/{uid}/range/left", rr.SeriesLines(names="range left (steps)", colors=colour),
+            self.rec.log(f"uav/{uid}/range/left", rr.SeriesLines(names="range left (m)", colors=colour),
                          static=True)
-            self.rec.log(f"uav/{uid}/range/margin", rr.SeriesLines(names="return margin (steps)",
+            self.rec.log(f"uav/{uid}/range/margin", rr.SeriesLines(names="return margin (m)",
                                                                    colors=(220, 50, 50)), static=True)
 
     def sample(self, controller: FlightController, now: float, *, force: bool = False) -> None:
@@ -311,7 +311,7 @@ def flight_blueprint(uav_ids: list[int]) -> rrb.Blueprint:
     overrides["/geo/detections"] = detections
     map_view = rrb.MapView(name="map", origin="/geo", overrides=overrides)
     tabs = [rrb.Vertical(rrb.TimeSeriesView(name=f"UAV {u}: battery %", origin=f"/uav/{u}/battery"),
-                         rrb.TimeSeriesView(name=f"UAV {u}: return trigger (steps)", origin=f"/uav/{u}/range"),
+                         rrb.TimeSeriesView(name=f"UAV {u}: return trigger (m)", origin=f"/uav/{u}/range"),
                          rrb.TimeSeriesView(name=f"UAV {u}: mission item", origin=f"/uav/{u}/mission"),
                          name=f"UAV {u}") for u in uav_ids]
     right = rrb.Vertical(rrb.Tabs(*tabs, name="UAVs") if tabs else rrb.Vertical(),

@@ -30,11 +30,12 @@ class Stage(str, Enum):
     RETURN = "return"
     RTL = "rtl"
     LANDED = "landed"
+    LANDED_AWAY = "landed away"  # down, but not at its airport: someone must fetch it
     LOST = "lost"
     FAILED = "failed"
 
 
-FINAL_STAGES = frozenset({Stage.LANDED, Stage.FAILED})
+FINAL_STAGES = frozenset({Stage.LANDED, Stage.LANDED_AWAY, Stage.FAILED})
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,6 +85,7 @@ class VehicleStatus:
     margin: float = math.inf
     return_reason: str | None = None
     battery_at_landing: float | None = None
+    landed_from_airport_m: float | None = None
     gps_fix_type: int | None = None
     satellites: int | None = None
     ekf_flags: int | None = None
@@ -91,6 +93,7 @@ class VehicleStatus:
     origin_seen: bool = False
     prearm_ok: bool | None = None
     consumed_mah: float | None = None
+    board_uid: int | None = None  # AUTOPILOT_VERSION.uid (0: the autopilot has none)
     odometer_m: float = 0.0
     steps_flown: float = 0.0  # planner steps along the plan, kept up by the flight controller
     unsupported_streams: set = field(default_factory=set)
@@ -195,6 +198,8 @@ class VehicleStatus:
             self.home = (msg.latitude / 1e7, msg.longitude / 1e7, msg.altitude / 1000.0)
         elif kind == "GPS_GLOBAL_ORIGIN":
             self.origin_seen = True
+        elif kind == "AUTOPILOT_VERSION":
+            self.board_uid = int(msg.uid)
         elif kind == "EXTENDED_SYS_STATE":
             self.landed_state = msg.landed_state
         elif kind == "MISSION_CURRENT":

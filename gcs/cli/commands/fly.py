@@ -37,6 +37,7 @@ from gcs.flight.sortie import plan_sortie
 from gcs.plans.options import OutputOptions
 from gcs.plans.plan_folder import FleetPlan, load_plan_dir
 from planner.campaign import sortie_seed
+from planner.energy import EnergyProfile
 
 if TYPE_CHECKING:
     from gcs.plans.planning import AreaSetup
@@ -50,12 +51,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--resume", metavar="DIR", help="take over the flight in progress in DIR after the station that "
                                                    "flew it died (its links, unless --connect is given again)")
     add_bus_arguments(p)
-    p.add_argument("--reserve-pct", type=float, default=FlyOptions.reserve_pct,
-                   help="battery kept back by the return trigger")
-    p.add_argument("--cruise-speed", type=float, default=FlyOptions.speed_m_s,
-                   help="vehicles' cruise speed, m/s (range estimate)")
-    p.add_argument("--descent-speed", type=float, default=FlyOptions.descent_m_s,
-                   help="vehicles' landing descent rate, m/s")
+    p.add_argument("--fit-charge", action="store_true",
+                   help="a vehicle whose charge cannot pay for its plan flies a range cut to its charge instead of "
+                        "staying on the ground")
     p.add_argument("--return-after", metavar="UAV:SECONDS", action="append", default=[],
                    help="order UAV home after SECONDS (real time), as the operator's 'r UAV' would")
     p.add_argument("--stdin-orders", action="store_true",
@@ -119,10 +117,21 @@ def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
                         f"(the plan has {', '.join(map(str, sorted(plan.uavs)))})")
     if not 0 <= args.reserve_pct < 100:
         raise UserError("--reserve-pct must be in [0, 100)")
-    return FlyOptions(speed_m_s=args.cruise_speed, reserve_pct=args.reserve_pct, descent_m_s=args.descent_speed,
+    return FlyOptions(reserve_pct=args.reserve_pct, profiles=profiles_from(args.vehicles, plan),
+                      vehicles_file=args.vehicles, fit_charge=args.fit_charge,
                       link_timeout_s=args.link_timeout, lost_giveup_s=args.lost_giveup, return_after_s=returns,
                       fence=not args.no_fence, check_home=not args.allow_home_offset,
                       ready_timeout_s=args.ready_timeout, arm_timeout_s=args.arm_timeout)
+
+
+def profiles_from(path: str | None, plan: FleetPlan) -> dict[int, EnergyProfile]:
+    """The energy profile of each UAV's vehicle in the vehicles file at `path` (none without one)."""
+    if path is None:
+        return {}
+    from gcs.plans.vehicle_file import load_vehicles, profile_for_uav
+
+    records = load_vehicles(path)
+    return {uid: record.profile for uid in plan.uavs if (record := profile_for_uav(records, uid)) is not None}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -196,7 +205,7 @@ def _ending(outcome: FlightOutcome) -> int:
 
 #: the flags of the options a flight's journal keeps (`gcs.flight.journal.JOURNALED_OPTIONS`): a resumed
 #: flight flies with the journal's values unless they are given again
-RESUMED_OPTIONS = {"--cruise-speed": "speed_m_s", "--reserve-pct": "reserve_pct", "--descent-speed": "descent_m_s",
+RESUMED_OPTIONS = {"--reserve-pct": "reserve_pct",
                    "--link-timeout": "link_timeout_s", "--lost-giveup": "lost_giveup_s",
                    "--arm-timeout": "arm_timeout_s", "--ready-timeout": "ready_timeout_s", "--no-fence": "fence",
                    "--allow-home-offset": "check_home"}

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import math
 import sys
 import time
 import uuid
@@ -40,7 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--tls-insecure", action="store_true", help="mqtts: do not check the broker's host name")
     what = p.add_mutually_exclusive_group()
     what.add_argument("--return", dest="return_uav", metavar="ID|all", help="order UAV ID (or all) home")
-    what.add_argument("--range", dest="range_change", metavar="ID=STEPS", help="set UAV ID's range in planner steps")
+    what.add_argument("--range", dest="range_change", metavar="ID=METRES",
+                      help="set UAV ID's range T_i: metres along its plan from take-off")
     what.add_argument("--abort", dest="abort_uav", metavar="ID|all", help="autopilot RTL for UAV ID (or all) at once")
     p.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for the reply (default 5)")
     p.add_argument("--once", action="store_true",
@@ -70,16 +72,16 @@ def command_from(args: argparse.Namespace) -> Command | None:
     if args.abort_uav is not None:
         return Command(request_id, CommandKind.ABORT, _uav(args.abort_uav, "--abort"), sender="gcs watch")
     if args.range_change is not None:
-        uav_text, _, steps_text = args.range_change.partition("=")
+        uav_text, _, metres_text = args.range_change.partition("=")
         uav = _uav(uav_text, "--range")
         try:
-            steps = int(steps_text)
+            metres = float(metres_text)
         except ValueError:
-            steps = 0
-        if uav is None or steps < 1:
-            raise UserError("--range: expected ID=STEPS with a UAV id and a positive whole number, "
+            metres = 0.0
+        if uav is None or not (math.isfinite(metres) and metres > 0):
+            raise UserError("--range: expected ID=METRES with a UAV id and a positive number of metres, "
                             f"not {args.range_change!r}")
-        return Command(request_id, CommandKind.RANGE, uav, range_steps=steps, sender="gcs watch")
+        return Command(request_id, CommandKind.RANGE, uav, range_m=metres, sender="gcs watch")
     return None
 
 

@@ -21,9 +21,6 @@ from gcs.recording.plan import read_recording
 STAGES = ["preparing", "uploading", "arming", "search"]
 
 
-COPTER_SPEED = ("--cruise-speed", "5")  # ArduCopter's average on 30 m cells: it slows down at every waypoint
-
-
 def fly(plan: Path, connections: list[str] | int, *extra: str, timeout: float = 600,
         on_line=None, orders: tuple[tuple[str, str, float], ...] = ()) -> subprocess.CompletedProcess:
     """`gcs fly` on the plan over the links given (a port number: `udpin:127.0.0.1:PORT`);

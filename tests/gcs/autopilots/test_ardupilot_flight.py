@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 
 from tests.gcs.autopilots.flights import (
-    COPTER_SPEED,
     assert_landed_home_and_clear_of_no_fly,
     bus_events,
     fly,
@@ -34,7 +33,7 @@ def test_a_copter_flies_its_search_and_lands_at_its_airport(tmp_path):
     site = Site(COPTERS.airports[:1])
     plan_dir = site.plan(tmp_path)
     with ArduPilotSitl("copter", home=site.home(0)) as sitl:
-        done = fly(plan_dir, sitl.gcs_port, *COPTER_SPEED)
+        done = fly(plan_dir, sitl.gcs_port)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     assert "ready: GPS fix" in done.stdout and "mission verified" in done.stdout
     landed = assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=3.0, tolerance_m=3.0)
@@ -50,7 +49,7 @@ def test_the_operators_return_order_brings_the_copter_home_along_its_planned_way
     site = Site(COPTERS.airports[:1])
     plan_dir = site.plan(tmp_path)
     with ArduPilotSitl("copter", home=site.home(0)) as sitl:
-        done = fly(plan_dir, sitl.gcs_port, *COPTER_SPEED, orders=(("UAV 1: search", "r 1", 8.0),))
+        done = fly(plan_dir, sitl.gcs_port, orders=(("UAV 1: search", "r 1", 8.0),))
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     out = done.stdout
     assert "UAV 1: return ordered (order)" in out and re.search(r"UAV 1: return leg of \d+ waypoints uploaded", out)
@@ -64,7 +63,7 @@ def test_a_plane_takes_off_along_its_runway_searches_and_lands_on_it(tmp_path):
     plan = json.loads((plan_dir / "plan.json").read_text())
     assert plan["uavs"][0]["approach"] is not None
     with ArduPilotSitl("plane", home=PLANE.home(0), params={"NAVL1_PERIOD": 10}) as sitl:
-        done = fly(plan_dir, sitl.gcs_port, "--cruise-speed", "22")
+        done = fly(plan_dir, sitl.gcs_port)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     assert "RTL_AUTOLAND set to 2" in done.stdout
     fleet_plan, tracks, _ = recorded(plan_dir)
@@ -89,7 +88,7 @@ def test_a_fast_draining_battery_brings_its_copter_home_first_and_the_other_sear
             stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port))
             stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(1), sysid=2, gcs_port=port,
                                               params={"BATT_CAPACITY": 2000}))  # drains 1.65x as fast
-            done = fly(plan_dir, port, *COPTER_SPEED, "--mqtt", f"mqtt://127.0.0.1:{broker.port}", "--fleet", "drain")
+            done = fly(plan_dir, port, "--mqtt", f"mqtt://127.0.0.1:{broker.port}", "--fleet", "drain")
         stop.set()
         listener.join(5)
     finally:
@@ -122,7 +121,7 @@ def test_a_vehicle_that_refuses_to_arm_stays_on_the_ground_with_its_reason_while
         stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port))
         stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(1), sysid=2, gcs_port=port,
                                           params={"BATT_ARM_VOLT": 13.0}))  # the sim battery gives 12.6 V
-        done = fly(plan_dir, port, *COPTER_SPEED, "--no-rrd", "--arm-timeout", "10")
+        done = fly(plan_dir, port, "--no-rrd", "--arm-timeout", "10")
     assert done.returncode == 1, done.stdout[-3000:] + done.stderr
     assert "UAV 2: arming refused: Arm: Battery 1 below minimum arming voltage" in done.stdout
     assert "UAV 2: failed - cannot arm" in done.stdout and "left on the ground" in done.stdout
@@ -139,7 +138,7 @@ def test_a_vehicle_whose_link_goes_silent_flies_on_by_itself_and_never_stalls_th
         stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port))
         stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(1), sysid=2, gcs_port=relay.port))
 
-        done = fly_with_a_dropout(plan_dir, port, relay, 2, *COPTER_SPEED, "--lost-giveup", "60")
+        done = fly_with_a_dropout(plan_dir, port, relay, 2, "--lost-giveup", "60")
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     assert relay.dropped > 50
     assert "UAV 2: lost - no telemetry" in done.stdout and "UAV 2: search - link back" in done.stdout

@@ -21,7 +21,7 @@ from gcs.flight.journal import read_journal
 from gcs.plans.plan_folder import load_plan_dir
 from gcs.recording.flight import FLIGHT_TIME, segment_path
 from gcs.recording.plan import read_recording
-from tests.gcs.autopilots.flights import COPTER_SPEED, metres
+from tests.gcs.autopilots.flights import metres
 from tests.gcs.flight.resume_peers import flight_events, kill_when, station
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.site import COPTERS, Site
@@ -35,7 +35,7 @@ def test_a_copter_flies_on_while_the_station_is_dead_and_the_restarted_station_b
     site = Site(COPTERS.airports[1:2])
     plan_dir = site.plan(tmp_path)
     with ArduPilotSitl("copter", home=site.home(0), params={"BATT_CAPACITY": 2600}) as sitl:
-        first = station(plan_dir, [sitl.udp_connection], *COPTER_SPEED)
+        first = station(plan_dir, [sitl.udp_connection])
         before = kill_when(first, plan_dir, lambda s: 1 in s.vehicles and len(s.vehicles[1].battery_samples) >= 10,
                            timeout_s=300)  # 10 s of the copter's time in the air, searching
         time.sleep(AWAY_S)

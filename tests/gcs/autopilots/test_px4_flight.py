@@ -14,7 +14,6 @@ import threading
 import pytest
 
 from tests.gcs.autopilots.flights import (
-    COPTER_SPEED,
     assert_landed_home_and_clear_of_no_fly,
     bus_events,
     fly,
@@ -52,7 +51,7 @@ def test_a_planned_mission_uploads_to_px4_and_reads_back_as_px4_stores_it(tmp_pa
 def test_a_px4_copter_flies_its_search_and_lands_at_its_airport(tmp_path):
     plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
     with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4:
-        done = fly(plan_dir, [px4.gcs_connection], *COPTER_SPEED)
+        done = fly(plan_dir, [px4.gcs_connection])
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     assert "px4 autopilot" in done.stdout and "1/1 landed" in done.stdout
     row = next(line.split() for line in done.stdout.splitlines() if line.startswith("  1 west"))
@@ -76,7 +75,7 @@ def test_a_mixed_fleet_brings_the_fast_draining_px4_home_first(tmp_path):
         with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=5), \
                 Px4Sitl(home=_px4_home(COPTERS, 1), sysid=2, speedup=5,
                         params={"SIM_BAT_DRAIN": 300.0, "SIM_BAT_MIN_PCT": 0.0}) as px4:
-            done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], *COPTER_SPEED,
+            done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection],
                        "--mqtt", f"mqtt://127.0.0.1:{broker.port}", "--fleet", "mixed")
         stop.set()
         listener.join(5)
@@ -105,7 +104,7 @@ def test_operator_orders_on_a_px4_a_shorter_range_then_home(tmp_path):
     send the PX4 home along its planned way as soon as that way no longer fits in it."""
     plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
     with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4:
-        done = fly(plan_dir, [px4.gcs_connection], *COPTER_SPEED, "--no-rrd",
+        done = fly(plan_dir, [px4.gcs_connection], "--no-rrd",
                    orders=(("UAV 1: search", "range 1 12", 0.0),))
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     out = done.stdout
@@ -122,7 +121,7 @@ def test_a_px4_that_fails_its_pre_arm_checks_stays_on_the_ground_with_its_reason
     port = free_udp_port()
     with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port), \
             Px4Sitl(home=_px4_home(COPTERS, 1), sysid=2, params={**STEADY_BATTERY, "COM_ARMABLE": 0}) as px4:
-        done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], *COPTER_SPEED, "--no-rrd",
+        done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], "--no-rrd",
                    "--ready-timeout", "30")
     assert done.returncode == 1, done.stdout[-3000:] + done.stderr
     out = done.stdout
@@ -138,7 +137,7 @@ def test_a_px4_whose_link_goes_silent_flies_its_mission_on_and_is_picked_up_agai
     flies its mission on; the station picks it up when the link is back, and it lands at home."""
     plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
     with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4, UdpRelay(px4.gcs_port) as relay:
-        done = fly_with_a_dropout(plan_dir, [f"udpout:127.0.0.1:{relay.port}"], relay, 1, *COPTER_SPEED,
+        done = fly_with_a_dropout(plan_dir, [f"udpout:127.0.0.1:{relay.port}"], relay, 1,
                                   "--lost-giveup", "60")
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     assert relay.dropped > 20

@@ -12,7 +12,6 @@ import time
 import pytest
 
 from gcs.flight.journal import read_journal
-from tests.gcs.autopilots.flights import COPTER_SPEED
 from tests.gcs.flight.resume_peers import kill_when, station
 from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
 from tests.peers.site import COPTERS, Site
@@ -24,7 +23,7 @@ def test_a_px4_flies_on_while_the_station_is_dead_and_the_restarted_station_spea
     site = Site(COPTERS.airports[:1])
     plan_dir = site.plan(tmp_path)
     with Px4Sitl(home=site.home(0)[:3], params=STEADY_BATTERY) as px4:
-        first = station(plan_dir, [px4.gcs_connection], *COPTER_SPEED)
+        first = station(plan_dir, [px4.gcs_connection])
         before = kill_when(first, plan_dir, lambda s: 1 in s.vehicles and len(s.vehicles[1].battery_samples) >= 10,
                            timeout_s=300)
         port = before.udp_source_ports[px4.gcs_connection]

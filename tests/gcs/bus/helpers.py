@@ -120,7 +120,7 @@ class ScriptedFleet:
         self.heading = {u: float(h) for u, h in zip(self.uav_ids, rng.uniform(0, 360, len(self.uav_ids)))}
         for u in self.uav_ids:
             self.stage[u] = "search"
-            self.ranges[u] = 130
+            self.ranges[u] = 1300.0
             self.raise_event(u, "takeoff", text="airborne")
 
     def raise_event(self, uav: int, kind: str, reason: str | None = None, text: str = "", **data) -> None:
@@ -132,7 +132,7 @@ class ScriptedFleet:
         for u in self.uav_ids:
             sample = Telemetry(u, self.stage[u], lat_deg=45.0 + 1e-5 * self.step * u, lon_deg=7.0 + 1e-5 * self.step,
                                alt_m=30.0, heading_deg=self.heading[u], battery_pct=max(0.0, 100.0 - 0.1 * self.step),
-                               range_left_steps=self.ranges[u] - self.step / 10, margin_steps=12.5)
+                               range_left_m=self.ranges[u] - self.step, margin_m=125.0)
             self.bus.telemetry(sample)
             self.last_sample[u] = sample
 
@@ -142,7 +142,7 @@ class ScriptedFleet:
         if command.uav is not None and command.uav not in self.uav_ids:
             return f"unknown UAV {command.uav} (the fleet has {', '.join(map(str, self.uav_ids))})"
         if command.kind is CommandKind.RANGE:
-            self.ranges[command.uav] = command.range_steps
+            self.ranges[command.uav] = command.range_m
             return None
         if (command.kind is CommandKind.RETURN and command.uav is not None
                 and self.stage[command.uav] in ("return", "rtl")):

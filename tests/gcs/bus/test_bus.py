@@ -92,7 +92,7 @@ def test_commands_reach_the_handler_and_are_acknowledged(broker, fleet_name):
                 for name, command in [
                     ("return 2", Command("r2", CommandKind.RETURN, 2)),
                     ("return 2 again", Command("r2b", CommandKind.RETURN, 2)),
-                    ("range 1", Command("g1", CommandKind.RANGE, 1, range_steps=150)),
+                    ("range 1", Command("g1", CommandKind.RANGE, 1, range_m=1500.0)),
                     ("abort 3", Command("a3", CommandKind.ABORT, 3)),
                     ("return 9", Command("r9", CommandKind.RETURN, 9)),
                     ("return all", Command("rall", CommandKind.RETURN, None)),
@@ -103,7 +103,7 @@ def test_commands_reach_the_handler_and_are_acknowledged(broker, fleet_name):
     fleet, replies = asyncio.run(scenario())
     assert replies["return 2"].ok and replies["return 2"].reason is None and replies["return 2"].station == "gcs1"
     assert not replies["return 2 again"].ok and replies["return 2 again"].reason == "UAV 2 is already returning"
-    assert replies["range 1"].ok and fleet.ranges[1] == 150
+    assert replies["range 1"].ok and fleet.ranges[1] == 1500.0
     assert replies["abort 3"].ok and fleet.stage[3] == "rtl"
     assert not replies["return 9"].ok and replies["return 9"].reason.startswith("unknown UAV 9")
     assert replies["return all"].ok
@@ -152,7 +152,7 @@ def test_malformed_commands_are_refused_with_a_reason_and_the_bus_carries_on(bro
     assert len(invalid) == 3 and all(r["request_id"] is None and not r["ok"] for r in replies["_invalid"])
     assert sum("not JSON" in r for r in invalid) == 2 and any("is not of type 'object'" in r for r in invalid)
     assert replies["m1"][0]["reason"] == "invalid command: kind: 'fly' is not one of ['return', 'range', 'abort']"
-    assert replies["m2"][0]["reason"] == "invalid command: (top): 'range_steps' is a required property"
+    assert replies["m2"][0]["reason"] == "invalid command: (top): 'range_m' is a required property"
     assert "uav" in replies["m3"][0]["reason"]
     assert replies["m4"][0]["reason"] == "command failed: RuntimeError: fleet layer bug"
     assert replies["m5"][0]["reason"] == "no answer from the fleet within 0.5 s"

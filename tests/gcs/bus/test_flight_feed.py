@@ -55,7 +55,7 @@ def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fle
                     replies["return 2"] = await watcher.command(Command("r2", CommandKind.RETURN, 2), 5)
                     replies["return 2 again"] = await watcher.command(Command("r2b", CommandKind.RETURN, 2), 5)
                     replies["return 9"] = await watcher.command(Command("r9", CommandKind.RETURN, 9), 5)
-                    replies["range"] = await watcher.command(Command("g1", CommandKind.RANGE, 1, range_steps=90), 5)
+                    replies["range"] = await watcher.command(Command("g1", CommandKind.RANGE, 1, range_m=900.0), 5)
                     await asyncio.wait_for(flight, 90)
             await asyncio.sleep(0.3)
             reader.cancel()
@@ -68,7 +68,7 @@ def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fle
     assert replies["return 2"].ok and replies["return 2"].station == "flyer"
     assert replies["return 2 again"].reason == "UAV 2 is already returning"
     assert replies["return 9"].reason.startswith("unknown UAV 9")
-    assert replies["range"].ok and controller.operator_range == {1: 90}  # the live trigger honours it
+    assert replies["range"].ok and controller.operator_range == {1: 900.0}  # the live trigger honours it
     assert controller.status[2].return_reason == "mqtt"
     assert all(st.stage is Stage.LANDED for st in controller.status.values())
     topics = Topics(fleet_name)

@@ -50,7 +50,7 @@ def test_topic_tree_round_trip():
 
 def test_telemetry_payload_has_no_infinity_and_validates():
     p = Telemetry(2, "return", 45.0, 7.0, 30.0, -90.0, 55.0, float("inf"), float("nan")).payload("demo")
-    assert p["heading_deg"] == 270.0 and p["range_left_steps"] is None and p["margin_steps"] is None
+    assert p["heading_deg"] == 270.0 and p["range_left_m"] is None and p["margin_m"] is None
     assert schema_errors(MessageType.TELEMETRY, p) == []
     json.dumps(p, allow_nan=False)
     with pytest.raises(ValueError, match="unknown stage"):
@@ -62,8 +62,8 @@ def test_telemetry_payload_has_no_infinity_and_validates():
     (b"", "not JSON"),
     (b'{"request_id": "a b", "kind": "return", "uav": 1}', "request_id"),
     (b'{"request_id": "a", "kind": "return", "uav": "some"}', "uav"),
-    (b'{"request_id": "a", "kind": "range", "uav": "all", "range_steps": 5}', "uav"),
-    (b'{"request_id": "a", "kind": "abort", "uav": 1, "range_steps": 5}', "range_steps is only for kind range"),
+    (b'{"request_id": "a", "kind": "range", "uav": "all", "range_m": 500}', "uav"),
+    (b'{"request_id": "a", "kind": "abort", "uav": 1, "range_m": 500}', "range_m is only for kind range"),
     (b'{"request_id": "a", "kind": "abort", "uav": 1, "extra": true}', "Additional properties"),
 ])
 def test_invalid_commands_name_the_problem(raw, reason):

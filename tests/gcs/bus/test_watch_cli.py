@@ -45,7 +45,7 @@ def test_gcs_watch_shows_the_fleet_and_sends_commands(broker, fleet_name):
             results["table"] = await _gcs(*common, "--duration-s", "1")
             results["return 2"] = await _gcs(*common, "--return", "2")
             results["return 9"] = await _gcs(*common, "--return", "9")
-            results["range"] = await _gcs(*common, "--range", "1=150")
+            results["range"] = await _gcs(*common, "--range", "1=1500")
             results["abort all"] = await _gcs(*common, "--abort", "all")
             results["nobody"] = await _gcs("--mqtt", broker.url, "--fleet", fleet_name + "-empty", "--return", "1",
                                            "--timeout", "0.5")
@@ -65,7 +65,7 @@ def test_gcs_watch_shows_the_fleet_and_sends_commands(broker, fleet_name):
     assert results["return 2"][0] == 0 and "return UAV 2: done (station gcs1)" in results["return 2"][1]
     code, out, err = results["return 9"]
     assert code == 2 and err.strip() == "error: return refused by gcs1: unknown UAV 9 (the fleet has 1, 2, 3, 4)"
-    assert results["range"][0] == 0 and fleet.ranges[1] == 150
+    assert results["range"][0] == 0 and fleet.ranges[1] == 1500.0
     assert results["abort all"][0] == 0 and fleet.stage == {1: "rtl", 2: "return", 3: "rtl", 4: "landed"}
     code, _, err = results["nobody"]
     assert code == 2 and err.startswith("error: no reply to return within 0.5 s")

@@ -1,5 +1,6 @@
-"""The return trigger's pure functions, checked exhaustively over small grids of inputs and
-against hand-computed cases."""
+"""The fuel-based return trigger's pure parts: the fuel gauge, the range check in charge, its
+confirmation, and the operator's orders; checked by hand, over small grids of inputs and by
+properties."""
 
 from __future__ import annotations
 
@@ -9,64 +10,223 @@ import math
 import pytest
 from hypothesis import given, strategies as st
 
+from gcs.flight.fuel import PRIOR_WEIGHT_M, SETTLE_S, FlightPhase, FuelGauge
 from gcs.flight.orders import OperatorOrder, parse_order
-from gcs.flight.return_trigger import (
-    RangeModel,
-    battery_drain_pct_s,
-    check_return,
-    consumption_pct_per_step,
-    drain_rate_pct_s,
-    estimate_range_steps,
-    landing_seconds,
-    range_left_steps,
-)
+from gcs.flight.return_trigger import SEVERE_SHARE, check_return, confirmed, fuel_decision
+from planner.energy import Airframe, EnergyProfile
 
-MODEL = RangeModel(step_m=20.0, speed_m_s=10.0, reserve_pct=30.0, descent_m_s=2.0)
+COPTER = EnergyProfile(airframe=Airframe.COPTER, capacity_mah=3000.0, cruise_speed_m_s=10.0, cruise_mah_per_m=1.0,
+                       loiter_mah_per_s=8.0, launch_mah=20.0, climb_mah_per_m=5.0, landing_mah=10.0,
+                       descent_mah_per_m=2.0)
 
 
-def test_range_left_by_hand():
-    # 50 % left, 30 % reserve: 20 % usable at 0.1 %/s = 200 s = 2000 m = 100 steps of 20 m
-    assert range_left_steps(50.0, 0.1, MODEL) == pytest.approx(100.0)
-    assert range_left_steps(30.0, 0.1, MODEL) == 0.0
-    assert range_left_steps(10.0, 0.1, MODEL) == 0.0
-    assert range_left_steps(50.0, None, MODEL) == math.inf
-    assert range_left_steps(50.0, 0.0, MODEL) == math.inf
-    assert range_left_steps(None, 0.1, MODEL) == 0.0
+def cruise(gauge: FuelGauge, seconds: int, *, mah_per_m: float, start_s: float = 0.0, used: float = 0.0,
+           heading=(10.0, 0.0), phase=FlightPhase.CRUISE, consumed=True) -> tuple[float, float]:
+    """Fly `seconds` at one step of `heading` metres a second, the battery reporting each
+    second (consumed mAh, or only its percentage): (time, used) at the end."""
+    t = start_s
+    for _ in range(seconds):
+        t += 1.0
+        gauge.moved(t, *heading, phase)
+        used += mah_per_m * math.hypot(*heading)
+        if consumed:
+            gauge.battery(t, phase, used, None)
+        else:
+            gauge.battery(t, phase, None, float(round(100.0 * (1 - used / gauge.capacity_mah))))
+    return t, used
 
 
-def test_landing_seconds_by_hand():
-    assert landing_seconds(60.0, MODEL) == pytest.approx(50 / 2.0 + 10 / 0.5)  # the last 10 m at 0.5 m/s
-    assert landing_seconds(6.0, MODEL) == pytest.approx(6 / 0.5)
-    assert landing_seconds(-3.0, MODEL) == 0.0
+def test_the_rate_starts_at_the_profile_and_moves_with_level_flight():
+    gauge = FuelGauge(COPTER)
+    assert gauge.rate_mah_per_m == COPTER.cruise_mah_per_m
+    gauge.battery(0.0, FlightPhase.GROUND, 0.0, None)
+    t, used = cruise(gauge, 30, mah_per_m=2.0)  # draining twice as fast as the profile says
+    sampled = (30 - SETTLE_S) * 10.0  # the first SETTLE_S seconds of level flight are left out
+    assert gauge.cruise_m == pytest.approx(sampled)
+    expected = (COPTER.cruise_mah_per_m * PRIOR_WEIGHT_M + 2.0 * sampled) / (PRIOR_WEIGHT_M + sampled)
+    assert gauge.rate_mah_per_m == pytest.approx(expected)
+    cruise(gauge, 300, mah_per_m=2.0, start_s=t, used=used)
+    assert gauge.cruise_m == pytest.approx(sampled + 3000.0)
+    assert gauge.rate_mah_per_m == pytest.approx((COPTER.cruise_mah_per_m * PRIOR_WEIGHT_M + 2.0 * gauge.cruise_m)
+                                                 / (PRIOR_WEIGHT_M + gauge.cruise_m))
+    assert gauge.remaining_mah == pytest.approx(3000.0 - 2.0 * 3300)
 
 
-def test_consumption_per_step_is_the_least_squares_slope_once_far_enough():
-    samples = [(float(t), 90.0 - 0.5 * 0.25 * t, 0.25 * t) for t in range(0, 60)]  # a step every 4 s, 0.5 %/step
-    assert consumption_pct_per_step(samples) == pytest.approx(0.5)
-    assert consumption_pct_per_step(samples[:20]) is None  # 4.75 steps flown: not yet 5
-    climbing = [(float(t), 90.0 - 0.2 * t, 0.0) for t in range(0, 60)]  # draining, no step flown
-    assert consumption_pct_per_step(climbing) is None
-    stepped = [(float(t), float(int(90.0 - 0.125 * t)), 0.25 * t) for t in range(0, 120)]  # whole percent
-    assert consumption_pct_per_step(stepped) == pytest.approx(0.5, rel=0.05)
+def test_the_launch_and_the_climb_are_never_averaged_as_cruise():
+    """A plane's full-throttle climb (ArduPlane SITL: 46 A) is not cruise: PX4's PR 22401."""
+    gauge = FuelGauge(COPTER)
+    gauge.battery(0.0, FlightPhase.GROUND, 0.0, None)
+    t, used = cruise(gauge, 40, mah_per_m=8.0, phase=FlightPhase.LAUNCH)
+    assert gauge.cruise_m == 0 and gauge.rate_mah_per_m == COPTER.cruise_mah_per_m
+    assert gauge.phase_mah[FlightPhase.LAUNCH] == pytest.approx(8.0 * 400.0)
+    cruise(gauge, 60, mah_per_m=1.0, start_s=t, used=used)
+    assert gauge.rate_mah_per_m == pytest.approx(1.0)
 
 
-def test_range_estimate_uses_the_cost_per_step_then_falls_back_to_time():
-    flown = [(float(t), 90.0 - 0.5 * 0.25 * t, 0.25 * t) for t in range(0, 60)]
-    remaining = flown[-1][1]
-    # (remaining - 30 % reserve - the descent at 0.125 %/s) / 0.5 % per step
-    descent_s = landing_seconds(60.0, MODEL)
-    assert estimate_range_steps(remaining, None, flown, MODEL, descent_s) == \
-        pytest.approx((remaining - 30.0 - 0.125 * descent_s) / 0.5)
-    climbing = [(float(t), 100.0 - 0.1 * t, 0.0) for t in range(0, 30)]  # before any step: by time
-    assert estimate_range_steps(97.1, None, climbing, MODEL) == pytest.approx(range_left_steps(97.1, 0.1, MODEL))
-    assert estimate_range_steps(90.0, None, [], MODEL) == math.inf
-    assert estimate_range_steps(31.0, None, flown, MODEL, descent_s) == 0.0  # the descent eats the rest
+def test_a_percentage_only_battery_reads_through_the_capacity():
+    """PX4 SITL reports no current: the used charge is the capacity times the percentage gone."""
+    gauge = FuelGauge(COPTER)
+    gauge.set_capacity(5000.0)
+    gauge.battery(0.0, FlightPhase.GROUND, None, 100.0)
+    cruise(gauge, 600, mah_per_m=0.5, consumed=False)
+    assert gauge.capacity_mah == 5000.0
+    assert gauge.remaining_mah == pytest.approx(5000.0 - 0.5 * 6000, abs=50.0)  # whole percent: 50 mAh
+    assert gauge.rate_mah_per_m == pytest.approx(0.5 + (1.0 - 0.5) * PRIOR_WEIGHT_M / (PRIOR_WEIGHT_M + 5890),
+                                                 rel=0.03)
+    gauge.set_capacity(-1.0)  # PX4's BAT1_CAPACITY -1: not set, ignored
+    assert gauge.capacity_mah == 5000.0
+
+
+def test_a_percentage_that_sags_and_recovers_balances_out():
+    """A voltage-based percentage dips under load and comes back: what goes back up is charge
+    the sum gives back, so only the net drain counts."""
+    gauge = FuelGauge(COPTER)
+    gauge.battery(0.0, FlightPhase.GROUND, None, 100.0)
+    t = 0.0
+    pct = 100.0
+    for i in range(420):  # sagging by 3 % for 20 s of every 40, not at the end
+        t += 1.0
+        gauge.moved(t, 10.0, 0.0, FlightPhase.CRUISE)
+        pct -= 0.1
+        sag = 3.0 if (i // 20) % 2 else 0.0
+        gauge.battery(t, FlightPhase.CRUISE, None, pct - sag)
+    net = 0.1 / 100 * 3000 / 10.0  # 0.3 mAh per metre
+    assert gauge.cruise_m == pytest.approx(4100.0)
+    assert gauge.rate_mah_per_m == pytest.approx((1.0 * PRIOR_WEIGHT_M + net * 4100) / (PRIOR_WEIGHT_M + 4100))
+
+
+def test_a_way_into_the_wind_costs_more_than_with_it():
+    plane = EnergyProfile(airframe=Airframe.PLANE, capacity_mah=3300.0, cruise_speed_m_s=20.0, cruise_mah_per_m=0.3,
+                          loiter_mah_per_s=6.0, launch_mah=0.0, climb_mah_per_m=0.0, landing_mah=0.0,
+                          descent_mah_per_m=0.0)
+    gauge = FuelGauge(plane)
+    gauge.set_wind(-5.0, 0.0)  # the air moves west
+    west, east = gauge.way_cost([(-1000.0, 0.0)]), gauge.way_cost([(1000.0, 0.0)])
+    assert west.metres == east.metres == 1000.0
+    assert west.mah == pytest.approx(0.3 * 1000 * 20 / 25)  # tailwind: 25 m/s over the ground
+    assert east.mah == pytest.approx(0.3 * 1000 * 20 / 15)
+
+
+def test_cruise_in_the_wind_is_learned_as_a_still_air_rate():
+    """A copter searching east and west in a steady wind: the rate it learns is per still-air
+    metre, and a way home straight into the wind is priced above the search's average."""
+    copter = EnergyProfile(airframe=Airframe.COPTER, capacity_mah=3300.0, cruise_speed_m_s=10.0,
+                           cruise_mah_per_m=0.75, loiter_mah_per_s=7.0, launch_mah=0.0, climb_mah_per_m=0.0,
+                           landing_mah=0.0, descent_mah_per_m=0.0, drag_share=0.4)
+    gauge = FuelGauge(copter)
+    gauge.set_wind(0.0, -6.0)  # blowing south
+    gauge.battery(0.0, FlightPhase.GROUND, 0.0, None)
+    t, used = 0.0, 0.0
+    factor_ew = 1 + 0.4 * ((100 + 36) / 100 - 1)
+    for leg in range(20):
+        heading = (10.0, 0.0) if leg % 2 else (-10.0, 0.0)
+        t, used = cruise(gauge, 30, mah_per_m=0.75 * factor_ew, start_s=t, used=used, heading=heading)
+    assert gauge.rate_mah_per_m == pytest.approx(0.75, rel=0.01)
+    north = gauge.way_cost([(0.0, 1000.0)])
+    assert north.mah == pytest.approx(0.75 * 1000 * (1 + 0.4 * (16 ** 2 / 100 - 1)), rel=0.01)
+    assert north.mah > 0.75 * factor_ew * 1000  # dearer than the search legs
+
+
+def _decision(gauge, home_m=1000.0, step_m=30.0, ordered=None, circuit=()):
+    return fuel_decision(gauge, reserve_pct=30.0, landing_mah=COPTER.landing_cost_mah(50.0),
+                         steps_ahead=[[(step_m, 0.0)]], home_legs=[[(-home_m, 0.0)]], circuit_legs=list(circuit),
+                         ordered_left_m=ordered)
+
+
+def test_the_decision_by_hand():
+    gauge = FuelGauge(COPTER)
+    assert _decision(gauge) is None  # no charge read yet
+    gauge.battery(0.0, FlightPhase.CRUISE, 1800.0, None)  # 1200 mAh left of 3000, reserve 900, landing 110
+    d = _decision(gauge)
+    assert d.fuel.cost == pytest.approx(30 + 1000 + 110 + 900)
+    assert d.fuel.margin == pytest.approx(1200 - 2040) and d.must_return and not d.by_order
+    assert d.range_left_m == pytest.approx(1200 - 900 - 110)
+    assert d.home_m == 1000.0 and d.home_mah == pytest.approx(1110.0)
+    assert d.margin_m == pytest.approx(-840.0)
+    ok = _decision(gauge, home_m=100.0)
+    assert not ok.must_return and ok.margin_m == pytest.approx(1200 - 30 - 100 - 110 - 900)
+
+
+def test_an_operator_range_binds_when_it_is_shorter():
+    gauge = FuelGauge(COPTER)
+    gauge.battery(0.0, FlightPhase.CRUISE, 0.0, None)
+    d = _decision(gauge, home_m=200.0, ordered=220.0)
+    assert d.must_return and d.by_order and not d.fuel.must_return
+    assert d.margin_m == pytest.approx(220.0 - 30.0 - 200.0)
+    assert not _decision(gauge, home_m=200.0, ordered=500.0).must_return
+
+
+def test_a_plane_pays_its_landing_circuit():
+    gauge = FuelGauge(COPTER)
+    gauge.battery(0.0, FlightPhase.CRUISE, 1500.0, None)
+    without = _decision(gauge, home_m=300.0)
+    circuit = _decision(gauge, home_m=300.0, circuit=[(250.0, 0.0), (-250.0, 0.0)])
+    assert circuit.home_m == without.home_m + 500.0
+    assert circuit.fuel.margin == pytest.approx(without.fuel.margin - 500.0)
+
+
+def test_a_return_is_confirmed_after_the_wait_or_at_once_when_severe():
+    gauge = FuelGauge(COPTER)
+    gauge.battery(0.0, FlightPhase.CRUISE, 2000.0, None)  # 1000 left
+    slight = _decision(gauge, home_m=15.0)  # short by 55 mAh: under 2 % of 3000
+    assert slight.must_return and slight.fuel.margin > -SEVERE_SHARE * 3000
+    go, since = confirmed(slight, None, 10.0, confirm_s=3.0, capacity_mah=3000.0)
+    assert not go and since == 10.0
+    go, since = confirmed(slight, since, 12.9, confirm_s=3.0, capacity_mah=3000.0)
+    assert not go and since == 10.0
+    go, _ = confirmed(slight, since, 13.0, confirm_s=3.0, capacity_mah=3000.0)
+    assert go
+    fuller = FuelGauge(COPTER)
+    fuller.battery(0.0, FlightPhase.CRUISE, 500.0, None)
+    assert confirmed(_decision(fuller, home_m=10.0), since, 13.0, confirm_s=3.0, capacity_mah=3000.0) == (False, None)
+    severe = _decision(gauge, home_m=500.0)
+    assert confirmed(severe, None, 20.0, confirm_s=3.0, capacity_mah=3000.0) == (True, 20.0)
+    assert confirmed(None, 5.0, 20.0, confirm_s=3.0, capacity_mah=3000.0) == (False, None)
+
+
+def test_an_operator_range_is_acted_on_at_once():
+    gauge = FuelGauge(COPTER)
+    gauge.battery(0.0, FlightPhase.CRUISE, 0.0, None)
+    ordered = _decision(gauge, home_m=200.0, ordered=100.0)
+    assert confirmed(ordered, None, 1.0, confirm_s=10.0, capacity_mah=3000.0)[0]
+
+
+@given(used=st.floats(0, 3000), home=st.floats(0, 3000), step=st.floats(0, 100), extra=st.floats(0, 500),
+       rate=st.floats(0.2, 5))
+def test_the_trigger_is_monotone(used, home, step, extra, rate):
+    """Less charge, a dearer metre or a longer way home never turn a return into a continue."""
+    def decide(used, home, rate):
+        gauge = FuelGauge(EnergyProfile(**{**COPTER.__dict__, "cruise_mah_per_m": rate}))
+        gauge.battery(0.0, FlightPhase.CRUISE, used, None)
+        return _decision(gauge, home_m=home, step_m=step)
+
+    base = decide(used, home, rate)
+    worse = decide(used + extra, home + extra, rate * 1.1)
+    assert worse.fuel.margin <= base.fuel.margin + 1e-9
+    if base.must_return:
+        assert worse.must_return
+
+
+def test_check_return_exhaustive_small_grid():
+    for rng, home, land, reserve, step in itertools.product(range(0, 15), range(0, 10), (0.0, 0.5, 3.0), (0.0, 2.0),
+                                                            (1.0, 1.415)):
+        c = check_return(float(rng), float(home), land, reserve, step)
+        assert c.cost == step + home + land + reserve
+        assert c.margin == rng - c.cost
+        # return exactly when one more step and the way home after it would not fit (eq. 23)
+        assert c.must_return == (rng < step + home + land + reserve)
+
+
+def test_check_return_unknowns_are_safe():
+    assert check_return(math.inf, 10.0).must_return is False
+    assert check_return(5.0, math.inf).must_return is True  # no way home from the next pose
+    assert check_return(math.nan, 3.0).must_return is True
 
 
 @pytest.mark.parametrize("line, order", [
     ("r 2", OperatorOrder("return", 2)), ("return 3", OperatorOrder("return", 3)),
     ("RTL 1", OperatorOrder("return", 1)), ("return all", OperatorOrder("return", None)),
-    ("range 2 150", OperatorOrder("range", 2, 150)), ("  range 4 7 ", OperatorOrder("range", 4, 7)),
+    ("range 2 1500", OperatorOrder("range", 2, 1500.0)), ("  range 4 750.5 ", OperatorOrder("range", 4, 750.5)),
 ])
 def test_operator_orders_are_read(line, order):
     assert parse_order(line) == order
@@ -74,63 +234,9 @@ def test_operator_orders_are_read(line, order):
 
 @pytest.mark.parametrize("line, reason", [
     ("", "empty order"), ("fly 2", "unknown order"), ("return", "unknown order"), ("r two", "not a UAV id"),
-    ("range 2", "unknown order"), ("range 2 lots", "not a whole number"), ("range 2 0", "at least 1 step"),
-    ("return 0", "not a UAV id"),
+    ("range 2", "unknown order"), ("range 2 lots", "not a number of metres"), ("range 2 0", "positive number"),
+    ("range 2 nan", "positive number"), ("return 0", "not a UAV id"),
 ])
 def test_bad_operator_orders_say_why(line, reason):
     with pytest.raises(ValueError, match=reason):
         parse_order(line)
-
-
-def test_drain_rate_is_the_least_squares_slope():
-    samples = [(t, 100.0 - 0.25 * t) for t in range(0, 21)]
-    assert drain_rate_pct_s(samples) == pytest.approx(0.25)
-    assert drain_rate_pct_s(samples[:3]) is None  # spans 2 s < 5 s
-    assert drain_rate_pct_s([(0.0, 50.0), (10.0, 60.0)]) == 0.0  # charging never counts as negative drain
-    assert drain_rate_pct_s([]) is None
-
-
-def test_drain_takes_the_worse_of_the_autopilot_and_the_observation():
-    assert battery_drain_pct_s(60.0, 600.0, None) == pytest.approx(0.1)
-    assert battery_drain_pct_s(60.0, 600.0, 0.3) == pytest.approx(0.3)
-    assert battery_drain_pct_s(60.0, 100.0, 0.3) == pytest.approx(0.6)
-    assert battery_drain_pct_s(60.0, 0.0, None) is None  # 0: the autopilot does not estimate
-    assert battery_drain_pct_s(None, 600.0, None) is None
-
-
-def test_check_return_exhaustive_small_grid():
-    for rng, home, land, reserve in itertools.product(range(0, 15), range(0, 10), (0.0, 0.5, 3.0), (0.0, 2.0)):
-        c = check_return(float(rng), float(home), land, reserve)
-        assert c.cost == 1 + home + land + reserve
-        assert c.margin == rng - c.cost
-        # return exactly when one more step and the way home after it would not fit (eq. 23)
-        assert c.must_return == (rng < 1 + home + land + reserve)
-
-
-def test_check_return_unknowns_are_safe():
-    assert check_return(math.inf, 10.0).must_return is False  # drain not known yet: the plan's range rules
-    assert check_return(5.0, math.inf).must_return is True  # no way home from the next pose
-    assert check_return(math.nan, 3.0).must_return is True
-
-
-@given(st.floats(0, 100), st.floats(0.001, 5), st.floats(0, 200), st.floats(0, 200), st.floats(0.01, 2))
-def test_trigger_is_monotone(pct, drain, home, alt, per_step):
-    """Less charge, a faster drain, a costlier step, a longer way home or a higher altitude never
-    turn a return into a continue."""
-    def check(pct, drain, per_step, home, alt):
-        samples = [(float(t), pct + drain * (20 - t), (t * drain / per_step)) for t in range(21)]
-        left = estimate_range_steps(pct, None, samples, MODEL, landing_seconds(alt, MODEL))
-        return check_return(left, home)
-
-    base = check(pct, drain, per_step, home, alt)
-    worse = check(pct * 0.9, drain * 1.1, per_step * 1.1, home + 1, alt + 1)
-    assert worse.margin <= base.margin + 1e-9
-    if base.must_return:
-        assert worse.must_return
-
-
-def test_model_validation():
-    with pytest.raises(ValueError):
-        RangeModel(step_m=0.0, speed_m_s=10.0)
-    with pytest.raises(ValueError):
-        RangeModel(step_m=10.0, speed_m_s=10.0, reserve_pct=100.0)

@@ -1,0 +1,177 @@
+"""One vehicle's flight as the station follows it: its telemetry (`VehicleStatus`), its fuel
+gauge and the phase of flight its battery is read in, the fuel-based return trigger's state, and
+the account of its energy when it is down (`EnergyAccount`).
+
+The trigger itself is pure (`gcs.flight.return_trigger`); this object keeps what it needs
+between ticks."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from gcs.flight.fuel import FlightPhase, FuelGauge
+from gcs.flight.return_trigger import FuelDecision, confirmed, fuel_decision
+from gcs.links import mavlink
+from gcs.plans.plan_folder import FleetPlan, UavTask
+from gcs.telemetry.status import Stage, VehicleStatus
+from planner.energy import EnergyProfile
+
+__all__ = ["EnergyAccount", "VehicleFlight", "wind_from_message"]
+
+Legs = list[tuple[float, float]]
+
+MAVMessage = mavlink.MAVLink_message
+
+#: A vehicle is level once it is within this share of its mission altitude and climbing slower
+#: than LEVEL_CLIMB_M_S.
+LEVEL_SHARE = 0.9
+LEVEL_CLIMB_M_S = 0.7
+
+
+@dataclass(frozen=True, slots=True)
+class EnergyAccount:
+    """A landed vehicle's energy: what its profile predicted at launch for the flight it flew
+    (`predicted_mah`), what it used from launch to touch-down (`used_mah`), the cruise metres
+    flown, and the battery it landed with."""
+
+    predicted_mah: float
+    used_mah: float
+    cruise_m: float
+    landed_pct: float | None
+
+    @property
+    def error(self) -> float:
+        """(used - predicted) / used."""
+        return (self.used_mah - self.predicted_mah) / self.used_mah if self.used_mah > 0 else 0.0
+
+
+def wind_from_message(msg: MAVMessage) -> tuple[float, float] | None:
+    """(east, north) m/s the air moves towards, from ArduPilot's WIND (direction it comes from,
+    degrees) or PX4's WIND_COV (velocity, NED); None for other messages or unknown values."""
+    kind = msg.get_type()
+    if kind == "WIND":
+        rad = math.radians(msg.direction)
+        return -msg.speed * math.sin(rad), -msg.speed * math.cos(rad)
+    if kind == "WIND_COV" and math.isfinite(msg.wind_x) and math.isfinite(msg.wind_y):
+        return float(msg.wind_y), float(msg.wind_x)
+    return None
+
+
+class VehicleFlight:
+    """One vehicle of the flight (see the module docstring)."""
+
+    def __init__(self, plan: FleetPlan, task: UavTask, profile: EnergyProfile, *, reserve_pct: float,
+                 confirm_s: float = 3.0) -> None:
+        self.plan = plan
+        self.task = task
+        self.status = VehicleStatus(task.uav_id)
+        self.profile = profile
+        self.fuel = FuelGauge(profile)
+        self.reserve_pct = reserve_pct
+        self.confirm_s = confirm_s
+        self.phase = FlightPhase.GROUND
+        self.levelled = False
+        self.trigger_since: float | None = None
+        self.decision: FuelDecision | None = None
+        self._last_m: tuple[float, float] | None = None
+        self._cruise_still_m = 0.0
+        self.launch_profile: EnergyProfile | None = None
+        self.autopilot = "generic"
+        self.home_legs: dict[int, Legs] = {}
+
+    @property
+    def uid(self) -> int:
+        return self.task.uav_id
+
+    def set_profile(self, profile: EnergyProfile) -> None:
+        """Price the flight with `profile` (before launch: the gauge starts afresh, keeping the
+        capacity already read from the autopilot)."""
+        capacity = self.fuel.capacity_mah if self.fuel.capacity_mah != self.profile.capacity_mah else None
+        self.profile = profile
+        self.fuel = FuelGauge(profile)
+        if capacity is not None:
+            self.fuel.set_capacity(capacity)
+
+    # ---- telemetry ---------------------------------------------------------------------------
+
+    def on_message(self, msg: MAVMessage) -> None:
+        """After `status.update(msg)`: the fuel gauge's share of the message."""
+        kind = msg.get_type()
+        if kind == "GLOBAL_POSITION_INT":
+            self._on_position(msg)
+        elif kind == "BATTERY_STATUS" and getattr(msg, "id", 0) == 0:
+            consumed = float(msg.current_consumed) if msg.current_consumed >= 0 else None
+            remaining = float(msg.battery_remaining) if msg.battery_remaining >= 0 else None
+            if self.phase is not FlightPhase.GROUND and self.launch_profile is None:
+                self.launch_profile = self.fuel.profile
+            self.fuel.battery(self.status.time_boot_s, self.phase, consumed, remaining)
+        else:
+            wind = wind_from_message(msg)
+            if wind is not None:
+                self.fuel.set_wind(*wind)
+
+    def _on_position(self, msg: MAVMessage) -> None:
+        st = self.status
+        if not st.has_position:
+            return
+        self.phase = self._phase(-msg.vz / 100.0)
+        here = self.plan.local_m(st.lat_deg, st.lon_deg)
+        if self._last_m is not None and self.phase is not FlightPhase.GROUND:
+            east, north = here[0] - self._last_m[0], here[1] - self._last_m[1]
+            self.fuel.moved(st.time_boot_s, east, north, self.phase)
+            if self.phase is FlightPhase.CRUISE:
+                self._cruise_still_m += self.fuel.way_cost([(east, north)]).mah / self.fuel.rate_mah_per_m
+        self._last_m = here
+
+    def _phase(self, climb_m_s: float) -> FlightPhase:
+        st = self.status
+        if not st.airborne:
+            return FlightPhase.GROUND if not self.levelled else FlightPhase.LANDING
+        altitude = self.task.altitude_m
+        if not self.levelled:
+            if st.rel_alt_m >= LEVEL_SHARE * altitude and abs(climb_m_s) < LEVEL_CLIMB_M_S:
+                self.levelled = True
+            else:
+                return FlightPhase.LAUNCH
+        descending = climb_m_s < -LEVEL_CLIMB_M_S and st.rel_alt_m < LEVEL_SHARE * altitude
+        if st.landed_state == mavlink.MAV_LANDED_STATE_LANDING or st.mode_name == "LAND" \
+                or (st.stage in (Stage.RETURN, Stage.RTL) and descending):
+            return FlightPhase.LANDING
+        return FlightPhase.CRUISE
+
+    # ---- the trigger ---------------------------------------------------------------------------
+
+    def evaluate(self, steps_ahead: list[Legs], home_legs: list[Legs], circuit_legs: Legs,
+                 ordered_left_m: float | None = None) -> FuelDecision | None:
+        """The return trigger's check now (`gcs.flight.return_trigger.fuel_decision`), kept as
+        `decision`; the status shows its range left and margin in metres."""
+        self.decision = fuel_decision(self.fuel, reserve_pct=self.reserve_pct,
+                                      landing_mah=self.profile.landing_cost_mah(self.task.altitude_m),
+                                      steps_ahead=steps_ahead, home_legs=home_legs, circuit_legs=circuit_legs,
+                                      ordered_left_m=ordered_left_m)
+        st = self.status
+        st.range_left = math.inf if self.decision is None else self.decision.range_left_m
+        st.margin = math.inf if self.decision is None else self.decision.margin_m
+        return self.decision
+
+    def must_return(self, now_s: float) -> bool:
+        """Whether the last evaluation, confirmed (`gcs.flight.return_trigger.confirmed`), sends
+        the vehicle home now."""
+        go, self.trigger_since = confirmed(self.decision, self.trigger_since, now_s, confirm_s=self.confirm_s,
+                                           capacity_mah=self.fuel.capacity_mah)
+        return go
+
+    # ---- the end -------------------------------------------------------------------------------
+
+    def energy_account(self) -> EnergyAccount | None:
+        """Predicted (by the profile at launch) against used, for what was flown; None when the
+        vehicle never launched or its charge was never read."""
+        fuel, profile = self.fuel, self.launch_profile
+        if profile is None or fuel.used_mah is None or fuel.used_at_launch is None:
+            return None
+        altitude = self.task.altitude_m
+        predicted = (profile.launch_cost_mah(altitude) + profile.cruise_mah_per_m * self._cruise_still_m
+                     + profile.landing_cost_mah(altitude))
+        return EnergyAccount(predicted, fuel.used_mah - fuel.used_at_launch, fuel.phase_m[FlightPhase.CRUISE],
+                             self.status.battery_pct)
