@@ -38,7 +38,9 @@ LEG_TOLERANCE_M = 0.01
 class AreaGrid:
     """The area laid on a grid: geometries in local metres and the free-cell mask. `safe_m` is
     the area less the no-fly zones (after the margin); `legs_m` is it grown by LEG_TOLERANCE_M,
-    the region every flown leg must stay in."""
+    the region every search leg must stay in. `keep_out_m` is what no leg may enter, inside the
+    area or outside it (a plane's landing approach may leave the area): the no-fly zones and the
+    area's holes grown by the margin, shrunk by LEG_TOLERANCE_M."""
 
     frame: LocalFrame
     grid: Grid
@@ -46,6 +48,7 @@ class AreaGrid:
     no_fly_m: BaseGeometry
     safe_m: BaseGeometry
     legs_m: BaseGeometry
+    keep_out_m: BaseGeometry
     free: np.ndarray
     edge_blocked: int
     margin_m: float = 0.0
@@ -92,11 +95,13 @@ def build_area_grid(area_lonlat: BaseGeometry, no_fly_lonlat: list[BaseGeometry]
     keep_out = no_fly_m.buffer(margin_m) if margin_m > 0 and not no_fly_m.is_empty else no_fly_m
     safe_m = inner.difference(keep_out) if not keep_out.is_empty else inner
     legs_m = safe_m.buffer(LEG_TOLERANCE_M)
+    holes = unary_union([shapely.Polygon(ring) for part in shapely.get_parts(area_m) for ring in part.interiors])
+    keep_out_m = unary_union([keep_out, holes.buffer(margin_m) if margin_m > 0 else holes]).buffer(-LEG_TOLERANCE_M)
     free, edge_blocked = block_unsafe_moves(free_cells(safe_m, grid), legs_m, grid)
     if not free.any():
         raise ValueError(f"no cell centre lies inside the area and outside the no-fly zones at cell size "
                          f"{cell_size_m:g} m; use a smaller cell size")
-    return AreaGrid(frame, grid, area_m, no_fly_m, safe_m, legs_m, free, edge_blocked, margin_m)
+    return AreaGrid(frame, grid, area_m, no_fly_m, safe_m, legs_m, keep_out_m, free, edge_blocked, margin_m)
 
 
 def range_units(range_m: float, cell_size_m: float, costs: MoveCosts = AREA_MOVE_COSTS) -> int:
@@ -112,17 +117,20 @@ def units_m(units: float, cell_size_m: float, costs: MoveCosts = AREA_MOVE_COSTS
 def airport_cell(area: AreaGrid, east_m: float, north_m: float, label: str) -> tuple[int, int]:
     """The free cell an airport flies from: the cell holding it, or else the free cell among its
     eight neighbours with the nearest centre (the straight leg from the airport to the chosen
-    centre must be safe either way).
+    centre must be safe either way). An airport on the area's edge is inside it (to within
+    LEG_TOLERANCE_M, the round-off of a point drawn on the edge).
 
     ValueError when the airport is outside the area, in a no-fly zone, or has no such cell."""
     point = Point(east_m, north_m)
-    if not area.area_m.covers(point):
+    if area.area_m.distance(point) > LEG_TOLERANCE_M:
         raise ValueError(f"{label} is outside the area")
     if not area.no_fly_m.is_empty and area.no_fly_m.covers(point):
         raise ValueError(f"{label} is inside a no-fly zone")
-    if not area.safe_m.covers(point):
+    if not area.legs_m.covers(point):
         raise ValueError(f"{label} is within the {area.margin_m:g} m safety margin of the area edge or a no-fly zone")
-    x0, y0 = area.grid.cell_of(east_m, north_m)
+    g = area.grid  # an airport on the grid's edge belongs to the edge cell
+    x0 = min(max(math.floor((east_m - g.east0_m) / g.cell_size_m), 0), g.nx - 1)
+    y0 = min(max(math.floor((north_m - g.north0_m) / g.cell_size_m), 0), g.ny - 1)
     options = []
     for dx in (-1, 0, 1):
         for dy in (-1, 0, 1):

@@ -39,6 +39,16 @@ def legs_inside(points: np.ndarray, safe: BaseGeometry) -> np.ndarray:
     return np.asarray(shapely.covers(safe, segments), dtype=bool)
 
 
+def legs_clear(points: np.ndarray, keep_out: BaseGeometry) -> np.ndarray:
+    """For each leg points[i] -> points[i+1] (local metres), whether it stays out of `keep_out`."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if len(points) < 2:
+        return np.ones(0, dtype=bool)
+    shapely.prepare(keep_out)
+    segments = shapely.linestrings(np.stack([points[:-1], points[1:]], axis=1))
+    return ~np.asarray(shapely.intersects(keep_out, segments), dtype=bool)
+
+
 def merge_waypoints(points: np.ndarray, safe: BaseGeometry, keep: np.ndarray | None = None) -> np.ndarray:
     """Indices into `points` (a flown path in local metres) of the waypoints to fly: the turn
     points `keep`, plus, for every leg between them that leaves the safe region, the intermediate

@@ -4,6 +4,8 @@
 - `wpl`: QGC WPL 110 text (`.waypoints`), item 0 the home position.
 - `qgc_plan`: QGroundControl `.plan` JSON with geofence and rally point.
 - `paths`: a GeoJSON FeatureCollection of the planned paths.
+- `approach`: a plane's landing approach and the corridor its landing may use.
+- `fence`: the geofence each UAV is given (the area, a plane's landing corridor, no-fly zones).
 
 The names below are imported from their modules when first used: `gcs.missions.items` alone
 (what the command line's options need) does not load `from_plan`, and with it the planner."""

@@ -14,11 +14,13 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-from shapely.geometry import MultiPolygon, Point
+from shapely.geometry import Point, Polygon
 
 from gcs.atomic import staged_outputs
 from gcs.errors import UserError
-from gcs.missions.from_plan import ApproachOptions, FlownPath, landing_approach, uav_mission
+from gcs.missions.approach import ApproachOptions, landing_approach
+from gcs.missions.fence import Fence, uav_fence
+from gcs.missions.from_plan import FlownPath, uav_mission
 from gcs.missions.items import AltitudeReference, UavMission, Vehicle
 from gcs.missions.paths import paths_geojson
 from gcs.missions.qgc_plan import qgc_plan
@@ -235,12 +237,13 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
     return AreaSetup(source, grid, closed, ranges_m, layers, overheads_m, vehicle, reference, approach, belief, sources)
 
 
-def _rings_lat_lon(geometry) -> tuple[list, list]:
-    """Outer rings and holes of a (multi)polygon as lists of (lat, lon)."""
-    parts = geometry.geoms if isinstance(geometry, MultiPolygon) else [geometry]
-    outer = [[(lat, lon) for lon, lat in p.exterior.coords] for p in parts]
-    holes = [[(lat, lon) for lon, lat in h.coords] for p in parts for h in p.interiors]
-    return outer, holes
+def _fence(source: AreaFile, area: AreaGrid, flown: FlownPath) -> Fence:
+    """The UAV's geofence: the area and no-fly zones, and a plane's landing corridor."""
+    if flown.corridor_m is None:
+        return uav_fence(source.area, source.no_fly)
+    east, north = np.asarray(flown.corridor_m.exterior.coords).T
+    lat, lon = area.frame.local2geodetic(east, north)
+    return uav_fence(source.area, source.no_fly, Polygon(np.column_stack([lon, lat])))
 
 
 def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, campaign: dict | None = None
@@ -250,6 +253,7 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
     source, area = setup.source, setup.area
     missions: list[UavMission] = []
     paths: dict[int, FlownPath] = {}
+    fences: dict[int, Fence] = {}
     extra: dict[int, dict] = {}
     airports = {ap.index + 1: ap for ap in source.airports}
     for u in plan.uavs:
@@ -262,6 +266,7 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
             raise UserError(f"{source.name}: {exc}") from None
         missions.append(mission)
         paths[u.uav_id] = flown
+        fences[u.uav_id] = _fence(source, area, flown)
         extra[u.uav_id] = {"name": ap.name, "vehicle": setup.vehicle.value, "altitude_m": mission.altitude_m,
                            "altitude_layer": setup.layers.layer[u.uav_id],
                            "altitude_reference": setup.altitude_reference.value,
@@ -277,15 +282,15 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
                            "airport_lat_lon": [ap.lat_deg, ap.lon_deg],
                            "waypoints": [[a, b] for a, b in mission.waypoints],
                            "length_m": round(flown.length_m, 3)}
-    outer, holes = _rings_lat_lon(source.area)
-    exclusion = holes + [ring for zone in source.no_fly for ring in _rings_lat_lon(zone)[0]]
     data = plan_to_dict(plan, seed=seed, area=area, uav_extra=extra)
     if campaign is not None:
         data["campaign"] = campaign
     files = {"plan.json": json.dumps(data, indent=1) + "\n"}
     for m in missions:
         files[f"uav{m.uav_id}.waypoints"] = wpl_text(m)
-        files[f"uav{m.uav_id}.plan"] = json.dumps(qgc_plan(m, outer, exclusion, speed_m_s), indent=1) + "\n"
+        fence = fences[m.uav_id]
+        files[f"uav{m.uav_id}.plan"] = json.dumps(qgc_plan(m, fence.inclusion, fence.exclusion, speed_m_s),
+                                                  indent=1) + "\n"
     lengths = {uid: p.length_m for uid, p in paths.items()}
     files["paths.geojson"] = json.dumps(paths_geojson(missions, lengths, source.name), indent=1) + "\n"
     return files

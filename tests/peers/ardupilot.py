@@ -111,3 +111,24 @@ class ArduPilotSitl(SitlProcess):
             assert time.monotonic() < deadline, "SITL did not open its TCP port"
             time.sleep(0.05)
         return self
+
+    def fence_status(self, timeout_s: float = 10.0):
+        """The vehicle's FENCE_STATUS (breach count since boot, whether it is outside the fence
+        now), asked for on SERIAL0; None when none comes (ArduPilot sends it only while a fence
+        is enabled and present)."""
+        from pymavlink import mavutil
+
+        link = mavutil.mavlink_connection(self.tcp_connection, source_system=250, source_component=190)
+        try:
+            if link.wait_heartbeat(timeout=timeout_s) is None:
+                return None
+            deadline = time.monotonic() + timeout_s
+            while time.monotonic() < deadline:
+                link.mav.command_long_send(self.sysid, 1, mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE, 0,
+                                           mavutil.mavlink.MAVLINK_MSG_ID_FENCE_STATUS, 0, 0, 0, 0, 0, 0)
+                status = link.recv_match(type="FENCE_STATUS", blocking=True, timeout=1.0)
+                if status is not None:
+                    return status
+            return None
+        finally:
+            link.close()

@@ -94,8 +94,12 @@ class Site:
 
 
 #: The sites the autopilot tests and benchmarks fly: two copter airports on a 600 m square of 30 m
-#: cells (the copters' ranges fit a 3300 mAh ArduCopter SITL battery with the 30 % reserve), and a
-#: plane runway on a 2 km square of 100 m cells with room for its landing approach.
+#: cells (the copters' ranges fit a 3300 mAh ArduCopter SITL battery with the 30 % reserve), a
+#: plane runway on a 2 km square of 100 m cells with room for its landing approach, and a 1.5 km
+#: meadow whose runway starts on its south edge and lands northwards, into it: its landing
+#: approach (500 m by default) lies wholly outside the area.
 COPTERS = Site((Airport("west", -240.0, -30.0, "E", 1300.0), Airport("south", -30.0, -240.0, "N", 1300.0)))
 PLANE = Site((Airport("runway", -500.0, -500.0, "N", 10000.0),), half_m=1000.0, cell_m=100.0,
              no_fly=(100.0, 100.0, 300.0, 300.0))
+MEADOW = Site((Airport("edge", -400.0, -750.0, "N", 4000.0),), half_m=750.0, cell_m=100.0,
+              no_fly=(100.0, 100.0, 300.0, 300.0))

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from shapely.geometry import box
 
-from planner.waypoints import legs_inside, merge_waypoints, path_length_m, turn_points
+from planner.waypoints import legs_clear, legs_inside, merge_waypoints, path_length_m, turn_points
 
 
 def test_a_straight_run_collapses_to_its_ends():
@@ -45,3 +45,10 @@ def test_a_single_unsafe_step_is_an_error():
 
 def test_path_length_sums_the_legs():
     assert path_length_m(np.array([(0, 0), (3, 4), (3, 0)])) == pytest.approx(9.0)
+
+
+def test_legs_are_clear_of_a_zone_they_pass_or_touch_but_not_of_one_they_cross():
+    zone = box(10, -5, 20, 5)
+    points = np.array([(0, 10), (30, 10), (30, 5), (0, 5), (0, 0), (30, 0)])  # beside, along its edge, through it
+    assert legs_clear(points, zone).tolist() == [True, True, False, True, False]
+    assert legs_clear(points[:1], zone).tolist() == []

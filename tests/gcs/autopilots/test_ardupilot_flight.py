@@ -14,6 +14,7 @@ from contextlib import ExitStack
 
 import numpy as np
 import pytest
+import shapely
 
 from tests.gcs.autopilots.flights import (
     assert_landed_home_and_clear_of_no_fly,
@@ -25,7 +26,7 @@ from tests.gcs.autopilots.flights import (
 from tests.gcs.bus.helpers import Mosquitto
 from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
 from tests.peers.relay import UdpRelay
-from tests.peers.site import COPTERS, PLANE, Site
+from tests.peers.site import COPTERS, MEADOW, PLANE, Site
 
 pytestmark = pytest.mark.autopilot
 
@@ -72,6 +73,34 @@ def test_a_plane_takes_off_along_its_runway_searches_and_lands_on_it(tmp_path):
                               fleet_plan.local_m(*fleet_plan.uavs[1].airport_lat_lon))
     assert abs(east) <= 5.0 and -30.0 <= north <= 5.0, (east, north)
     assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=30.0, tolerance_m=15.0)
+
+
+def test_a_plane_lands_on_a_runway_at_the_area_edge_from_an_approach_outside_it_inside_its_fence(tmp_path):
+    """The meadow's runway starts on its south edge and lands northwards: the 500 m approach lies
+    wholly outside the area. ArduPlane flies with the fence `gcs fly` uploads enabled
+    (FENCE_ENABLE 1, FENCE_ACTION 1 = RTL): it leaves the area by the approach's length, never
+    leaves the fence, the vehicle counts no breach, and it lands on its runway. SPEEDUP 30: the
+    fastest wall time measured (`benchmarks/fly_approach.py`; 50 is no faster on 2 loaded cores)."""
+    plan_dir = MEADOW.plan(tmp_path, "--vehicle", "plane")
+    with ArduPilotSitl("plane", home=MEADOW.home(0), speedup=30, params={"NAVL1_PERIOD": 10, "FENCE_ENABLE": 1}) \
+            as sitl:
+        done = fly(plan_dir, sitl.gcs_port, "--cruise-speed", "22")
+        fence = sitl.fence_status()
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
+    assert re.search(r"mission verified: \d+ items \+ 12 fence", done.stdout)  # area and corridor 8, no-fly box 4
+    plan, tracks, _ = recorded(plan_dir)
+    task = plan.uavs[1]
+    h = MEADOW.half_m
+    area = shapely.Polygon([(-h, -h), (h, -h), (h, h), (-h, h)])
+    inclusion = shapely.Polygon([plan.local_m(*v) for v in task.fence[0][1]])
+    track = shapely.points(np.array([plan.local_m(*p) for p in tracks[1]]))
+    assert shapely.distance(area, track).max() > 400.0  # it flew the approach, out of the area
+    assert shapely.covers(inclusion, track).all()
+    assert fence is not None and fence.breach_count == 0 and fence.breach_status == 0, fence
+    landed = assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=60.0, tolerance_m=15.0)
+    east, north = np.subtract(plan.local_m(*tracks[1][-1]), plan.local_m(*task.airport_lat_lon))
+    assert abs(east) <= 5.0 and -30.0 <= north <= 5.0, (east, north)  # on the runway, inside the area
+    assert landed[1] <= 60.0
 
 
 def test_a_fast_draining_battery_brings_its_copter_home_first_and_the_other_searches_on(tmp_path):

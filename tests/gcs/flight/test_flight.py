@@ -13,9 +13,11 @@ from gcs.display.status_table import render_summary, render_table
 from gcs.flight.controller import FlyOptions
 from gcs.flight.events import ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.flight.fly import upload_plan
+from gcs.plans.plan_folder import load_plan_dir
 from gcs.telemetry.status import Stage
 from sim import FailsafeLevel
 from tests.gcs.flight.conftest import fast_options, fly
+from tests.peers.site import MEADOW
 
 
 def _metres(plan, a, b) -> float:
@@ -63,6 +65,26 @@ def test_px4_profile_flies_without_a_home_item(plan):
         assert _landed_home(plan, fleet, uid) < 5.0
         stored = fleet.vehicle(uid).mission.items()
         assert stored[0].command == 22  # take-off first: no home item on PX4
+
+
+@pytest.mark.parametrize("area_fence", [False, True])
+def test_px4_flies_a_plane_whose_approach_leaves_the_area_only_when_its_fence_covers_it(tmp_path, area_fence):
+    """The meadow's runway lands into the area from outside: PX4 refuses a mission with an item
+    outside its geofence ("Geofence violation for waypoint N", then MISSION_START denied), so it
+    flies the plan only with the corridor in the fence; cut back to the area alone, it refuses."""
+    plan_dir = MEADOW.plan(tmp_path, "--vehicle", "plane")
+    plan = load_plan_dir(plan_dir)
+    if area_fence:
+        outline = MEADOW.geojson()["features"][0]["geometry"]["coordinates"][0][:-1]
+        plan.uavs[1].fence[0] = (True, [(lat, lon) for lon, lat in outline])
+    controller, fleet = fly(plan, profile="px4")
+    st, refusals = controller.status[1], [p for p in fleet.vehicle(1).mission_problems() if "Geofence" in p]
+    if area_fence:
+        assert st.stage is Stage.FAILED and "Mission start denied" in st.note
+        approach_seq = 1 + len(plan.uavs[1].waypoints) + 1  # take-off, waypoints, DO_LAND_START, the approach
+        assert refusals == [f"Geofence violation for waypoint {approach_seq + 1}"]
+    else:
+        assert st.stage is Stage.LANDED and fleet.vehicle(1).state.landed and refusals == []
 
 
 def test_fast_draining_battery_is_sent_home_early_and_lands_above_the_reserve(plan):

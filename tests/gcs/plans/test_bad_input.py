@@ -136,3 +136,15 @@ def test_bad_options(run_gcs, area_doc, option, value, match):
 def test_both_range_and_endurance(run_gcs, area_doc):
     area_doc["features"][3]["properties"]["endurance_s"] = 100
     _fails(run_gcs, area_doc, "give range_m or endurance_s, not both")
+
+
+def test_a_plane_approach_through_a_no_fly_zone(run_gcs, area_doc, shapes):
+    """The west airport lands eastwards: its approach runs west, outside the square (allowed),
+    across a no-fly zone 100-200 m out (refused: no approach of 250 m or more is clear)."""
+    area_doc["features"].append(shapes.feature("Polygon", [shapes.ring([(-455, -65), (-355, -65), (-355, 35),
+                                                                        (-455, 35)])], role="no_fly", name="mast"))
+    line = _fails(run_gcs, area_doc, "airport 'west' (UAV 1): no landing approach of 250 m or more along heading 90 "
+                  "degrees is clear of the no-fly zones", "--vehicle", "plane")
+    assert "--approach-m" in line
+    area_doc["features"].pop()
+    assert run_gcs(area_doc, "--vehicle", "plane")[0] == 0  # without the zone, the approach outside the square flies

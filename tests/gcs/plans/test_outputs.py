@@ -100,7 +100,7 @@ def test_plane_missions_land_on_the_runway_after_an_approach_lined_up_with_it(ru
 def test_a_shortened_approach_glides_no_steeper_than_px4_accepts(run_gcs, area_doc, shapes):
     """An approach shortened to 250 m from 30 m would glide at 6.8 degrees, which PX4 refuses
     (FW_LND_ANG 5; `tests/sim/test_px4_vehicle.py` holds our model of that refusal): it starts lower."""
-    from gcs.missions.from_plan import ApproachOptions
+    from gcs.missions.approach import ApproachOptions
 
     assert ApproachOptions().alt_for(500.0) == 30.0 and ApproachOptions(alt_m=35.0).alt_for(400.0) == 35.0
     assert ApproachOptions().alt_for(250.0) == 21.8  # 250 m x tan 5 degrees = 21.87 m
@@ -116,9 +116,35 @@ def test_a_shortened_approach_glides_no_steeper_than_px4_accepts(run_gcs, area_d
         assert float(approach[10]) == 21.8
 
 
-def test_a_plane_without_room_for_its_approach_is_one_line(run_gcs, area_doc):
-    code, err, out = run_gcs(area_doc, "--vehicle", "plane")  # both airports face out of the 600 m square
-    assert code == 2 and err.count("\n") == 1 and "no room for a landing approach" in err and not out.exists()
+def test_a_plane_lands_from_outside_the_area_inside_a_fence_that_covers_its_approach(run_gcs, area_doc):
+    """Both airports face out of the 600 m square: their approaches lie outside it. The search stays
+    inside; the fence each UAV's .plan carries (and `gcs fly` uploads) is one simple polygon, the
+    square joined with the corridor of its landing."""
+    from shapely.geometry import LineString, Point, Polygon
+
+    from gcs.plans.plan_folder import load_plan_dir
+
+    code, err, out = run_gcs(area_doc, "--vehicle", "plane", "--speed", "20")
+    assert code == 0, err
+    fleet = load_plan_dir(out)
+    square = Polygon([(-300, -300), (300, -300), (300, 300), (-300, 300)])
+    box = Polygon([(0, 0), (120, 0), (120, 120), (0, 120)])
+    for uav in json.loads((out / "plan.json").read_text())["uavs"]:
+        task = fleet.uavs[uav["id"]]
+        local = [fleet.local_m(lat, lon) for lat, lon in task.waypoints]
+        airport, point = fleet.local_m(*uav["airport_lat_lon"]), fleet.local_m(*uav["approach"]["lat_lon"])
+        assert math.dist(airport, point) == pytest.approx(500.0, abs=1e-3)  # the full --approach-m
+        assert square.distance(Point(point)) > 400.0
+        assert all(square.buffer(0.01).covers(Point(p)) for p in local)  # the search stays inside
+        qgc = json.loads((out / f"uav{uav['id']}.plan").read_text())["geoFence"]["polygons"]
+        assert [p["inclusion"] for p in qgc] == [True, False]
+        assert task.fence == [(p["inclusion"], [tuple(v) for v in p["polygon"]]) for p in qgc]  # what is uploaded
+        assert len(task.fence_wire()) == sum(len(p["polygon"]) for p in qgc) <= 4 + 12 + 4
+        inclusion = Polygon([fleet.local_m(*v) for v in qgc[0]["polygon"]])
+        assert inclusion.is_valid and inclusion.covers(square.buffer(-0.01))
+        for leg in ([local[-1], point], [point, airport]):  # from the last waypoint (or over the airport)
+            assert inclusion.covers(LineString(leg).buffer(149.0, cap_style="square"))
+        assert Polygon([fleet.local_m(*v) for v in qgc[1]["polygon"]]).hausdorff_distance(box) < 0.1
 
 
 def test_ranges_in_metres_are_spent_by_length(run_gcs, area_doc):
