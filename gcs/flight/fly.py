@@ -52,12 +52,13 @@ class Display(Watcher, Protocol):
 
 @dataclass
 class FlightOutcome:
-    """How a flight ended: its controller (every vehicle's last status), its sortie record and
-    its recording."""
+    """How a flight ended: its controller (every vehicle's last status), its sortie record, its
+    recording, and what became of the energy profiles it taught (`learned`, a line)."""
 
     controller: FlightController
     sortie: SortieLog
     recording: Path | None = None
+    learned: str = ""
 
     @property
     def exit_code(self) -> int:
@@ -97,9 +98,8 @@ def fly_plan(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, *
     controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=stdin_orders, online=online,
                                        recorder=recorder, bus=bus, signing=signing, watchers=[journal, sortie],
                                        display=display))
-    _, line = save_learned(folder, controller.vehicles, options.vehicles_file)
-    controller.say(None, line)
-    return FlightOutcome(controller, sortie, rrd)
+    _, learned = save_learned(folder, controller.vehicles, options.vehicles_file)
+    return FlightOutcome(controller, sortie, rrd, learned)
 
 
 def fly_resumed(plan: FleetPlan, state: JournalState, connections: Sequence[str], options: FlyOptions, *,

@@ -184,7 +184,7 @@ class OnlineFlight:
             want = cap
             if fuel.remaining_mah is not None:
                 left_m = fuel.cruise_m_for(fuel.remaining_mah - fuel.reserve_mah(vehicle.reserve_pct)
-                                           - vehicle.profile.landing_cost_mah(self.plan.uavs[uid].altitude_m))
+                                           - vehicle.landing_mah())
                 st.range_left = left_m
                 want = min(cap, max(self.plan.move_costs.cheapest, u.flown + int(left_m / unit_m)))
             if want != u.range_units:

@@ -146,14 +146,20 @@ class VehicleFlight:
                  ordered_left_m: float | None = None) -> FuelDecision | None:
         """The return trigger's check now (`gcs.flight.return_trigger.fuel_decision`), kept as
         `decision`; the status shows its range left and margin in metres."""
-        self.decision = fuel_decision(self.fuel, reserve_pct=self.reserve_pct,
-                                      landing_mah=self.profile.landing_cost_mah(self.task.altitude_m),
+        self.decision = fuel_decision(self.fuel, reserve_pct=self.reserve_pct, landing_mah=self.landing_mah(),
                                       steps_ahead=steps_ahead, home_legs=home_legs, circuit_legs=circuit_legs,
                                       ordered_left_m=ordered_left_m)
         st = self.status
         st.range_left = math.inf if self.decision is None else self.decision.range_left_m
         st.margin = math.inf if self.decision is None else self.decision.margin_m
         return self.decision
+
+    def landing_mah(self) -> float:
+        """The landing's charge: the profile's, scaled up as far as cruise costs more than the
+        profile says (a pack that drains faster in cruise drains faster on the way down too),
+        never down."""
+        scale = max(1.0, self.fuel.rate_mah_per_m / self.profile.cruise_mah_per_m)
+        return self.profile.landing_cost_mah(self.task.altitude_m) * scale
 
     def must_return(self, now_s: float) -> bool:
         """Whether the last evaluation, confirmed (`gcs.flight.return_trigger.confirmed`), sends

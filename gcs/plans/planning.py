@@ -186,7 +186,6 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
     approach = ApproachOptions(_positive(area.approach_m, "--approach-m"),
                                _positive(area.approach_alt_m, "--approach-alt"), min(250.0, area.approach_m))
     vehicle = Vehicle(area.vehicle)
-    landing_m = 2 * approach.distance_m if vehicle is Vehicle.PLANE else 0.0
     if not 0 <= area.reserve_pct < 100:
         raise UserError(f"--reserve-pct must be in [0, 100), got {area.reserve_pct:g}")
     records = load_vehicles(area.vehicles) if area.vehicles else {}
@@ -209,15 +208,15 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
                 range_m = (ap.range_m or (ap.endurance_s * speed if ap.endurance_s else None)
                            or area.range_m or area.endurance_s * speed)
             ce, cn = grid.grid.centre_m(x, y)
-            overhead_m = 2 * float(math.hypot(ce - east, cn - north)) + landing_m
+            circuit_m = landing_approach(grid, (east, north), ap.heading * 45.0, np.array([east, north]), approach,
+                                         label).circuit_m if vehicle is Vehicle.PLANE else 0.0
+            overhead_m = 2 * float(math.hypot(ce - east, cn - north)) + circuit_m
             units = range_units(range_m - overhead_m, cell)
             if units < 2 * AREA_MOVE_COSTS.straight:
                 raise ValueError(f"{label}: range {range_m:.0f} m leaves {max(range_m - overhead_m, 0):.0f} m over the "
                                  f"{cell:g} m cells once {overhead_m:.0f} m to the airport's cell and back"
-                                 f"{' and the landing circuit' if landing_m else ''} are taken off; it cannot leave "
+                                 f"{' and the landing circuit' if circuit_m else ''} are taken off; it cannot leave "
                                  "its airport and come back")
-            if landing_m:
-                landing_approach(grid, (east, north), ap.heading * 45.0, np.array([east, north]), approach, label)
             uavs.append(UavSpec(uav_id, (x, y), ap.heading, units))
             ranges_m[uav_id] = range_m
             overheads_m[uav_id] = overhead_m

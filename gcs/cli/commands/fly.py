@@ -196,6 +196,8 @@ def _ending(outcome: FlightOutcome) -> int:
     """The summary; the exit code."""
     print(render_summary(outcome.controller))
     print(outcome.sortie.report())
+    if outcome.learned:
+        print(outcome.learned)
     if outcome.recording is not None:
         print(f"recording {outcome.recording}")
     return outcome.exit_code

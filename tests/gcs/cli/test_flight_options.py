@@ -12,7 +12,7 @@ from gcs.cli.commands.fly import options_from
 from gcs.flight.controller import FlyOptions
 from gcs.plans.plan_folder import FleetPlan
 
-FLY_FLAGS = {"reserve_pct": "reserve_pct", "cruise_speed": "speed_m_s", "descent_speed": "descent_m_s",
+FLY_FLAGS = {"reserve_pct": "reserve_pct", "fit_charge": "fit_charge",
              "arm_timeout": "arm_timeout_s", "ready_timeout": "ready_timeout_s", "link_timeout": "link_timeout_s",
              "lost_giveup": "lost_giveup_s"}
 UPLOAD_FLAGS = {"timeout": "transfer_timeout_s", "connect_timeout": "connect_timeout_s",

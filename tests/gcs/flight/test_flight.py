@@ -318,9 +318,9 @@ def test_resumed_options_keep_the_journal_knobs_not_given_again(plan_dir, tmp_pa
     from gcs.flight.fly import resumed_options
     from gcs.flight.journal import JournalStart, JournalState, journal_options
 
-    started = FlyOptions(speed_m_s=14.0, reserve_pct=40.0, fence=False)
+    started = FlyOptions(link_timeout_s=7.0, reserve_pct=40.0, fence=False)
     start = JournalStart(0.0, "", "", (), False, False, False, journal_options(started), None, None)
     state = JournalState(tmp_path / "j", start, vehicles={}, events=[], segments=[], last_t=0.0)
     resumed = resumed_options(FlyOptions(reserve_pct=20.0, return_after_s={1: 5.0}), state, {"reserve_pct"})
-    assert resumed.speed_m_s == 14.0 and not resumed.fence  # kept from the journal
+    assert resumed.link_timeout_s == 7.0 and not resumed.fence  # kept from the journal
     assert resumed.reserve_pct == 20.0 and resumed.return_after_s == {1: 5.0}  # given again

@@ -30,6 +30,9 @@ OLD_RECORD = {"altitude_m": 50.0, "altitude_step_m": 10.0, "approach_alt_m": 30.
               "return_planner": "exact", "seed": 2, "speed_m_s": 12.0, "strategy": "cpio", "terrain_follow": False,
               "vehicle": "copter"}
 
+#: the keys a record gained since: the vehicles file ranges are planned from, and the reserve kept
+NEW_KEYS = {"reserve_pct": 30.0, "vehicles": None}
+
 
 @pytest.fixture
 def area_file(tmp_path):
@@ -130,7 +133,7 @@ def test_the_options_record_keeps_its_keys_and_reads_back():
     area, search = AreaOptions(cell_size_m=25.0, vehicle=Vehicle.PLANE, terrain_follow=True), \
         SearchOptions(seed=9, strategy="pso", horizon_value=False)
     record = options_record(area, search)
-    assert list(record) == sorted(OLD_RECORD)  # the keys plan folders have always had, sorted
+    assert list(record) == sorted({**OLD_RECORD, **NEW_KEYS})  # the keys plan folders have had, and the new ones
     assert record["vehicle"] == "plane" and json.loads(json.dumps(record)) == record
     assert options_from_record(record) == (area, search)
     assert AreaOptions(margin_m=5, vehicle="plane") == AreaOptions(margin_m=5.0, vehicle=Vehicle.PLANE)
@@ -140,7 +143,7 @@ def test_the_options_record_keeps_its_keys_and_reads_back():
 def test_an_old_folders_record_reads_back_and_extra_keys_are_ignored():
     area, search = options_from_record({**OLD_RECORD, "no_longer_an_option": 1})
     assert search == SearchOptions(seed=2) and area == AreaOptions()
-    assert options_record(area, search) == OLD_RECORD
+    assert options_record(area, search) == {**OLD_RECORD, **NEW_KEYS}
     assert options_from_record({"np_steps": 3}) == (AreaOptions(), SearchOptions(np_steps=3))  # missing: defaults
     with pytest.raises(ValueError):
         options_from_record({"vehicle": "zeppelin"})
