@@ -4,6 +4,8 @@
 - `wpl`: QGC WPL 110 text (`.waypoints`), item 0 the home position.
 - `qgc_plan`: QGroundControl `.plan` JSON with geofence and rally point.
 - `paths`: a GeoJSON FeatureCollection of the planned paths.
+- `kml`, `gpx`: paths, tracks and detections as KML and GPX for search teams (through GDAL,
+  `gdal_layer`, imported only when they are written).
 
 The names below are imported from their modules when first used: `gcs.missions.items` alone
 (what the command line's options need) does not load `from_plan`, and with it the planner."""
