@@ -15,9 +15,10 @@ properties (`heading`, `tep`, `range_m`, ...) come from attributes of the same n
 `key: value` lines of the description. Role and key names ignore case, `-` and spaces stand for
 `_`, and a plural names its role (`No-fly zones` is not one, `no_fly` and `No fly` are).
 
-Polygons come as polygons; a KML line whose ends meet and a GPX route or track (closed if it is
-not) become an outline. Heights are dropped, other coordinate systems (a GeoPackage or
-Shapefile's own) are projected to WGS84. Nothing is imported from GDAL until such a file is read."""
+Polygons come as polygons, wound counter-clockwise (holes clockwise); a KML line whose ends meet
+and a GPX route or track (closed if it is not) become an outline. Heights are dropped, other
+coordinate systems (a GeoPackage or Shapefile's own) are projected to WGS84. Nothing is imported
+from GDAL until such a file is read."""
 
 from __future__ import annotations
 
@@ -25,6 +26,9 @@ import hashlib
 import html
 import math
 import re
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -206,6 +210,8 @@ def _geojson_geometry(geometry, role: str, src: _Source) -> dict | None:
             geometry = Polygon(coords)
         elif geometry.geom_type == "GeometryCollection" and all(isinstance(g, Polygon) for g in geometry.geoms):
             geometry = MultiPolygon(list(geometry.geoms))
+        if isinstance(geometry, (Polygon, MultiPolygon)):  # as RFC 7946 and KML ask (a Shapefile winds the other way)
+            geometry = shapely.orient_polygons(geometry)
     return _lists(mapping(geometry))
 
 
@@ -246,7 +252,9 @@ def _read_layer(path: Path, layer: str, **kwargs) -> tuple[dict, list, list[dict
     from pyogrio.raw import read
 
     try:
-        meta, _, wkb, columns = read(path, layer=layer, **kwargs)
+        with warnings.catch_warnings():  # GDAL's notes on what it skipped: the checks below say what matters
+            warnings.simplefilter("ignore", RuntimeWarning)
+            meta, _, wkb, columns = read(path, layer=layer, **kwargs)
     except (DataSourceError, DataLayerError, OSError) as exc:
         raise UserError(f"{path}: layer {layer!r} cannot be read ({exc})") from None
     names = list(meta["fields"])
@@ -280,17 +288,39 @@ def _stack(xy):
     return np.column_stack(xy)
 
 
+CAMERA_HEADING = "kml_camera_heading"
+
+
+@contextmanager
+def _camera_heading_apart() -> Iterator[None]:
+    """GDAL's LIBKML driver reads a Placemark's Camera heading into a field `heading`, where it
+    would pass for an airport's (and GDAL writes a `heading` attribute as such a Camera, the text
+    `E` as 0): while reading, that field is named CAMERA_HEADING instead."""
+    import pyogrio
+
+    pyogrio.set_gdal_config_options({"LIBKML_HEADING_FIELD": CAMERA_HEADING})
+    try:
+        yield
+    finally:
+        pyogrio.set_gdal_config_options({"LIBKML_HEADING_FIELD": None})
+
+
 def _kml_sources(path: Path, layers: list[str]) -> list[_Source]:
     sources = []
-    for layer in layers:
-        _, geometries, rows = _read_layer(path, layer)
+    with _camera_heading_apart():
+        read = [(layer, *_read_layer(path, layer)[1:]) for layer in layers]
+    for layer, geometries, rows in read:
         for k, (geometry, row) in enumerate(zip(geometries, rows)):
             name = _plain(row.get("Name"))
-            label = f"placemark {name!r}" if name else f"placemark {k + 1}"
-            sources.append(_Source(f"{path}: folder {layer!r}, {label}", layer, name and str(name),
-                                   _attributes({k: v for k, v in row.items() if k not in ("Name", "description")},
-                                               False),
-                                   _plain(row.get("description")), geometry))
+            place = f"{path}: folder {layer!r}, " + (f"placemark {name!r}" if name else f"placemark {k + 1}")
+            attributes = _attributes({k: v for k, v in row.items() if k not in ("Name", "description")}, False)
+            description = _plain(row.get("description"))
+            if _plain(row.get(CAMERA_HEADING)) is not None and "heading" not in attributes \
+                    and "heading" not in description_values(description):
+                raise UserError(f"{place}: its heading was written as a KML Camera (GDAL's LIBKML driver does so "
+                                f"with a 'heading' attribute, and turns N, NE, ... into 0); write the KML with "
+                                f"GDAL's KML driver (ogr2ogr -f KML) or put 'heading: ...' in the description")
+            sources.append(_Source(place, layer, name and str(name), attributes, description, geometry))
     return sources
 
 
