@@ -1,6 +1,6 @@
 """GPX 1.1 of a plan's paths and a flight's tracks and detections, for handheld GPS units and
-phone apps: paths and tracks as `<trk>` (a track has no point limit; many handhelds keep at most
-250 points in a route), detections as `<wpt>`, the other properties as `<extensions>` (ogr
+phone apps: paths and tracks as `<trk>` (many handhelds keep only a few hundred points of a
+route, and thousands of a track), detections as `<wpt>`, the other properties as `<extensions>` (ogr
 namespace, ignored by units that do not know it). Written by GDAL's GPX driver
 (`gcs.missions.gdal_layer`)."""
 
