@@ -29,7 +29,7 @@ import re
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -130,7 +130,7 @@ def _plain(value: Any) -> Any:
 
 def _value(key: str, value: Any) -> Any:
     """A property value as the GeoJSON reader expects it: numbers written as text become numbers
-    (a text that is none is left for `parse_area` to refuse, naming it)."""
+    (a text that is no number is left for `parse_area` to refuse, naming it)."""
     if isinstance(value, str) and (key in NUMBER_KEYS or key == "heading"):
         try:
             number = float(value.strip())
@@ -152,7 +152,6 @@ class _Source:
     geometry: Any  # shapely
     outline: bool = False  # a GPX route or track: the outline of a polygon
     default_role: str | None = None
-    notes: list[str] = field(default_factory=list)
 
 
 def _attributes(fields: dict[str, Any], shapefile: bool) -> dict[str, Any]:
@@ -169,7 +168,7 @@ def _attributes(fields: dict[str, Any], shapefile: bool) -> dict[str, Any]:
     return out
 
 
-def _role(src: _Source, folder_hint: str) -> tuple[str, str]:
+def _role(src: _Source, hint: str) -> tuple[str, str]:
     """The feature's role and its name without a role prefix; UserError naming how to give one."""
     name = src.name or ""
     prefixed, bare = _name_prefix(name)
@@ -186,7 +185,7 @@ def _role(src: _Source, folder_hint: str) -> tuple[str, str]:
         raise UserError(f"{src.place}: two roles given: {given}")
     role = next(iter(roles.values()), None) or role_name(src.layer) or src.default_role
     if role is None:
-        raise UserError(f"{src.place}: no role; give it one of {', '.join(ROLES)}: {folder_hint}")
+        raise UserError(f"{src.place}: no role; give it one of {', '.join(ROLES)}: {hint}")
     return role, bare if prefixed else name
 
 
@@ -289,25 +288,26 @@ def _stack(xy):
 
 
 CAMERA_HEADING = "kml_camera_heading"
+KML_READING = {"LIBKML_HEADING_FIELD": CAMERA_HEADING, "LIBKML_READ_GROUND_OVERLAY": "NO"}
 
 
 @contextmanager
-def _camera_heading_apart() -> Iterator[None]:
-    """GDAL's LIBKML driver reads a Placemark's Camera heading into a field `heading`, where it
-    would pass for an airport's (and GDAL writes a `heading` attribute as such a Camera, the text
-    `E` as 0): while reading, that field is named CAMERA_HEADING instead."""
+def _kml_reading() -> Iterator[None]:
+    """GDAL's LIBKML driver set to read placemarks only (no image overlays), with a Placemark's
+    Camera heading in the field CAMERA_HEADING instead of `heading`, where it would pass for an
+    airport's (GDAL writes a `heading` attribute as such a Camera, the text `E` as 0)."""
     import pyogrio
 
-    pyogrio.set_gdal_config_options({"LIBKML_HEADING_FIELD": CAMERA_HEADING})
+    pyogrio.set_gdal_config_options(KML_READING)
     try:
         yield
     finally:
-        pyogrio.set_gdal_config_options({"LIBKML_HEADING_FIELD": None})
+        pyogrio.set_gdal_config_options(dict.fromkeys(KML_READING))
 
 
 def _kml_sources(path: Path, layers: list[str]) -> list[_Source]:
     sources = []
-    with _camera_heading_apart():
+    with _kml_reading():
         read = [(layer, *_read_layer(path, layer)[1:]) for layer in layers]
     for layer, geometries, rows in read:
         for k, (geometry, row) in enumerate(zip(geometries, rows)):
@@ -345,7 +345,8 @@ def _gpx_sources(path: Path, layers: list[str]) -> list[_Source]:
         for k, (geometry, row) in enumerate(zip(geometries, rows)):
             name = _plain(row.get("name"))
             label = f"{what} {name!r}" if name else f"{what} {k + 1}"
-            attributes = _attributes({"role": row.get("type")}, False)
+            kind = _plain(row.get("type"))  # a GPX <type> may class a waypoint otherwise: a role only if it names one
+            attributes = {"role": kind} if role_name(kind) else {}
             description = "\n".join(str(v) for v in (_plain(row.get("desc")), _plain(row.get("cmt"))) if v)
             outline = layer != "waypoints"
             if outline and geometry is None:

@@ -174,6 +174,15 @@ def test_every_property_comes_through(tmp_path):
         assert mine.area.equals(twin.area) and [z.equals(t) for z, t in zip(mine.no_fly, twin.no_fly)] == [True]
 
 
+def test_a_gpx_type_that_names_no_role_is_no_role(tmp_path):
+    """A handheld's waypoint class (`<type>user</type>`) is left alone; its name gives the role."""
+    path = tmp_path / "square.gpx"
+    path.write_text((HERE / "caltopo.gpx").read_text().replace(
+        "<name>target: hiker</name>", "<name>target: hiker</name><sym>Flag, Blue</sym><type>user</type>"))
+    assert "<type>user</type>" in path.read_text()
+    assert read_area_file(path).targets == read_area_file(TWIN).targets
+
+
 def test_a_geopackage_in_another_crs_is_projected_to_wgs84(tmp_path):
     """A QGIS project in UTM (zone 32N here): the shapes come back in lon/lat to well under a
     millimetre."""
