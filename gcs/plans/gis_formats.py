@@ -152,6 +152,7 @@ class _Source:
     geometry: Any  # shapely
     outline: bool = False  # a GPX route or track: the outline of a polygon
     default_role: str | None = None
+    camera_heading: bool = False  # a KML Placemark with a Camera heading
 
 
 def _attributes(fields: dict[str, Any], shapefile: bool) -> dict[str, Any]:
@@ -267,6 +268,7 @@ def _read_layer(path: Path, layer: str, **kwargs) -> tuple[dict, list, list[dict
 
 def _to_wgs84(meta: dict, geometries: list, where: str) -> list:
     """Geometries of a layer in its own coordinate system, projected to WGS84 lon/lat."""
+    import numpy as np
     import shapely
     from pyproj import CRS, Transformer
 
@@ -277,14 +279,9 @@ def _to_wgs84(meta: dict, geometries: list, where: str) -> list:
     if crs.equals(CRS.from_epsg(4326), ignore_axis_order=True):
         return geometries
     to_wgs84 = Transformer.from_crs(crs, 4326, always_xy=True)
-    return [None if g is None else shapely.transform(g, lambda xy: _stack(to_wgs84.transform(xy[:, 0], xy[:, 1])))
+    return [None if g is None else shapely.transform(g, lambda xy: np.column_stack(to_wgs84.transform(xy[:, 0],
+                                                                                                      xy[:, 1])))
             for g in geometries]
-
-
-def _stack(xy):
-    import numpy as np
-
-    return np.column_stack(xy)
 
 
 CAMERA_HEADING = "kml_camera_heading"
@@ -314,13 +311,8 @@ def _kml_sources(path: Path, layers: list[str]) -> list[_Source]:
             name = _plain(row.get("Name"))
             place = f"{path}: folder {layer!r}, " + (f"placemark {name!r}" if name else f"placemark {k + 1}")
             attributes = _attributes({k: v for k, v in row.items() if k not in ("Name", "description")}, False)
-            description = _plain(row.get("description"))
-            if _plain(row.get(CAMERA_HEADING)) is not None and "heading" not in attributes \
-                    and "heading" not in description_values(description):
-                raise UserError(f"{place}: its heading was written as a KML Camera (GDAL's LIBKML driver does so "
-                                f"with a 'heading' attribute, and turns N, NE, ... into 0); write the KML with "
-                                f"GDAL's KML driver (ogr2ogr -f KML) or put 'heading: ...' in the description")
-            sources.append(_Source(place, layer, name and str(name), attributes, description, geometry))
+            sources.append(_Source(place, layer, name and str(name), attributes, _plain(row.get("description")),
+                                   geometry, camera_heading=_plain(row.get(CAMERA_HEADING)) is not None))
     return sources
 
 
@@ -406,6 +398,10 @@ def read_gis_area(path: str | Path) -> GisArea:
         for key, value in {**description_values(src.description), **src.attributes}.items():
             if key != "role":
                 properties[key] = _value(key, value)
+        if role == "airport" and src.camera_heading and "heading" not in properties:
+            raise UserError(f"{src.place}: its heading was written as a KML Camera (GDAL's LIBKML driver does so with "
+                            f"a 'heading' attribute, and turns N, NE, ... into 0); write the KML with GDAL's KML "
+                            f"driver (ogr2ogr -f KML) or put 'heading: ...' in the description")
         geometry = _geojson_geometry(src.geometry, role, src)
         features.append({"type": "Feature", "geometry": geometry, "properties": properties})
         places.append(src.place)
