@@ -8,7 +8,8 @@ the heaviest modules `gcs plan` and its helper processes import (they share its 
 pictures helper imports matplotlib, the recordings helper rerun). With --against DIR, another
 copy of the code (e.g. `git archive` of an older commit) is timed too, its runs alternating with
 these, so that both see the same load.
-Usage: python benchmarks/bench_startup.py [--repeats 7] [--imports] [--tree DIR] [--against DIR]"""
+With --area FILE, that area file is planned instead (e.g. a KML, to time reading it through GDAL).
+Usage: python benchmarks/bench_startup.py [--repeats 7] [--imports] [--tree DIR] [--against DIR] [--area FILE]"""
 
 from __future__ import annotations
 
@@ -79,20 +80,21 @@ def main() -> None:
                              "commit)")
     parser.add_argument("--against", type=Path, default=None, metavar="DIR",
                         help="also time the copy of the code in DIR, its runs alternating with these")
+    parser.add_argument("--area", default="missions/paper.geojson", help="the area file to plan (default: %(default)s)")
     args = parser.parse_args()
     roots = [args.tree.resolve()] + ([args.against.resolve()] if args.against else [])
     cases: dict[str, tuple[list[float], list[float]]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         plans = []
         for k, root in enumerate(roots):
-            plan = [*gcs_command(root), "plan", "--area", "missions/paper.geojson", "--out", str(Path(tmp) / f"p{k}")]
+            plan = [*gcs_command(root), "plan", "--area", str(ROOT / args.area), "--out", str(Path(tmp) / f"p{k}")]
             timed(plan, 1, root)  # the first plan fills numba's cache if it is empty
             plans.append((plan, root))
         labels = [f" [{root}]" if len(roots) > 1 else "" for root in roots]
         for root, label in zip(roots, labels):
             cases[f"gcs --help{label}"] = timed([*gcs_command(root), "--help"], args.repeats, root)
         for label, result in zip(labels, alternating(plans, args.repeats)):
-            cases[f"gcs plan --area missions/paper.geojson{label}"] = result
+            cases[f"gcs plan --area {args.area}{label}"] = result
         outputs = sorted(p.name for p in (Path(tmp) / "p0").iterdir())
         if args.imports:
             print("heaviest imports of gcs plan and its helpers (cumulative s):")

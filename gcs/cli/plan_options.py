@@ -51,8 +51,9 @@ def add_area_arguments(p: argparse.ArgumentParser) -> None:
     """`--area` and how an area becomes a grid, ranges and missions (`AreaOptions`)."""
     d = AreaOptions
     g = p.add_argument_group("area planning (--area)")
-    g.add_argument("--area", metavar="GEOJSON", default=None,
-                   help="plan over a GeoJSON search area (docs/areas.md) instead of a built-in scenario")
+    g.add_argument("--area", metavar="FILE", default=None,
+                   help="plan over a search area file, GeoJSON, KML/KMZ, GPX, GeoPackage or Shapefile (docs/areas.md, "
+                        "docs/search-team.md) instead of a built-in scenario")
     g.add_argument("--cell-size", dest="cell_size_m", metavar="METRES", type=float, default=d.cell_size_m,
                    help=f"grid cell side (default: the file's cell_size_m, else {DEFAULT_CELL_SIZE_M:g})")
     g.add_argument("--speed", dest="speed_m_s", metavar="M/S", type=float, default=d.speed_m_s, help="cruise speed")

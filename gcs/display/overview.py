@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from gcs.atomic import staged_outputs
+from gcs.colours import uav_colour
 
 if TYPE_CHECKING:
     from planner.plan import Plan, UavPlan
@@ -34,18 +35,10 @@ HEIGHT_PX = 1000
 DPI = 100
 REGION_COLOURS = {"known": "tab:cyan", "key": "tab:orange"}
 
-UAV_COLOURS = ((31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (255, 127, 14),
-               (23, 190, 207), (227, 119, 194), (140, 86, 75), (188, 189, 34), (127, 127, 127))
-
 # Named bands of the prior (P, chi) used to outline regions (Section 2.1 names them, it does not
 # fix numbers): known where both are <= 0.1, key where P >= 0.8.
 KNOWN_MAX = 0.1
 KEY_MIN_TEP = 0.8
-
-
-def uav_colour(index: int) -> tuple[int, int, int]:
-    """The colour of the index-th UAV, in the picture and in the recording."""
-    return UAV_COLOURS[index % len(UAV_COLOURS)]
 
 
 def region_masks(scenario: Scenario) -> dict[str, np.ndarray]:

@@ -5,7 +5,7 @@ folder for `gcs plan --continue`.
 (`ReadingReceived`) is folded, as it arrives, into the belief the plan was made from
 (`belief.json`) with the planner's own Bayes update (`SearchMap.observe`, eq. 2-4, the one
 online mode uses), with the plan's Pc and Pf; each vehicle's position is sampled into its flown
-track. When the flight ends, however it ends, three files are published together
+track. When the flight ends, however it ends, these files are published together
 (`gcs.atomic.staged_outputs`):
 
 - `sortie.json`: the sortie number, whether the flight finished (and why not), the hashes of
@@ -13,7 +13,9 @@ track. When the flight ends, however it ends, three files are published together
   sortie and of the whole campaign, every reading, the vehicles' ends and the campaign's expected
   finds before and after (schema `gcs/schemas/sortie.schema.json`);
 - `tracks.geojson`: one LineString per vehicle, the positions it reported from take-off on;
-- `detections.geojson`: one Point per positive reading.
+- `detections.geojson`: one Point per positive reading;
+- `tracks.kml`, `tracks.gpx`, `detections.kml`, `detections.gpx`: the same for Google Earth,
+  CalTopo, QGIS and handheld GPS units (`gcs.missions.kml`, `gcs.missions.gpx`).
 
 A flight taken over by a restarted station (`gcs fly --resume`) is one sortie: `restore` folds
 in the readings and tracks its journal kept before the station died.
@@ -170,13 +172,18 @@ class SortieLog:
         """Decide whether the flight finished, and publish the record (an error is kept in
         `write_error` and said on the controller's output: it never hides the flight's own end)."""
         self.finished, self.reason = self._outcome(controller, failure)
-        files = {SORTIE_FILE: self.record(controller), TRACKS_FILE: self.tracks_geojson(controller),
-                 DETECTIONS_FILE: self.detections_geojson()}
+        tracks, detections = self.tracks_geojson(controller), self.detections_geojson()
+        files = {name: json.dumps(data, indent=1) + "\n" for name, data in
+                 ((SORTIE_FILE, self.record(controller)), (TRACKS_FILE, tracks), (DETECTIONS_FILE, detections))}
+        try:
+            files.update(self.map_files(tracks, detections))
+        except Exception as exc:  # the sortie record matters more than its maps: it is written all the same
+            controller.say(None, f"error: the KML and GPX files of the flight were not written ({exc})")
         paths = [self.folder / name for name in files]
         try:
             with staged_outputs(paths) as staged:
-                for name, data in files.items():
-                    staged[self.folder / name].write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+                for name, text in files.items():
+                    staged[self.folder / name].write_text(text, encoding="utf-8")
             self.written = paths
         except OSError as exc:
             self.write_error = str(exc)
@@ -264,6 +271,21 @@ class SortieLog:
                     for r in self.readings if r.hit]
         return {"type": "FeatureCollection", "name": f"{self.folder.name} sortie {self.sortie} detections",
                 "features": features}
+
+    def map_files(self, tracks: dict, detections: dict) -> dict[str, str]:
+        """tracks.kml, tracks.gpx, detections.kml and detections.gpx of the two GeoJSON collections
+        (Google Earth, CalTopo, QGIS, handheld GPS)."""
+        from gcs.missions.gpx import gpx_text
+        from gcs.missions.kml import kml_text
+        from gcs.missions.paths import uav_label
+
+        title = f"{self.folder.name} sortie {self.sortie}"
+        tracked = [uav_label(f["properties"]["uav"], f["properties"]["name"]) for f in tracks["features"]]
+        seen = [f"UAV {f['properties']['uav']} reading {f['properties']['index']}" for f in detections["features"]]
+        return {"tracks.kml": kml_text(tracks, "tracks", tracked, f"{title}: flown tracks", "LineString"),
+                "tracks.gpx": gpx_text(tracks, tracked, "LineString"),
+                "detections.kml": kml_text(detections, "detections", seen, f"{title}: detections", "Point"),
+                "detections.gpx": gpx_text(detections, seen, "Point")}
 
     def report(self) -> str:
         """What the record says, for the end of `gcs fly`."""

@@ -6,6 +6,8 @@
 - `paths`: a GeoJSON FeatureCollection of the planned paths.
 - `approach`: a plane's landing approach and the corridor its landing may use.
 - `fence`: the geofence each UAV is given (the area, a plane's landing corridor, no-fly zones).
+- `kml`, `gpx`: paths, tracks and detections as KML and GPX for search teams (through GDAL,
+  `gdal_layer`, imported only when they are written).
 
 The names below are imported from their modules when first used: `gcs.missions.items` alone
 (what the command line's options need) does not load `from_plan`, and with it the planner."""

@@ -18,3 +18,8 @@ def paths_geojson(missions: list[UavMission], lengths_m: dict[int, float], name:
                            "waypoints": len(m.waypoints), "length_m": round(lengths_m.get(m.uav_id, 0.0), 1)},
         })
     return {"type": "FeatureCollection", "name": name, "features": features}
+
+
+def uav_label(uav_id: int, name: str) -> str:
+    """How map files name a UAV: `UAV 2 (west)`, or `UAV 2` when its airport's name says no more."""
+    return f"UAV {uav_id}" if name.replace(" ", "").lower() in ("", f"uav{uav_id}") else f"UAV {uav_id} ({name})"

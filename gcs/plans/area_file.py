@@ -13,12 +13,16 @@ carry a `role` property. See docs/areas.md for the format and a complete example
 
 A suggested cell size may be given as `cell_size_m` in the area feature's properties or in the
 FeatureCollection's `properties` member. Rings may wind either way. Bad input raises `UserError`
-with one line saying what and where."""
+with one line saying what and where.
+
+KML/KMZ, GPX, GeoPackage and Shapefile area files (by their suffix, or a folder of shapefiles)
+are read by `gcs.plans.gis_formats` into the same FeatureCollection and checked here alike."""
 
 from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,6 +36,8 @@ from planner.georef import heading_from_degrees
 from planner.motion import COMPASS
 
 ROLES = ("area", "no_fly", "prior", "airport", "target")
+FORMATS = ("area files are GeoJSON (.geojson, .json), KML (.kml, .kmz), GPX (.gpx), GeoPackage (.gpkg) or "
+           "Shapefile (.shp, a .zip or a folder of them)")
 POLYGONAL = ("Polygon", "MultiPolygon")
 
 
@@ -84,6 +90,12 @@ def _reject_constant(name: str) -> float:
 
 def read_area_file(path: str | Path) -> AreaFile:
     path = Path(path)
+    if path.suffix.lower() not in (".geojson", ".json"):
+        from gcs.plans.gis_formats import is_gis_area, read_gis_area
+
+        if is_gis_area(path):
+            gis = read_gis_area(path)
+            return parse_area(gis.collection, name=path.stem, source=str(path), places=gis.places)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
@@ -93,7 +105,8 @@ def read_area_file(path: str | Path) -> AreaFile:
     try:
         data = json.loads(text, parse_constant=_reject_constant)
     except json.JSONDecodeError as exc:
-        raise UserError(f"{path}: not JSON ({exc.msg} at line {exc.lineno} column {exc.colno})") from None
+        formats = "" if path.suffix.lower() in (".geojson", ".json") else f"; {FORMATS}"
+        raise UserError(f"{path}: not JSON ({exc.msg} at line {exc.lineno} column {exc.colno}){formats}") from None
     except ValueError as exc:
         raise UserError(f"{path}: not valid JSON: {exc}") from None
     return parse_area(data, name=path.stem, source=str(path))
@@ -197,8 +210,9 @@ def _outline(geometry: BaseGeometry) -> BaseGeometry:
     return unary_union([Polygon(p.exterior) for p in parts])
 
 
-def parse_area(data, name: str = "area", source: str = "area file") -> AreaFile:
-    """Validate a decoded GeoJSON document and return its parts."""
+def parse_area(data, name: str = "area", source: str = "area file", places: Sequence[str] | None = None) -> AreaFile:
+    """Validate a decoded GeoJSON document and return its parts; `places` says where each feature
+    came from in the file it was read from (for other formats: `gcs.plans.gis_formats`)."""
     if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
         raise UserError(f"{source}: not a GeoJSON FeatureCollection")
     features = data.get("features")
@@ -215,7 +229,7 @@ def parse_area(data, name: str = "area", source: str = "area file") -> AreaFile:
         props = feature.get("properties") or {}
         if not isinstance(props, dict):
             raise UserError(f"{source}: feature {i}: properties must be an object")
-        where = f"{source}: {_where(i, feature)}"
+        where = f"{source}: {_where(i, feature)}" if places is None else f"{places[i]} ({props.get('role')})"
         role = props.get("role")
         if role not in ROLES:
             raise UserError(f"{where}: 'role' must be one of {', '.join(ROLES)}, got {role!r}")

@@ -21,6 +21,7 @@ import numpy as np
 
 from gcs.errors import UserError
 from gcs.plans.belief_file import BELIEF_FILE, SORTIE_FILE, belief_from_dict, belief_to_dict, file_sha256
+from gcs.plans.gis_formats import area_sha256
 from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions, options_from_record, options_record
 from gcs.plans.planning import AreaSetup, area_out_dir, area_outputs, build_area_search, write_outputs
 from planner.campaign import Belief, predicted_after
@@ -161,9 +162,9 @@ def continued_start(folder: str | Path, out: str | Path | None = None) -> NextSo
     if record.get("plan_sha256") != file_sha256(folder / "plan.json"):
         raise UserError(f"--continue {folder}: plan.json changed since the flight (it is not the plan that was flown)")
     area_file = Path(str(campaign["area"].get("file")))
-    if not area_file.is_file():
+    if not area_file.exists():
         raise UserError(f"--continue {folder}: the area file {area_file} is gone; put it back to continue")
-    if file_sha256(area_file) != campaign["area"].get("sha256"):
+    if area_sha256(area_file) != campaign["area"].get("sha256"):
         raise UserError(f"--continue {folder}: the area file {area_file} changed since the plan was made; its grid "
                         f"and priors may no longer match the flight's belief (plan it again with gcs plan --area)")
     if record.get("belief") is None:
@@ -222,7 +223,7 @@ def plan_sorties(area_file: str | Path, area: AreaOptions, search: SearchOptions
                                 f"orphan its record; give another --out")
     setup = build_area_search(area_file, area, search, start.belief if start else None)
     start = start or SortieStart(setup.belief, "prior", [])
-    area_record = {"file": str(Path(area_file).resolve()), "sha256": file_sha256(area_file)}
+    area_record = {"file": str(Path(area_file).resolve()), "sha256": area_sha256(area_file)}
     options = options_record(area, search)
     files: dict[str, str] = {}
     planned = []

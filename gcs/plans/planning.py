@@ -22,7 +22,7 @@ from gcs.missions.approach import ApproachOptions, landing_approach
 from gcs.missions.fence import Fence, uav_fence
 from gcs.missions.from_plan import FlownPath, uav_mission
 from gcs.missions.items import AltitudeReference, UavMission, Vehicle
-from gcs.missions.paths import paths_geojson
+from gcs.missions.paths import paths_geojson, uav_label
 from gcs.missions.qgc_plan import qgc_plan
 from gcs.missions.wpl import wpl_text
 from gcs.plans.area_file import AreaFile, read_area_file
@@ -291,8 +291,20 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
         files[f"uav{m.uav_id}.plan"] = json.dumps(qgc_plan(m, fence.inclusion, fence.exclusion, speed_m_s),
                                                   indent=1) + "\n"
     lengths = {uid: p.length_m for uid, p in paths.items()}
-    files["paths.geojson"] = json.dumps(paths_geojson(missions, lengths, source.name), indent=1) + "\n"
+    collection = paths_geojson(missions, lengths, source.name)
+    files["paths.geojson"] = json.dumps(collection, indent=1) + "\n"
+    files.update(paths_for_teams(collection, missions, source.name))
     return files
+
+
+def paths_for_teams(collection: dict, missions: list[UavMission], name: str) -> dict[str, str]:
+    """paths.kml (Google Earth, CalTopo, QGIS) and paths.gpx (handheld GPS) of the paths' GeoJSON."""
+    from gcs.missions.gpx import gpx_text
+    from gcs.missions.kml import kml_text
+
+    names = [uav_label(m.uav_id, m.name) for m in missions]
+    return {"paths.kml": kml_text(collection, "paths", names, f"{name}: planned paths", "LineString"),
+            "paths.gpx": gpx_text(collection, names, "LineString")}
 
 
 def write_outputs(out_dir: Path, files: dict[str, str]) -> None:

@@ -22,7 +22,7 @@ from gcs.plans.options import SearchOptions
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("detector", formatter_class=argparse.ArgumentDefaultsHelpFormatter, description=__doc__)
     p.add_argument("--plan", metavar="DIR", help="a gcs plan --area folder: grid, targets and (by default) seed")
-    p.add_argument("--area", metavar="GEOJSON",
+    p.add_argument("--area", metavar="FILE",
                    help="or an area file, laid out as gcs plan --area does (grid and target features)")
     p.add_argument("--cell-size", dest="cell_size_m", metavar="METRES", type=float, default=None,
                    help="with --area: the cell size the plan uses (default: the file's, else the plan command's)")

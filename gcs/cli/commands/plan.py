@@ -1,7 +1,8 @@
 """`gcs plan`: run the closed search (DTSCS) and write the plan.
 
-With `--area area.geojson` the search runs over a real area (docs/areas.md): the output folder
-gets plan.json, uav<id>.waypoints (QGC WPL 110), uav<id>.plan (QGroundControl) and paths.geojson."""
+With `--area area.geojson` (or .kml, .kmz, .gpx, .gpkg, .shp) the search runs over a real area
+(docs/areas.md): the output folder gets plan.json, uav<id>.waypoints (QGC WPL 110), uav<id>.plan
+(QGroundControl) and paths.geojson, paths.kml and paths.gpx."""
 
 from __future__ import annotations
 

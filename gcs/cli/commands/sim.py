@@ -27,7 +27,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--vehicles", type=int, default=1, metavar="N", help="number of vehicles (default 1)")
     p.add_argument("--home", action="append", metavar="LAT,LON[,HEADING]",
                    help=f"home pose, once per vehicle or once for all (default {DEFAULT_HOME})")
-    p.add_argument("--area", default=None, metavar="AREA.geojson",
+    p.add_argument("--area", default=None, metavar="FILE",
                    help="one vehicle per airport of an area file (home, heading), with its targets")
     p.add_argument("--home-alt-m", type=float, default=0.0, help="ground altitude AMSL of every home")
     p.add_argument("--base-port", type=int, default=14540, help="UDP port of vehicle 1 (default 14540)")

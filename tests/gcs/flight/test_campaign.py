@@ -118,6 +118,38 @@ def test_a_flight_leaves_the_posterior_of_its_readings_its_tracks_and_its_detect
                for d in detections)
 
 
+def test_a_flight_leaves_its_tracks_and_detections_as_kml_and_gpx(campaign):
+    """tracks.kml/.gpx and detections.kml/.gpx, read back with GDAL, hold what the GeoJSON files
+    hold: every vehicle's track point for point, every positive reading where it was taken."""
+    import pyogrio
+    import pyogrio.raw
+    import shapely
+
+    folder = campaign.first
+    for stem, layers in (("tracks", {".kml": "tracks", ".gpx": "tracks"}),
+                         ("detections", {".kml": "detections", ".gpx": "waypoints"})):
+        features = _json(folder / f"{stem}.geojson")["features"]
+        assert features
+        for suffix, layer in layers.items():
+            path = folder / f"{stem}{suffix}"
+            assert pyogrio.read_info(path, layer=layer)["driver"] == ("LIBKML" if suffix == ".kml" else "GPX")
+            meta, _, wkb, columns = pyogrio.raw.read(path, layer=layer)
+            fields = dict(zip(meta["fields"], columns))
+            assert len(wkb) == len(features)
+            names = list(fields["Name" if suffix == ".kml" else "name"])
+            uav = fields["uav" if suffix == ".kml" else "ogr_uav"]
+            for k, feature in enumerate(features):
+                props = feature["properties"]
+                assert int(uav[k]) == props["uav"]
+                expected = np.asarray(feature["geometry"]["coordinates"], dtype=float).reshape(-1, 2)
+                read = shapely.get_coordinates(shapely.from_wkb(wkb[k]))
+                assert read.shape == expected.shape and np.abs(read - expected).max() < 1e-9
+                if stem == "tracks":
+                    assert names[k] == f"UAV {props['uav']}"
+                else:
+                    assert names[k] == f"UAV {props['uav']} reading {props['index']}"
+
+
 def test_gcs_fly_area_plans_what_gcs_plan_area_plans_with_the_same_defaults(campaign, tmp_path):
     """`gcs fly --area` calls the planning `gcs plan --area` calls, with the same options and
     defaults (the paper's CPIO among them): the same plan, missions and belief."""
