@@ -1,27 +1,38 @@
 """A vehicle's fuel as the return trigger reads it: charge used and left, and what a metre of
-cruise costs it now, from its battery reports (`FuelGauge`). Pure: fed values, no MAVLink.
+cruise costs it in each direction now, from its battery reports (`FuelGauge`). Pure: fed values,
+no MAVLink.
 
-Charge is counted in mAh. Where the autopilot reports the charge it has consumed (ArduPilot's
-BATTERY_STATUS.current_consumed, integrated from its current sensor), that is the reading; where
-it reports only a percentage (PX4 SITL, whose percentage comes from the voltage), the used charge
-is the capacity times the percentage gone. The capacity is the autopilot's own (BATT_CAPACITY,
-BAT1_CAPACITY), read before the flight, else the profile's, so percentages and charges convert
-the way the autopilot converts them.
+Charge is counted in mAh. Where the autopilot measures its current and counts the charge consumed
+(ArduPilot's BATTERY_STATUS.current_consumed), that is the reading; where it reports only a
+percentage (PX4 SIH: current -1, consumed 0), the used charge is the capacity times the
+percentage gone. The capacity is the autopilot's own (BATT_CAPACITY, BAT1_CAPACITY), read before
+the flight, else the profile's, so percentages and charges convert as the autopilot converts them.
 
 What a metre costs is learned in level flight only. PX4 met this fault (its PR 22401: a long
 fixed-wing climb at full throttle, averaged as cruise, cut the remaining-time estimate and sent
-the plane home) and ArduPilot's plane-wind-fs example samples only after 30 s of flight: the
-launch and climb, the landing, and the first `settle_s` seconds after levelling off (where a
-voltage-based percentage is still recovering from the climb's sag) are never averaged as cruise.
-The estimate starts from the vehicle's profile and moves towards what level flight shows as
-evidence accrues: the profile counts as `prior_weight_m` metres already flown at its figure,
+the plane home; ArduPlane SITL's take-off draws four times its cruise current) and ArduPilot's
+plane-wind-fs example samples only after 30 s of flight: the launch and climb, the landing, and
+the first `settle_s` seconds after levelling off (where a voltage-based percentage is still
+recovering from the climb) are never averaged as cruise.
 
-    rate = (profile rate * prior_weight_m + charge used in cruise) / (prior_weight_m + cruise metres)
+Wind makes a metre dearer one way than the other, and a copter's autopilot may not even report
+it (ArduCopter's EKF estimates no wind without drag fusion: WIND says 0 while an 8 m/s wind holds
+the copter to 2.2 m/s over the ground, at 4.6 times its calm cost per metre; docs/energy.md).
+So the cost of a metre is learned as a function of the direction flown, from the charge itself:
 
-with each cruise metre weighted by what the wind made it cost (`planner.energy.wind_factor`), so
-the rate is a still-air figure and a leg home into the wind is priced at its own cost. A first
-noisy reading cannot move it far, and a battery that drains faster than its profile says shows
-within a few hundred metres of cruise."""
+    charge of a stretch = a * metres + b * metres east + c * metres north
+
+(a first harmonic in the track direction: a is the cost averaged over directions, b and c how much
+dearer a metre flown east and a metre flown north is than that, negative where it is cheaper). It
+is fitted by least squares over the
+settled cruise since take-off, each stretch weighted by the inverse of its length (charge
+variance grows with distance), starting from a prior that counts as `prior_weight_m` metres
+already flown: a at the profile's still-air figure, (b, c) at zero, or, when the autopilot
+reports a wind (ArduPlane's WIND, PX4's WIND_COV), at what that wind does to a vehicle holding
+its cruise speed V through the air, -a (w_e, w_n) / V to first order (a tailwind is cheaper). A
+first noisy reading cannot move it far; a battery that drains faster than its profile says, or a
+wind the autopilot does not report, shows within a few hundred metres of search legs in a few
+directions; a direction never flown is priced at the average. No direction is priced under MIN_SHARE of the average."""
 
 from __future__ import annotations
 
@@ -29,15 +40,33 @@ import math
 from dataclasses import dataclass
 from enum import Enum
 
-from planner.energy import EnergyProfile, wind_factor
+import numpy as np
 
-__all__ = ["FlightPhase", "FuelGauge", "PRIOR_WEIGHT_M", "SETTLE_S"]
+from planner.energy import EnergyProfile
+
+__all__ = ["FlightPhase", "FuelGauge", "LegCost", "MIN_SHARE", "PRIOR_WEIGHT_M", "SETTLE_S"]
 
 #: Metres of cruise the profile's figure counts for against what the flight shows.
 PRIOR_WEIGHT_M = 300.0
 
 #: Seconds of level flight after the climb before cruise is sampled.
 SETTLE_S = 10.0
+
+#: No direction is priced under this share of the cost averaged over directions.
+MIN_SHARE = 0.4
+
+
+#: a, and the first and second harmonics' cosine and sine
+TERMS = 5
+
+
+def _terms(east: float, north: float) -> np.ndarray:
+    """The regressors of a straight stretch: its length times (1, cos, sin, cos 2, sin 2) of
+    its direction."""
+    m = math.hypot(east, north)
+    if m == 0:
+        return np.zeros(TERMS)
+    return np.array([m, east, north, (east * east - north * north) / m, 2.0 * east * north / m])
 
 
 class FlightPhase(str, Enum):
@@ -51,7 +80,7 @@ class FlightPhase(str, Enum):
 
 @dataclass(frozen=True, slots=True)
 class LegCost:
-    """A priced way: its ground metres and its charge (mAh) in the wind."""
+    """A priced way: its ground metres and its charge (mAh)."""
 
     metres: float
     mah: float
@@ -66,23 +95,23 @@ class FuelGauge:
         self.capacity_mah = profile.capacity_mah
         self.prior_weight_m = prior_weight_m
         self.settle_s = settle_s
-        self.wind_m_s: tuple[float, float] = (0.0, 0.0)
+        self.wind_m_s: tuple[float, float] | None = None
         self.used_mah: float | None = None
         self.remaining_pct: float | None = None
-        self.reports_consumed = False
+        self.measures_current = False
         self.cruise_mah = 0.0
         self.cruise_m = 0.0          # ground metres of sampled cruise
-        self.cruise_still_m = 0.0    # the same weighted by their wind factors
         self.phase_mah: dict[FlightPhase, float] = dict.fromkeys(FlightPhase, 0.0)
         self.phase_m: dict[FlightPhase, float] = dict.fromkeys(FlightPhase, 0.0)
         self.used_at_launch: float | None = None
+        self._normal = np.zeros((TERMS, TERMS))  # sum of x x^T / m over sampled stretches (`_terms`)
+        self._moment = np.zeros(TERMS)           # sum of x q / m
+        self._fit: np.ndarray | None = None
         self._level_since: float | None = None
-        self._last_time: float | None = None
         self._last_used: float | None = None
         self._last_phase: FlightPhase | None = None
         self._pure = True            # one phase (and settled cruise) since the last battery report
-        self._pending_m = 0.0
-        self._pending_still_m = 0.0
+        self._pending = np.zeros(TERMS)  # the terms of the stretch flown since the last battery report
 
     # ---- inputs ---------------------------------------------------------------------------
 
@@ -92,9 +121,11 @@ class FuelGauge:
             self.capacity_mah = float(capacity_mah)
 
     def set_wind(self, east_m_s: float, north_m_s: float) -> None:
-        """The wind the autopilot estimates: the air moving towards (east, north)."""
-        if math.isfinite(east_m_s) and math.isfinite(north_m_s):
+        """The wind the autopilot estimates: the air moving towards (east, north). A wind of 0
+        is no report (ArduCopter sends 0 when it estimates none)."""
+        if math.isfinite(east_m_s) and math.isfinite(north_m_s) and (east_m_s or north_m_s):
             self.wind_m_s = (float(east_m_s), float(north_m_s))
+            self._fit = None
 
     def moved(self, time_s: float, east_m: float, north_m: float, phase: FlightPhase) -> None:
         """A step of `(east_m, north_m)` over the ground, flown in `phase`, ending at `time_s`."""
@@ -111,50 +142,73 @@ class FuelGauge:
         if not self._settled(time_s):
             self._pure = False
             return
-        self._pending_m += metres
-        self._pending_still_m += metres * wind_factor(self.profile, *self.wind_m_s, east_m, north_m)
+        self._pending += _terms(east_m, north_m)
 
     def battery(self, time_s: float, phase: FlightPhase, consumed_mah: float | None,
                 remaining_pct: float | None) -> None:
-        """A battery report: the charge the autopilot has consumed (None when it does not count
-        it) and its remaining percentage (None when unknown)."""
+        """A battery report: the charge the autopilot counts as consumed (None when it measures
+        no current) and its remaining percentage (None when unknown)."""
         if consumed_mah is not None and consumed_mah >= 0:
-            self.reports_consumed = True
+            self.measures_current = True
             used = float(consumed_mah)
-        elif remaining_pct is not None and not self.reports_consumed:
+        elif remaining_pct is not None and not self.measures_current:
             used = self.capacity_mah * (100.0 - remaining_pct) / 100.0
         else:
             return
         if remaining_pct is not None:
             self.remaining_pct = float(remaining_pct)
-        elif self.reports_consumed:
+        elif self.measures_current:
             self.remaining_pct = 100.0 * (1.0 - used / self.capacity_mah)
         if phase is not FlightPhase.GROUND and self.used_at_launch is None:
             self.used_at_launch = self.used_mah if self.used_mah is not None else used
         if self._last_used is not None:
             spent = used - self._last_used
             self.phase_mah[phase] += spent
-            if self._pure and phase is FlightPhase.CRUISE and self._settled(time_s) and self._pending_m > 0:
+            metres = self._pending[0]
+            if self._pure and phase is FlightPhase.CRUISE and self._settled(time_s) and metres > 0:
                 self.cruise_mah += spent
-                self.cruise_m += self._pending_m
-                self.cruise_still_m += self._pending_still_m
+                self.cruise_m += metres
+                self._normal += np.outer(self._pending, self._pending) / metres
+                self._moment += self._pending * spent / metres
+                self._fit = None
         self.used_mah = used
         self._last_used = used
-        self._last_time = time_s
         self._pure = True
-        self._pending_m = 0.0
-        self._pending_still_m = 0.0
+        self._pending = np.zeros(TERMS)
 
     def _settled(self, time_s: float) -> bool:
         return self._level_since is not None and time_s - self._level_since >= self.settle_s
 
     # ---- estimates ------------------------------------------------------------------------
 
+    def _prior(self) -> np.ndarray:
+        a = self.profile.cruise_mah_per_m
+        if self.wind_m_s is None:
+            return np.array([a, 0.0, 0.0, 0.0, 0.0])
+        v = self.profile.cruise_speed_m_s
+        return np.array([a, -a * self.wind_m_s[0] / v, -a * self.wind_m_s[1] / v, 0.0, 0.0])
+
+    @property
+    def fit(self) -> np.ndarray:
+        """(a, b, c, d, e) of the module docstring, in mAh per metre."""
+        if self._fit is None:
+            weight = np.diag([self.prior_weight_m] + [2.0 * self.prior_weight_m] * (TERMS - 1))
+            self._fit = np.linalg.solve(self._normal + weight, self._moment + weight @ self._prior())
+        return self._fit
+
     @property
     def rate_mah_per_m(self) -> float:
-        """Charge per still-air metre of cruise: the profile's, moved by the cruise sampled."""
-        w = self.prior_weight_m
-        return (self.profile.cruise_mah_per_m * w + self.cruise_mah) / (w + self.cruise_still_m)
+        """Charge per metre of cruise, averaged over directions."""
+        return max(float(self.fit[0]), 1e-9)
+
+    def rate_along(self, east: float, north: float) -> float:
+        """Charge per metre of cruise in the direction (east, north)."""
+        length = math.hypot(east, north)
+        fit = self.fit
+        a = max(float(fit[0]), 1e-9)
+        if length == 0:
+            return a
+        return max(MIN_SHARE * a, float(fit @ _terms(east, north)) / length)
 
     @property
     def remaining_mah(self) -> float | None:
@@ -166,16 +220,14 @@ class FuelGauge:
         return self.capacity_mah * reserve_pct / 100.0
 
     def way_cost(self, legs_m: list[tuple[float, float]]) -> LegCost:
-        """The charge of flying `legs_m` ((east, north) metres each) at the current rate in the
-        current wind."""
+        """The charge of flying `legs_m` ((east, north) metres each) at the rates learned."""
         metres = mah = 0.0
-        rate = self.rate_mah_per_m
         for east, north in legs_m:
             length = math.hypot(east, north)
             metres += length
-            mah += rate * length * wind_factor(self.profile, *self.wind_m_s, east, north)
+            mah += length * self.rate_along(east, north)
         return LegCost(metres, mah)
 
     def cruise_m_for(self, mah: float) -> float:
-        """Still-air metres of cruise `mah` pays for at the current rate."""
+        """Metres of cruise `mah` pays for at the rate averaged over directions."""
         return max(0.0, mah) / self.rate_mah_per_m

@@ -75,7 +75,6 @@ class VehicleFlight:
         self.trigger_since: float | None = None
         self.decision: FuelDecision | None = None
         self._last_m: tuple[float, float] | None = None
-        self._cruise_still_m = 0.0
         self.launch_profile: EnergyProfile | None = None
         self.autopilot = "generic"
         self.home_legs: dict[int, Legs] = {}
@@ -101,7 +100,9 @@ class VehicleFlight:
         if kind == "GLOBAL_POSITION_INT":
             self._on_position(msg)
         elif kind == "BATTERY_STATUS" and getattr(msg, "id", 0) == 0:
-            consumed = float(msg.current_consumed) if msg.current_consumed >= 0 else None
+            # PX4 SIH measures no current (-1) and reports 0 consumed: only its percentage counts
+            measured = msg.current_battery >= 0 or msg.current_consumed > 0
+            consumed = float(msg.current_consumed) if measured and msg.current_consumed >= 0 else None
             remaining = float(msg.battery_remaining) if msg.battery_remaining >= 0 else None
             if self.phase is not FlightPhase.GROUND and self.launch_profile is None:
                 self.launch_profile = self.fuel.profile
@@ -120,8 +121,6 @@ class VehicleFlight:
         if self._last_m is not None and self.phase is not FlightPhase.GROUND:
             east, north = here[0] - self._last_m[0], here[1] - self._last_m[1]
             self.fuel.moved(st.time_boot_s, east, north, self.phase)
-            if self.phase is FlightPhase.CRUISE:
-                self._cruise_still_m += self.fuel.way_cost([(east, north)]).mah / self.fuel.rate_mah_per_m
         self._last_m = here
 
     def _phase(self, climb_m_s: float) -> FlightPhase:
@@ -177,7 +176,7 @@ class VehicleFlight:
         if profile is None or fuel.used_mah is None or fuel.used_at_launch is None:
             return None
         altitude = self.task.altitude_m
-        predicted = (profile.launch_cost_mah(altitude) + profile.cruise_mah_per_m * self._cruise_still_m
+        predicted = (profile.launch_cost_mah(altitude) + profile.cruise_cost_mah(fuel.phase_m[FlightPhase.CRUISE])
                      + profile.landing_cost_mah(altitude))
         return EnergyAccount(predicted, fuel.used_mah - fuel.used_at_launch, fuel.phase_m[FlightPhase.CRUISE],
                              self.status.battery_pct)

@@ -28,10 +28,12 @@ class Airport:
 
 @dataclass(frozen=True)
 class Site:
-    """`half_m`: half the square's side; airports and targets in local metres."""
+    """`half_m`: half the area's east-west side (`half_n_m` its north-south one, the same when
+    None: a square); airports and targets in local metres."""
 
     airports: tuple[Airport, ...]
     half_m: float = 300.0
+    half_n_m: float | None = None
     cell_m: float = 30.0
     no_fly: tuple[float, float, float, float] | None = (30.0, 30.0, 120.0, 120.0)
     centre: tuple[float, float] = CENTRE
@@ -58,13 +60,13 @@ class Site:
         return coords + [coords[0]]
 
     def geojson(self) -> dict:
-        h = self.half_m
+        h, v = self.half_m, self.half_m if self.half_n_m is None else self.half_n_m
         features = [{"type": "Feature", "properties": {"role": "area", "name": "sitl square"},
                      "geometry": {"type": "Polygon",
-                                  "coordinates": [self._ring([(-h, -h), (h, -h), (h, h), (-h, h)])]}},
+                                  "coordinates": [self._ring([(-h, -v), (h, -v), (h, v), (-h, v)])]}},
                     {"type": "Feature", "properties": {"role": "prior", "tep": 0.9, "eu": 0.9},
                      "geometry": {"type": "Polygon",
-                                  "coordinates": [self._ring([(-h, 0), (0, 0), (0, h), (-h, h)])]}}]
+                                  "coordinates": [self._ring([(-h, 0), (0, 0), (0, v), (-h, v)])]}}]
         if self.no_fly is not None:
             x0, y0, x1, y1 = self.no_fly
             features.append({"type": "Feature", "properties": {"role": "no_fly", "name": "box"},
@@ -103,3 +105,14 @@ PLANE = Site((Airport("runway", -500.0, -500.0, "N", 10000.0),), half_m=1000.0, 
              no_fly=(100.0, 100.0, 300.0, 300.0))
 MEADOW = Site((Airport("edge", -400.0, -750.0, "N", 4000.0),), half_m=750.0, cell_m=100.0,
               no_fly=(100.0, 100.0, 300.0, 300.0))
+
+#: The issue's field (a 1.5 km x 1.2 km meadow of 50 m cells, three airports of 2500 m): copters
+#: start inside it; planes start from runways on its edges heading into it, their landing
+#: approaches wholly outside the area (docs/energy.md flies both).
+FIELD_COPTERS = Site((Airport("west", -450.0, 0.0, "E", 2500.0), Airport("south", 0.0, -350.0, "N", 2500.0),
+                      Airport("east", 450.0, 100.0, "W", 2500.0)),
+                     half_m=750.0, half_n_m=600.0, cell_m=50.0, no_fly=(-100.0, 150.0, 100.0, 350.0))
+FIELD_PLANES = Site((Airport("west edge", -750.0, -200.0, "E", 2500.0),
+                     Airport("south edge", 200.0, -600.0, "N", 2500.0),
+                     Airport("east edge", 750.0, 200.0, "W", 2500.0)),
+                    half_m=750.0, half_n_m=600.0, cell_m=50.0, no_fly=(-100.0, 150.0, 100.0, 350.0))

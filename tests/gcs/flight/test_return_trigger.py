@@ -10,7 +10,7 @@ import math
 import pytest
 from hypothesis import given, strategies as st
 
-from gcs.flight.fuel import PRIOR_WEIGHT_M, SETTLE_S, FlightPhase, FuelGauge
+from gcs.flight.fuel import MIN_SHARE, PRIOR_WEIGHT_M, SETTLE_S, FlightPhase, FuelGauge
 from gcs.flight.orders import OperatorOrder, parse_order
 from gcs.flight.return_trigger import SEVERE_SHARE, check_return, confirmed, fuel_decision
 from planner.energy import Airframe, EnergyProfile
@@ -36,50 +36,60 @@ def cruise(gauge: FuelGauge, seconds: int, *, mah_per_m: float, start_s: float =
     return t, used
 
 
+#: The prior's weight along one direction flown alone: the average's and its two harmonics' (each
+#: weighted twice the average's) add up, 1 / (1/w + 1/2w + 1/2w) = w / 2.
+ALONG_ONE_WAY = PRIOR_WEIGHT_M / 2
+
+
+def along(prior: float, mah: float, metres: float) -> float:
+    """What the gauge learns along the one direction a vehicle has flown."""
+    return (ALONG_ONE_WAY * prior + mah) / (ALONG_ONE_WAY + metres)
+
+
 def test_the_rate_starts_at_the_profile_and_moves_with_level_flight():
     gauge = FuelGauge(COPTER)
-    assert gauge.rate_mah_per_m == COPTER.cruise_mah_per_m
+    assert gauge.rate_mah_per_m == COPTER.cruise_mah_per_m == gauge.rate_along(0.3, -0.7)
     gauge.battery(0.0, FlightPhase.GROUND, 0.0, None)
     t, used = cruise(gauge, 30, mah_per_m=2.0)  # draining twice as fast as the profile says
     sampled = (30 - SETTLE_S) * 10.0  # the first SETTLE_S seconds of level flight are left out
     assert gauge.cruise_m == pytest.approx(sampled)
-    expected = (COPTER.cruise_mah_per_m * PRIOR_WEIGHT_M + 2.0 * sampled) / (PRIOR_WEIGHT_M + sampled)
-    assert gauge.rate_mah_per_m == pytest.approx(expected)
+    assert gauge.rate_along(1.0, 0.0) == pytest.approx(along(1.0, 2.0 * sampled, sampled))
+    assert 1.0 < gauge.rate_mah_per_m < gauge.rate_along(1.0, 0.0)  # the average moves half as far
     cruise(gauge, 300, mah_per_m=2.0, start_s=t, used=used)
     assert gauge.cruise_m == pytest.approx(sampled + 3000.0)
-    assert gauge.rate_mah_per_m == pytest.approx((COPTER.cruise_mah_per_m * PRIOR_WEIGHT_M + 2.0 * gauge.cruise_m)
-                                                 / (PRIOR_WEIGHT_M + gauge.cruise_m))
+    assert gauge.rate_along(1.0, 0.0) == pytest.approx(along(1.0, 2.0 * gauge.cruise_m, gauge.cruise_m))
+    assert gauge.rate_along(1.0, 0.0) == pytest.approx(2.0, rel=0.03)
     assert gauge.remaining_mah == pytest.approx(3000.0 - 2.0 * 3300)
 
 
 def test_the_launch_and_the_climb_are_never_averaged_as_cruise():
-    """A plane's full-throttle climb (ArduPlane SITL: 46 A) is not cruise: PX4's PR 22401."""
+    """A plane's full-throttle climb (ArduPlane SITL: 47 A against 11 A cruising) is not cruise:
+    PX4's PR 22401."""
     gauge = FuelGauge(COPTER)
     gauge.battery(0.0, FlightPhase.GROUND, 0.0, None)
     t, used = cruise(gauge, 40, mah_per_m=8.0, phase=FlightPhase.LAUNCH)
     assert gauge.cruise_m == 0 and gauge.rate_mah_per_m == COPTER.cruise_mah_per_m
     assert gauge.phase_mah[FlightPhase.LAUNCH] == pytest.approx(8.0 * 400.0)
     cruise(gauge, 60, mah_per_m=1.0, start_s=t, used=used)
-    assert gauge.rate_mah_per_m == pytest.approx(1.0)
+    assert gauge.rate_along(1.0, 0.0) == pytest.approx(1.0) and gauge.rate_mah_per_m == pytest.approx(1.0)
 
 
 def test_a_percentage_only_battery_reads_through_the_capacity():
-    """PX4 SITL reports no current: the used charge is the capacity times the percentage gone."""
+    """PX4 SIH reports no current: the used charge is the capacity times the percentage gone."""
     gauge = FuelGauge(COPTER)
     gauge.set_capacity(5000.0)
     gauge.battery(0.0, FlightPhase.GROUND, None, 100.0)
     cruise(gauge, 600, mah_per_m=0.5, consumed=False)
-    assert gauge.capacity_mah == 5000.0
+    assert gauge.capacity_mah == 5000.0 and not gauge.measures_current
     assert gauge.remaining_mah == pytest.approx(5000.0 - 0.5 * 6000, abs=50.0)  # whole percent: 50 mAh
-    assert gauge.rate_mah_per_m == pytest.approx(0.5 + (1.0 - 0.5) * PRIOR_WEIGHT_M / (PRIOR_WEIGHT_M + 5890),
-                                                 rel=0.03)
+    assert gauge.rate_along(1.0, 0.0) == pytest.approx(along(1.0, 0.5 * gauge.cruise_m, gauge.cruise_m), rel=0.03)
     gauge.set_capacity(-1.0)  # PX4's BAT1_CAPACITY -1: not set, ignored
     assert gauge.capacity_mah == 5000.0
 
 
 def test_a_percentage_that_sags_and_recovers_balances_out():
-    """A voltage-based percentage dips under load and comes back: what goes back up is charge
-    the sum gives back, so only the net drain counts."""
+    """A percentage that dips under load and comes back: what goes back up is charge the sum
+    gives back, so only the net drain counts."""
     gauge = FuelGauge(COPTER)
     gauge.battery(0.0, FlightPhase.GROUND, None, 100.0)
     t = 0.0
@@ -92,39 +102,55 @@ def test_a_percentage_that_sags_and_recovers_balances_out():
         gauge.battery(t, FlightPhase.CRUISE, None, pct - sag)
     net = 0.1 / 100 * 3000 / 10.0  # 0.3 mAh per metre
     assert gauge.cruise_m == pytest.approx(4100.0)
-    assert gauge.rate_mah_per_m == pytest.approx((1.0 * PRIOR_WEIGHT_M + net * 4100) / (PRIOR_WEIGHT_M + 4100))
+    assert gauge.rate_along(1.0, 0.0) == pytest.approx(along(1.0, net * 4100, 4100))
 
 
-def test_a_way_into_the_wind_costs_more_than_with_it():
+def test_a_reported_wind_prices_a_way_into_it_above_one_with_it():
+    """ArduPlane reports its wind estimate: before any cruise is sampled, a plane holding 20 m/s
+    through the air is priced at a (1 - w.u / V) along each way."""
     plane = EnergyProfile(airframe=Airframe.PLANE, capacity_mah=3300.0, cruise_speed_m_s=20.0, cruise_mah_per_m=0.3,
                           loiter_mah_per_s=6.0, launch_mah=0.0, climb_mah_per_m=0.0, landing_mah=0.0,
                           descent_mah_per_m=0.0)
     gauge = FuelGauge(plane)
+    gauge.set_wind(0.0, 0.0)  # ArduCopter's "no estimate": still air
+    assert gauge.way_cost([(-1000.0, 0.0)]).mah == pytest.approx(300.0)
     gauge.set_wind(-5.0, 0.0)  # the air moves west
     west, east = gauge.way_cost([(-1000.0, 0.0)]), gauge.way_cost([(1000.0, 0.0)])
     assert west.metres == east.metres == 1000.0
-    assert west.mah == pytest.approx(0.3 * 1000 * 20 / 25)  # tailwind: 25 m/s over the ground
-    assert east.mah == pytest.approx(0.3 * 1000 * 20 / 15)
+    assert west.mah == pytest.approx(300.0 * (1 - 5 / 20)) and east.mah == pytest.approx(300.0 * (1 + 5 / 20))
+    assert gauge.way_cost([(0.0, 1000.0)]).mah == pytest.approx(300.0)
 
 
-def test_cruise_in_the_wind_is_learned_as_a_still_air_rate():
-    """A copter searching east and west in a steady wind: the rate it learns is per still-air
-    metre, and a way home straight into the wind is priced above the search's average."""
-    copter = EnergyProfile(airframe=Airframe.COPTER, capacity_mah=3300.0, cruise_speed_m_s=10.0,
-                           cruise_mah_per_m=0.75, loiter_mah_per_s=7.0, launch_mah=0.0, climb_mah_per_m=0.0,
-                           landing_mah=0.0, descent_mah_per_m=0.0, drag_share=0.4)
-    gauge = FuelGauge(copter)
-    gauge.set_wind(0.0, -6.0)  # blowing south
+def test_a_wind_the_autopilot_does_not_report_is_learned_from_the_charge():
+    """ArduCopter reports no wind, yet an 8 m/s wind makes its upwind metres 4.6 times dearer
+    than its downwind ones (docs/energy.md): a search flown east and west, north and south learns
+    it, and a way home straight upwind is priced near what it costs, not at the average."""
+    gauge = FuelGauge(COPTER)  # the profile: 1 mAh/m in still air
+    gauge.battery(0.0, FlightPhase.GROUND, 0.0, None)
+    cost = {(10.0, 0.0): 1.2, (-10.0, 0.0): 1.2, (0.0, 10.0): 3.9, (0.0, -10.0): 0.8}  # the air moving south
+    t, used = 0.0, 0.0
+    for _ in range(6):
+        for heading, mah_per_m in cost.items():
+            t, used = cruise(gauge, 40, mah_per_m=mah_per_m, start_s=t, used=used, heading=heading)
+    assert gauge.rate_along(0.0, 1.0) == pytest.approx(3.9, rel=0.08)  # the profile's 1 still pulls a little
+    assert gauge.rate_along(0.0, -1.0) == pytest.approx(0.8, rel=0.15)
+    assert gauge.rate_along(1.0, 0.0) == pytest.approx(1.2, rel=0.05)
+    assert gauge.rate_mah_per_m == pytest.approx((1.2 + 1.2 + 3.9 + 0.8) / 4, rel=0.05)
+    assert gauge.way_cost([(0.0, 500.0)]).mah > 2.5 * gauge.way_cost([(0.0, -500.0)]).mah
+
+
+def test_a_direction_never_flown_stays_near_the_profile_and_none_is_priced_below_a_floor():
+    gauge = FuelGauge(COPTER)
     gauge.battery(0.0, FlightPhase.GROUND, 0.0, None)
     t, used = 0.0, 0.0
-    factor_ew = 1 + 0.4 * ((100 + 36) / 100 - 1)
-    for leg in range(20):
-        heading = (10.0, 0.0) if leg % 2 else (-10.0, 0.0)
-        t, used = cruise(gauge, 30, mah_per_m=0.75 * factor_ew, start_s=t, used=used, heading=heading)
-    assert gauge.rate_mah_per_m == pytest.approx(0.75, rel=0.01)
-    north = gauge.way_cost([(0.0, 1000.0)])
-    assert north.mah == pytest.approx(0.75 * 1000 * (1 + 0.4 * (16 ** 2 / 100 - 1)), rel=0.01)
-    assert north.mah > 0.75 * factor_ew * 1000  # dearer than the search legs
+    for _ in range(10):
+        t, used = cruise(gauge, 30, mah_per_m=2.0, start_s=t, used=used, heading=(10.0, 0.0))
+        t, used = cruise(gauge, 30, mah_per_m=0.1, start_s=t, used=used, heading=(-10.0, 0.0))
+    a = gauge.rate_mah_per_m
+    north, south = gauge.rate_along(0.0, 1.0), gauge.rate_along(0.0, -1.0)
+    assert north == pytest.approx(south) and north == pytest.approx(COPTER.cruise_mah_per_m, rel=0.1)
+    assert gauge.rate_along(-1.0, 0.0) == pytest.approx(MIN_SHARE * a)  # the learned 0.1 is floored
+    assert gauge.rate_along(1.0, 0.0) == pytest.approx(2.0, rel=0.05)
 
 
 def _decision(gauge, home_m=1000.0, step_m=30.0, ordered=None, circuit=()):

@@ -1,0 +1,111 @@
+"""Fleets on real autopilots judged as their crew judges them (issue 23): each vehicle's planned
+search really flown and the battery it touched down with, read by an independent recorder on the
+vehicle's own spare port (`tests.peers.recorder`), not from the station's log.
+
+A vehicle does its job when it passes at least 90 % of its planned waypoints, or comes home by
+fuel and touches down within [reserve - 5, reserve + 10] %: what it did not search, it left for
+lack of charge, and it spent that charge on the search."""
+
+from __future__ import annotations
+
+import json
+import re
+from contextlib import ExitStack
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from tests.gcs.autopilots.flights import fly
+from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
+from tests.peers.px4 import Px4Sitl
+from tests.peers.recorder import Flown, SpareRecorder, waypoints_passed
+from tests.peers.site import Site
+
+RESERVE_PCT = 30.0
+#: ArduPilot SITL's wind with gusts (issue 23: a steady 8 m/s wind with turbulence 2)
+WIND = {"SIM_WIND_SPD": 8.0, "SIM_WIND_DIR": 250.0, "SIM_WIND_TURB": 2.0}
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """One vehicle of a fleet: `autopilot` "ardupilot" or "px4", its airframe, parameters."""
+
+    autopilot: str = "ardupilot"
+    airframe: str = "copter"
+    params: dict = field(default_factory=dict)
+
+
+@dataclass
+class Verdict:
+    uav: int
+    planned: int
+    passed: int
+    returned: str
+    touchdown_pct: float | None
+    landed_m: float | None
+
+    @property
+    def flew_its_search(self) -> bool:
+        return self.passed >= 0.9 * self.planned
+
+    @property
+    def spent_its_battery(self) -> bool:
+        return self.touchdown_pct is not None and RESERVE_PCT - 5 <= self.touchdown_pct <= RESERVE_PCT + 10
+
+    def __str__(self) -> str:
+        return (f"UAV {self.uav}: {self.passed}/{self.planned} waypoints, returned by {self.returned}, touched down "
+                f"with {self.touchdown_pct}%, {self.landed_m} m from its airport")
+
+
+@dataclass
+class FleetFlight:
+    plan_dir: Path
+    stdout: str
+    returncode: int
+    flown: dict[int, Flown]
+    verdicts: dict[int, Verdict]
+
+    def energy_errors(self) -> dict[int, float]:
+        """Each vehicle's predicted-against-used error, as `gcs fly` reported it (%)."""
+        return {int(m.group(1)): float(m.group(2)) for m in
+                re.finditer(r"UAV (\d+): energy: used .* \(([+-][\d.]+)%\)", self.stdout)}
+
+
+def fly_fleet(tmp_path: Path, site: Site, vehicles: list[Vehicle], *gcs_args: str, plan_args: tuple[str, ...] = (),
+              speedup: float = 10.0, plan_dir: Path | None = None, wind: bool = False) -> FleetFlight:
+    """Plan `site` (unless `plan_dir` is given), start one SITL per airport (ArduPilot instances
+    push to one UDP port, PX4 ones are reached on their own), record each on its spare port, fly
+    it with `gcs fly` and judge every vehicle."""
+    plan_dir = plan_dir or site.plan(tmp_path / "field", *plan_args)
+    plan = json.loads((plan_dir / "plan.json").read_text())
+    port = free_udp_port()
+    connections = [f"udpin:127.0.0.1:{port}"]
+    recorders: dict[int, SpareRecorder] = {}
+    with ExitStack() as stack:
+        for i, v in enumerate(vehicles):
+            sysid = i + 1
+            if v.autopilot == "px4":
+                lat, lon, alt, _hdg = site.home(i)
+                px4 = stack.enter_context(Px4Sitl(v.airframe, home=(lat, lon, alt), sysid=sysid, speedup=speedup,
+                                                  params=dict(v.params)))
+                connections.append(px4.gcs_connection)
+                spare = f"udpin:127.0.0.1:{14540 + px4.instance}"
+            else:
+                params = {**(WIND if wind else {}), **v.params}
+                sitl = stack.enter_context(ArduPilotSitl(v.airframe, home=site.home(i), sysid=sysid, gcs_port=port,
+                                                         speedup=speedup, params=params))
+                spare = f"tcp:127.0.0.1:{sitl.tcp_port_2}"
+            recorders[sysid] = stack.enter_context(SpareRecorder(spare, sysid))
+        done = fly(plan_dir, connections, "--no-rrd", *gcs_args, timeout=900)
+        flown = {uid: r.stop() for uid, r in recorders.items()}
+    verdicts = {}
+    for u in plan["uavs"]:
+        uid = u["id"]
+        f = flown[uid]
+        within = plan["grid"]["georef"]["cell_size_m"] * (1.2 if u.get("vehicle") == "plane" else 0.6)
+        going = re.search(rf"UAV {uid}: return - going home \((\w+)\)", done.stdout)
+        landed = re.search(rf"UAV {uid}: landed(?: away)? - .*?([\d.]+) m from its airport", done.stdout)
+        returned = going.group(1) if going else "plan"
+        landed_m = float(landed.group(1)) if landed else None
+        verdicts[uid] = Verdict(uid, len(u["waypoints"]), waypoints_passed(f.positions, u["waypoints"], within),
+                                returned, f.touchdown_pct, landed_m)
+    return FleetFlight(plan_dir, done.stdout, done.returncode, flown, verdicts)
