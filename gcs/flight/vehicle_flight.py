@@ -23,6 +23,9 @@ Legs = list[tuple[float, float]]
 
 MAVMessage = mavlink.MAVLink_message
 
+#: Slower than this over the ground at its cruise altitude, a vehicle is hovering (or holding).
+HOVER_M_S = 1.0
+
 #: A vehicle is level once it is within this share of its mission altitude and climbing slower
 #: than LEVEL_CLIMB_M_S.
 LEVEL_SHARE = 0.9
@@ -75,6 +78,8 @@ class VehicleFlight:
         self.trigger_since: float | None = None
         self.decision: FuelDecision | None = None
         self._last_m: tuple[float, float] | None = None
+        self._last_s: float | None = None
+        self.hover_s = 0.0  # held in the air at cruise altitude (a copter holding while its way home is uploaded)
         self.launch_profile: EnergyProfile | None = None
         self.autopilot = "generic"
         self.home_legs: dict[int, Legs] = {}
@@ -121,6 +126,9 @@ class VehicleFlight:
         if self._last_m is not None and self.phase is not FlightPhase.GROUND:
             east, north = here[0] - self._last_m[0], here[1] - self._last_m[1]
             self.fuel.moved(st.time_boot_s, east, north, self.phase)
+            if self.phase is FlightPhase.CRUISE and st.ground_speed_m_s < HOVER_M_S and self._last_s is not None:
+                self.hover_s += max(0.0, st.time_boot_s - self._last_s)
+        self._last_s = st.time_boot_s
         self._last_m = here
 
     def _phase(self, climb_m_s: float) -> FlightPhase:
@@ -170,13 +178,14 @@ class VehicleFlight:
     # ---- the end -------------------------------------------------------------------------------
 
     def energy_account(self) -> EnergyAccount | None:
-        """Predicted (by the profile at launch) against used, for what was flown; None when the
+        """Predicted (by the profile at launch) against used, for what was flown (the cruise metres,
+        the seconds it held in the air, the launch and landing at its altitude); None when the
         vehicle never launched or its charge was never read."""
         fuel, profile = self.fuel, self.launch_profile
         if profile is None or fuel.used_mah is None or fuel.used_at_launch is None:
             return None
         altitude = self.task.altitude_m
         predicted = (profile.launch_cost_mah(altitude) + profile.cruise_cost_mah(fuel.phase_m[FlightPhase.CRUISE])
-                     + profile.landing_cost_mah(altitude))
+                     + profile.loiter_mah_per_s * self.hover_s + profile.landing_cost_mah(altitude))
         return EnergyAccount(predicted, fuel.used_mah - fuel.used_at_launch, fuel.phase_m[FlightPhase.CRUISE],
                              self.status.battery_pct)

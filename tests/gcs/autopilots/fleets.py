@@ -71,15 +71,19 @@ class FleetFlight:
 
 
 def fly_fleet(tmp_path: Path, site: Site, vehicles: list[Vehicle], *gcs_args: str, plan_args: tuple[str, ...] = (),
-              speedup: float = 10.0, plan_dir: Path | None = None, wind: bool = False) -> FleetFlight:
+              speedup: float = 10.0, plan_dir: Path | None = None, wind: bool = False,
+              inject: tuple[int, float, dict[str, float]] | None = None) -> FleetFlight:
     """Plan `site` (unless `plan_dir` is given), start one SITL per airport (ArduPilot instances
     push to one UDP port, PX4 ones are reached on their own), record each on its spare port, fly
-    it with `gcs fly` and judge every vehicle."""
+    it with `gcs fly` and judge every vehicle. `inject` (uav, seconds, params): set those
+    parameters of an ArduPilot vehicle that many seconds of its time after its search began
+    (a fault: SIM_GPS1_ENABLE 0 fails its GPS), over its SERIAL0, which nobody else uses."""
     plan_dir = plan_dir or site.plan(tmp_path / "field", *plan_args)
     plan = json.loads((plan_dir / "plan.json").read_text())
     port = free_udp_port()
     connections = [f"udpin:127.0.0.1:{port}"]
     recorders: dict[int, SpareRecorder] = {}
+    serial0: dict[int, str] = {}
     with ExitStack() as stack:
         for i, v in enumerate(vehicles):
             sysid = i + 1
@@ -94,8 +98,13 @@ def fly_fleet(tmp_path: Path, site: Site, vehicles: list[Vehicle], *gcs_args: st
                 sitl = stack.enter_context(ArduPilotSitl(v.airframe, home=site.home(i), sysid=sysid, gcs_port=port,
                                                          speedup=speedup, params=params))
                 spare = f"tcp:127.0.0.1:{sitl.tcp_port_2}"
+                serial0[sysid] = sitl.tcp_connection
             recorders[sysid] = stack.enter_context(SpareRecorder(spare, sysid))
-        done = fly(plan_dir, connections, "--no-rrd", *gcs_args, timeout=900)
+        on_line = None
+        if inject is not None:
+            uav, after_s, params = inject
+            on_line = _injector(serial0[uav], uav, after_s / speedup, params)
+        done = fly(plan_dir, connections, "--no-rrd", *gcs_args, timeout=900, on_line=on_line)
         flown = {uid: r.stop() for uid, r in recorders.items()}
     verdicts = {}
     for u in plan["uavs"]:
@@ -109,3 +118,31 @@ def fly_fleet(tmp_path: Path, site: Site, vehicles: list[Vehicle], *gcs_args: st
         verdicts[uid] = Verdict(uid, len(u["waypoints"]), waypoints_passed(f.positions, u["waypoints"], within),
                                 returned, f.touchdown_pct, landed_m)
     return FleetFlight(plan_dir, done.stdout, done.returncode, flown, verdicts)
+
+
+def _injector(connection: str, uav: int, after_wall_s: float, params: dict[str, float]):
+    """A `fly` line watcher that sets `params` on vehicle `uav` `after_wall_s` after its search began."""
+    import threading
+
+    def inject() -> None:
+        from pymavlink import mavutil
+
+        conn = mavutil.mavlink_connection(connection, source_system=253, source_component=190)
+        try:
+            for name, value in params.items():
+                for _ in range(20):
+                    conn.mav.param_set_send(uav, 1, name.encode(), value, 9)
+                    msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=0.5)
+                    if msg is not None and msg.param_id.rstrip("\x00") == name and abs(msg.param_value - value) < 1e-6:
+                        break
+        finally:
+            conn.close()
+
+    started = threading.Event()
+
+    def on_line(line: str) -> None:
+        if not started.is_set() and line.split("] ", 1)[-1].startswith(f"UAV {uav}: search"):
+            started.set()
+            threading.Timer(after_wall_s, inject).start()
+
+    return on_line

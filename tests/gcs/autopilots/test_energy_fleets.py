@@ -1,0 +1,99 @@
+"""Issue 23 on real autopilots: fleets fly the issue's field with stock energy profiles and spend
+their batteries on the search, in still air and in a gusty 8 m/s wind; a learned profile closes
+the loop; a vehicle whose charge cannot pay for its plan stays on the ground, naming both
+figures; a copter that comes down away from its airport is reported for its crew to fetch.
+
+Each vehicle is judged by an independent recorder on its own spare port (`tests.gcs.autopilots.
+fleets`): it passes 90 % of its planned waypoints, or it comes home by fuel and touches down
+within [reserve - 5, reserve + 10] %."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.gcs.autopilots.fleets import RESERVE_PCT, Vehicle, fly_fleet
+from tests.peers.ardupilot import require_ardupilot
+from tests.peers.px4 import require_px4
+from tests.peers.site import FIELD_COPTERS, FIELD_PLANES
+
+pytestmark = pytest.mark.autopilot
+
+#: PX4 SIH's stock battery halves in the first 30 s armed and stays there (docs/energy.md): no
+#: pack a flight can be priced by. Our PX4 vehicles drain from full to empty in 10 minutes armed.
+PX4_PACK = {"SIM_BAT_DRAIN": 600.0, "SIM_BAT_MIN_PCT": 0.0}
+
+COPTERS = [Vehicle(), Vehicle(params={"BATT_CAPACITY": 1800}), Vehicle()]  # UAV 2 with a small pack
+PLANES = [Vehicle(airframe="plane")] * 3
+MIXED = [Vehicle(), Vehicle("px4", params=PX4_PACK), Vehicle("px4", params=PX4_PACK)]
+
+
+def judge(flight) -> None:
+    """Every vehicle flew its search or spent its battery on it; the profile's prediction held."""
+    for v in flight.verdicts.values():
+        assert v.flew_its_search or (v.returned in ("battery", "range") and v.spent_its_battery), \
+            f"{v}\n{flight.stdout[-4000:]}"
+        assert v.landed_m is not None, f"{v}\n{flight.stdout[-4000:]}"
+    assert flight.returncode == 0, flight.stdout[-4000:]
+
+
+@pytest.mark.parametrize("fleet, site, extra", [
+    pytest.param(COPTERS, FIELD_COPTERS, (), id="3 ArduCopter, one small pack"),
+    pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), id="3 ArduPlane"),
+    pytest.param(MIXED, FIELD_COPTERS, (), id="ArduCopter and 2 PX4"),
+])
+@pytest.mark.parametrize("wind", [False, True], ids=["still air", "8 m/s wind"])
+def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra, wind):
+    require_ardupilot()
+    if any(v.autopilot == "px4" for v in fleet):
+        require_px4()
+    flight = fly_fleet(tmp_path, site, fleet, "--fit-charge", plan_args=extra, wind=wind)
+    if wind:  # the issue's bound in wind: nobody below reserve - 5
+        for v in flight.verdicts.values():
+            assert v.touchdown_pct is not None and v.touchdown_pct >= RESERVE_PCT - 5, f"{v}\n{flight.stdout[-4000:]}"
+        assert flight.returncode == 0, flight.stdout[-4000:]
+    else:
+        judge(flight)
+        errors = flight.energy_errors()
+        assert set(errors) == set(flight.verdicts), flight.stdout[-4000:]
+        assert all(abs(e) <= 5.0 for e in errors.values()), f"{errors}\n{flight.stdout[-6000:]}"
+
+
+def test_a_learned_profile_plans_a_flight_that_spends_the_battery(tmp_path):
+    """Fly once with stock profiles, plan again with the vehicles.json that flight wrote, fly
+    again: every vehicle flies its new plan and lands with at most reserve + 10 %."""
+    require_ardupilot()
+    first = fly_fleet(tmp_path / "first", FIELD_COPTERS, COPTERS, "--fit-charge")
+    learned = first.plan_dir / "vehicles.json"
+    assert learned.exists(), first.stdout[-3000:]
+    records = json.loads(learned.read_text())["vehicles"]
+    assert {r["uav_id"] for r in records.values()} == {1, 2, 3}
+    assert {r["uav_id"]: r["profile"]["capacity_mah"] for r in records.values()}[2] == 1800
+    plan_dir = FIELD_COPTERS.plan(tmp_path / "second", "--vehicles", str(learned))
+    second = fly_fleet(tmp_path / "second", FIELD_COPTERS, COPTERS, "--vehicles", str(learned), plan_dir=plan_dir)
+    for v in second.verdicts.values():
+        assert v.flew_its_search and v.touchdown_pct is not None and v.touchdown_pct <= RESERVE_PCT + 10, \
+            f"{v}\n{second.stdout[-4000:]}"
+    assert second.returncode == 0, second.stdout[-3000:]
+
+
+def test_a_vehicle_whose_charge_cannot_pay_for_its_plan_stays_on_the_ground_naming_both(tmp_path):
+    require_ardupilot()
+    fleet = [Vehicle(), Vehicle(params={"BATT_CAPACITY": 1800}), Vehicle()]
+    flight = fly_fleet(tmp_path, FIELD_COPTERS, fleet)
+    out = flight.stdout
+    assert "UAV 2: failed - not armed: charge 100% = 1800 mAh pays for" in out, out[-3000:]
+    assert "the plan needs" in out and "--fit-charge" in out
+    assert flight.returncode == 1
+    assert flight.verdicts[2].passed == 0 and not flight.flown[2].armed_seen
+
+
+def test_a_copter_that_comes_down_away_from_its_airport_is_reported_for_its_crew(tmp_path):
+    """Its GPS fails 15 s into its search: ArduCopter's EKF failsafe lands it where it is."""
+    require_ardupilot()
+    flight = fly_fleet(tmp_path, FIELD_COPTERS, [Vehicle()] * 3, "--fit-charge",
+                       inject=(1, 15.0, {"SIM_GPS1_ENABLE": 0.0}))
+    out = flight.stdout
+    assert "UAV 1: landed away - LANDED AWAY at" in out and "fetch it" in out, out[-3000:]
+    assert flight.returncode == 1 and "LANDED AWAY: UAV 1" in out
