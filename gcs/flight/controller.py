@@ -540,7 +540,7 @@ class FlightController:
             return True
         path_m = float(self.plan.raw_uav(uid).get("length_m", self._along_m[uid][-1]))
         reserve = fuel.reserve_mah(self.options.reserve_pct)
-        ends = profile.launch_cost_mah(task.altitude_m) + profile.landing_cost_mah(task.altitude_m)
+        ends = profile.launch_cost_mah(task.altitude_m) + profile.landing_cost_mah(vehicle.landing_altitude_m)
         need = ends + fuel.rate_mah_per_m * path_m + reserve
         pct = f"{st.battery_pct:.0f}%" if st.battery_pct is not None else "charge"
         if have >= need:

@@ -49,7 +49,7 @@ def learned_profile(vehicle: VehicleFlight) -> EnergyProfile | None:
     launch = _scaled(fuel.phase_mah[FlightPhase.LAUNCH], prior.launch_cost_mah(altitude))
     if launch is not None:
         changes.update(launch_mah=prior.launch_mah * launch, climb_mah_per_m=prior.climb_mah_per_m * launch)
-    landing = _scaled(fuel.phase_mah[FlightPhase.LANDING], prior.landing_cost_mah(altitude))
+    landing = _scaled(fuel.phase_mah[FlightPhase.LANDING], prior.landing_cost_mah(vehicle.landing_altitude_m))
     if landing is not None:
         changes.update(landing_mah=prior.landing_mah * landing, descent_mah_per_m=prior.descent_mah_per_m * landing)
     return replace(prior, **changes)

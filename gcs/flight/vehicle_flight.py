@@ -14,7 +14,7 @@ from gcs.flight.fuel import FlightPhase, FuelGauge
 from gcs.flight.return_trigger import FuelDecision, confirmed, fuel_decision
 from gcs.links import mavlink
 from gcs.plans.plan_folder import FleetPlan, UavTask
-from gcs.telemetry.status import Stage, VehicleStatus
+from gcs.telemetry.status import VehicleStatus
 from planner.energy import EnergyProfile
 
 __all__ = ["EnergyAccount", "VehicleFlight", "wind_from_message"]
@@ -142,8 +142,7 @@ class VehicleFlight:
             else:
                 return FlightPhase.LAUNCH
         descending = climb_m_s < -LEVEL_CLIMB_M_S and st.rel_alt_m < LEVEL_SHARE * altitude
-        if st.landed_state == mavlink.MAV_LANDED_STATE_LANDING or st.mode_name == "LAND" \
-                or (st.stage in (Stage.RETURN, Stage.RTL) and descending):
+        if st.landed_state == mavlink.MAV_LANDED_STATE_LANDING or st.mode_name == "LAND" or descending:
             return FlightPhase.LANDING
         return FlightPhase.CRUISE
 
@@ -161,12 +160,19 @@ class VehicleFlight:
         st.margin = math.inf if self.decision is None else self.decision.margin_m
         return self.decision
 
+    @property
+    def landing_altitude_m(self) -> float:
+        """Where the landing starts: a plane's approach altitude (it flies down to it along its
+        way to the approach point), else the mission altitude."""
+        approach = self.task.approach
+        return min(approach.alt_m, self.task.altitude_m) if approach is not None else self.task.altitude_m
+
     def landing_mah(self) -> float:
         """The landing's charge: the profile's, scaled up as far as cruise costs more than the
         profile says (a pack that drains faster in cruise drains faster on the way down too),
         never down."""
         scale = max(1.0, self.fuel.rate_mah_per_m / self.profile.cruise_mah_per_m)
-        return self.profile.landing_cost_mah(self.task.altitude_m) * scale
+        return self.profile.landing_cost_mah(self.landing_altitude_m) * scale
 
     def must_return(self, now_s: float) -> bool:
         """Whether the last evaluation, confirmed (`gcs.flight.return_trigger.confirmed`), sends
@@ -179,13 +185,14 @@ class VehicleFlight:
 
     def energy_account(self) -> EnergyAccount | None:
         """Predicted (by the profile at launch) against used, for what was flown (the cruise metres,
-        the seconds it held in the air, the launch and landing at its altitude); None when the
+        the seconds it held in the air, the launch to its altitude, the landing from where it
+        starts); None when the
         vehicle never launched or its charge was never read."""
         fuel, profile = self.fuel, self.launch_profile
         if profile is None or fuel.used_mah is None or fuel.used_at_launch is None:
             return None
         altitude = self.task.altitude_m
         predicted = (profile.launch_cost_mah(altitude) + profile.cruise_cost_mah(fuel.phase_m[FlightPhase.CRUISE])
-                     + profile.loiter_mah_per_s * self.hover_s + profile.landing_cost_mah(altitude))
+                     + profile.loiter_mah_per_s * self.hover_s + profile.landing_cost_mah(self.landing_altitude_m))
         return EnergyAccount(predicted, fuel.used_mah - fuel.used_at_launch, fuel.phase_m[FlightPhase.CRUISE],
                              self.status.battery_pct)
