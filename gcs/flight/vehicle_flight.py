@@ -14,7 +14,7 @@ from gcs.flight.fuel import FlightPhase, FuelGauge
 from gcs.flight.return_trigger import FuelDecision, confirmed, fuel_decision
 from gcs.links import mavlink
 from gcs.plans.plan_folder import FleetPlan, UavTask
-from gcs.telemetry.status import VehicleStatus
+from gcs.telemetry.status import Stage, VehicleStatus
 from planner.energy import EnergyProfile
 
 __all__ = ["EnergyAccount", "VehicleFlight", "wind_from_message"]
@@ -142,7 +142,8 @@ class VehicleFlight:
             else:
                 return FlightPhase.LAUNCH
         descending = climb_m_s < -LEVEL_CLIMB_M_S and st.rel_alt_m < LEVEL_SHARE * altitude
-        if st.landed_state == mavlink.MAV_LANDED_STATE_LANDING or st.mode_name == "LAND" or descending:
+        if st.landed_state == mavlink.MAV_LANDED_STATE_LANDING or st.mode_name == "LAND" \
+                or (st.stage in (Stage.RETURN, Stage.RTL) and descending):
             return FlightPhase.LANDING
         return FlightPhase.CRUISE
 
