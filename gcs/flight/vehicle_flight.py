@@ -26,8 +26,9 @@ MAVMessage = mavlink.MAVLink_message
 #: Slower than this over the ground at its cruise altitude, a vehicle is hovering (or holding).
 HOVER_M_S = 1.0
 
-#: A vehicle is level once it is within this share of its mission altitude and climbing slower
-#: than LEVEL_CLIMB_M_S.
+#: A vehicle's launch is over once it is within this share of its mission altitude (the fuel gauge
+#: waits a few seconds more before it samples cruise); on its way home, a vehicle descending faster
+#: than LEVEL_CLIMB_M_S below that is landing.
 LEVEL_SHARE = 0.9
 LEVEL_CLIMB_M_S = 0.7
 
@@ -137,7 +138,7 @@ class VehicleFlight:
             return FlightPhase.GROUND if not self.levelled else FlightPhase.LANDING
         altitude = self.task.altitude_m
         if not self.levelled:
-            if st.rel_alt_m >= LEVEL_SHARE * altitude and abs(climb_m_s) < LEVEL_CLIMB_M_S:
+            if st.rel_alt_m >= LEVEL_SHARE * altitude:  # as the profile's launch is measured: up to its altitude
                 self.levelled = True
             else:
                 return FlightPhase.LAUNCH
