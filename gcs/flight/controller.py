@@ -659,6 +659,7 @@ class FlightController:
         try:
             leg = self.return_leg(uid)
             autopilot = st.autopilot or Autopilot.GENERIC
+            self.vehicles[uid].holding = True
             await self.set_mode(uid, autopilot.hold_mode(st.fixed_wing))
             await upload_verified(self.link_of[uid], uid, task.return_wire(autopilot, leg), autopilot,
                                   timeout_s=self.options.transfer_timeout_s, fixed_wing=st.fixed_wing)
@@ -666,6 +667,7 @@ class FlightController:
             if autopilot.restart_needs_current_item():
                 await self.command(uid, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, autopilot.first_mission_seq())
             await self._start_mission(uid)
+            self.vehicles[uid].holding = False
             self.return_latency_s[uid] = time.monotonic() - started
             self.say(uid, f"return leg of {len(leg)} waypoints uploaded and started")
         except (LinkError, MissionTransferError, ValueError, KeyError) as exc:
@@ -673,6 +675,7 @@ class FlightController:
                           "flies straight home and ignores the planned path")
             await self.rtl(uid)
         finally:
+            self.vehicles[uid].holding = False
             self.release(uid)
 
     async def rtl(self, uid: int) -> bool:

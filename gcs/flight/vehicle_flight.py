@@ -23,9 +23,6 @@ Legs = list[tuple[float, float]]
 
 MAVMessage = mavlink.MAVLink_message
 
-#: Slower than this over the ground at its cruise altitude, a vehicle is hovering (or holding).
-HOVER_M_S = 1.0
-
 #: A vehicle's launch is over once it is within this share of its mission altitude (the fuel gauge
 #: waits a few seconds more before it samples cruise); on its way home, a vehicle descending faster
 #: than LEVEL_CLIMB_M_S below that is landing.
@@ -80,7 +77,8 @@ class VehicleFlight:
         self.decision: FuelDecision | None = None
         self._last_m: tuple[float, float] | None = None
         self._last_s: float | None = None
-        self.hover_s = 0.0  # held in the air at cruise altitude (a copter holding while its way home is uploaded)
+        self.holding = False  # held in the air by the station (while its way home is uploaded)
+        self.hover_s = 0.0    # vehicle seconds held so
         self.launch_profile: EnergyProfile | None = None
         self.autopilot = "generic"
         self.home_legs: dict[int, Legs] = {}
@@ -127,7 +125,7 @@ class VehicleFlight:
         if self._last_m is not None and self.phase is not FlightPhase.GROUND:
             east, north = here[0] - self._last_m[0], here[1] - self._last_m[1]
             self.fuel.moved(st.time_boot_s, east, north, self.phase)
-            if self.phase is FlightPhase.CRUISE and st.ground_speed_m_s < HOVER_M_S and self._last_s is not None:
+            if self.holding and self._last_s is not None:
                 self.hover_s += max(0.0, st.time_boot_s - self._last_s)
         self._last_s = st.time_boot_s
         self._last_m = here
