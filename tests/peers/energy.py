@@ -462,7 +462,7 @@ def analyse(record: Record) -> list[Phase]:
         if p is not None:
             out.append(p)
 
-    idle = [x for x in s if record.armed_t_s + 1.0 <= x.t_s <= record.start_t_s]
+    idle = [x for x in s if record.armed_t_s + 1.0 <= x.t_s <= record.start_t_s - 0.5]
     add(phase("armed idle on the ground", "idle", idle))
     flight = [x for x in s if x.t_s >= record.start_t_s]
     top = next((st.value for st in steps if st.kind == "takeoff"), 0.0)
