@@ -9,9 +9,11 @@ on voltage and remaining shows), and slow with BAT1_R_INTERNAL -1.
 
     .venv/bin/python benchmarks/measure_energy.py [--speedup 10] [--px4-speedup 5]
         [--only arducopter,arduplane,px4] [--out benchmarks/energy_sitl.json]
+    .venv/bin/python benchmarks/measure_energy.py --markdown benchmarks/energy_sitl.json
 
 Prints a table per flight and writes every phase (and the flights' raw samples with `--samples`)
-as JSON. Needs the peers folder's SITL (../shared/peers or $GCS_PEERS_DIR)."""
+as JSON; `--markdown` prints a results file's tables as docs/energy.md shows them. Needs the peers
+folder's SITL (../shared/peers or $GCS_PEERS_DIR)."""
 
 from __future__ import annotations
 
@@ -127,6 +129,21 @@ def table(flight: dict) -> str:
     return "\n".join(lines)
 
 
+def markdown(flight: dict) -> str:
+    """A flight's phases as a Markdown table (docs/energy.md)."""
+    lines = [f"**{flight['flight']}** (SPEEDUP {flight['speedup']:g})", "",
+             "| phase | s | m | mAh | mAh/s | mAh/m | A | V (min) | remaining % | ground / air m/s | throttle % "
+             "| wind reported |", "|" + " --- |" * 11]
+    for p in flight["phases"]:
+        wind = f"{_f(p['wind_m_s'])} m/s from {_f(p['wind_from_deg'], 0)}°" if not math.isnan(p["wind_m_s"]) else "-"
+        lines.append(f"| {p['name']} | {_f(p['seconds'])} | {_f(p['metres'], 0)} | {_f(p['mah'], 0)} | "
+                     f"{_f(p['mah_per_s'], 2)} | {_f(p['mah_per_m'], 3)} | {_f(p['mean_current_a'])} | "
+                     f"{_f(p['mean_voltage_v'], 2)} ({_f(p['min_voltage_v'], 2)}) | "
+                     f"{p['remaining_from']} → {p['remaining_to']} | {_f(p['groundspeed'])} / {_f(p['airspeed'])} | "
+                     f"{_f(p['throttle'], 0)} | {wind} |")
+    return "\n".join(lines)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--speedup", type=float, default=10.0, help="ArduPilot SITL's SPEEDUP")
@@ -134,7 +151,13 @@ def main() -> int:
     parser.add_argument("--only", default="arducopter,arduplane,px4")
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "energy_sitl.json")
     parser.add_argument("--samples", action="store_true", help="keep every flight's raw samples in the JSON")
+    parser.add_argument("--markdown", type=Path, metavar="JSON", help="print the tables of a results file; no flight")
     args = parser.parse_args()
+    if args.markdown is not None:
+        results = json.loads(args.markdown.read_text())
+        print(f"`{results['command']}`\n")
+        print("\n\n".join(markdown(flight) for flight in results["flights"]))
+        return 0
     runs = {"arducopter": lambda: arducopter(args.speedup), "arduplane": lambda: arduplane(args.speedup),
             "px4": lambda: px4(args.px4_speedup)}
     flights = []

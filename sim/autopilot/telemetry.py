@@ -220,8 +220,9 @@ def attitude(v: SimVehicle) -> mavlink.MAVLink_message:
 
 def vfr_hud(v: SimVehicle) -> mavlink.MAVLink_message:
     s = v.airframe.kin
+    airspeed = 0.0 if not v.ardupilot and v.copter else s.speed_m_s  # the SIH quad has no airspeed sensor
     return mavlink.MAVLink_vfr_hud_message(
-        s.speed_m_s, s.speed_m_s, round(math.degrees(s.heading_rad)) % 360, round(100 * v.throttle),
+        airspeed, s.speed_m_s, round(math.degrees(s.heading_rad)) % 360, round(100 * v.throttle),
         v.home.alt_m + s.alt_m, s.climb_m_s,
     )
 

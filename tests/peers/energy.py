@@ -184,6 +184,8 @@ class Station:
         if msg is None or msg.get_srcSystem() != self.sysid or msg.get_type() == "BAD_DATA":
             return msg
         kind = msg.get_type()
+        if kind == "HEARTBEAT" and msg.get_srcComponent() != 1:
+            return msg  # a camera's, not the autopilot's
         self.latest[kind] = msg
         if kind == "GLOBAL_POSITION_INT":
             self.t_s = msg.time_boot_ms / 1000.0
