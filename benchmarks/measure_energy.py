@@ -137,7 +137,8 @@ def markdown(flight: dict) -> str:
     for p in flight["phases"]:
         wind = f"{_f(p['wind_m_s'])} m/s from {_f(p['wind_from_deg'], 0)}°" if not math.isnan(p["wind_m_s"]) else "-"
         lines.append(f"| {p['name']} | {_f(p['seconds'])} | {_f(p['metres'], 0)} | {_f(p['mah'], 0)} | "
-                     f"{_f(p['mah_per_s'], 2)} | {_f(p['mah_per_m'], 3)} | {_f(p['mean_current_a'])} | "
+                     f"{_f(p['mah_per_s'], 2)} | {_f(p['mah_per_m'] if p['metres'] >= 10 else math.nan, 3)} | "
+                     f"{_f(p['mean_current_a'])} | "
                      f"{_f(p['mean_voltage_v'], 2)} ({_f(p['min_voltage_v'], 2)}) | "
                      f"{p['remaining_from']} → {p['remaining_to']} | {_f(p['groundspeed'])} / {_f(p['airspeed'])} | "
                      f"{_f(p['throttle'], 0)} | {wind} |")
@@ -160,14 +161,15 @@ def main() -> int:
         return 0
     runs = {"arducopter": lambda: arducopter(args.speedup), "arduplane": lambda: arduplane(args.speedup),
             "px4": lambda: px4(args.px4_speedup)}
-    flights = []
-    for name in args.only.split(","):
-        flights += runs[name]()
-    if not args.samples:
-        for flight in flights:
-            del flight["samples"]
     command = "benchmarks/measure_energy.py " + " ".join(sys.argv[1:])
-    args.out.write_text(json.dumps({"command": command.strip(), "flights": flights}, indent=1, allow_nan=True) + "\n")
+    flights: list[dict] = []
+    for name in args.only.split(","):
+        for flight in runs[name]():
+            if not args.samples:
+                del flight["samples"]
+            flights.append(flight)
+        # written after every vehicle, so that a later failure keeps what was measured
+        args.out.write_text(json.dumps({"command": command.strip(), "flights": flights}, indent=1) + "\n")
     print(f"\nwritten: {args.out}")
     return 0
 
