@@ -133,7 +133,7 @@ def markdown(flight: dict) -> str:
     """A flight's phases as a Markdown table (docs/energy.md)."""
     lines = [f"**{flight['flight']}** (SPEEDUP {flight['speedup']:g})", "",
              "| phase | s | m | mAh | mAh/s | mAh/m | A | V (min) | remaining % | ground / air m/s | throttle % "
-             "| wind reported |", "|" + " --- |" * 11]
+             "| wind reported |", "|" + " --- |" * 12]
     for p in flight["phases"]:
         wind = f"{_f(p['wind_m_s'])} m/s from {_f(p['wind_from_deg'], 0)}°" if not math.isnan(p["wind_m_s"]) else "-"
         lines.append(f"| {p['name']} | {_f(p['seconds'])} | {_f(p['metres'], 0)} | {_f(p['mah'], 0)} | "
@@ -156,7 +156,8 @@ def main() -> int:
     args = parser.parse_args()
     if args.markdown is not None:
         results = json.loads(args.markdown.read_text())
-        print(f"`{results['command']}`\n")
+        commands = results["command"] if isinstance(results["command"], list) else [results["command"]]
+        print("\n".join(f"`{command}`" for command in commands) + "\n")
         print("\n\n".join(markdown(flight) for flight in results["flights"]))
         return 0
     runs = {"arducopter": lambda: arducopter(args.speedup), "arduplane": lambda: arduplane(args.speedup),
