@@ -38,6 +38,8 @@ NAV_COMMANDS = frozenset(
     }
 )
 
+# ArduPlane SITL (plane.parm) climbs 10 m/s at full throttle in its take-off (docs/energy.md)
+_PLANE_TAKEOFF_CLIMB_M_S = 10.0
 
 def climb_point(airframe: Airframe) -> tuple[float, float] | None:
     """Where a take-off climbs: copters vertically (None), planes straight ahead."""
@@ -117,6 +119,12 @@ class Guidance:
         self._land_from: tuple[float, float, float] | None = None  # plane: where its glide began
         self._points_en: dict[tuple[int, int], tuple[float, float]] = {}  # mission points (degE7) in the frame
 
+    @property
+    def _takeoff_climb_m_s(self) -> float | None:
+        """ArduPlane takes off at full throttle, climbing twice as fast as its TECS climbs in
+        flight (SITL: 60 m in 6 s; docs/energy.md); others at their usual rate (None)."""
+        return _PLANE_TAKEOFF_CLIMB_M_S if self.ardupilot and not self.copter else None
+
     # ---- the goal of each mode -----------------------------------------------------------
 
     def _goal(self) -> Goal | None:
@@ -129,7 +137,7 @@ class Guidance:
                 if self._target_en is None:  # no reposition arrived during the climb
                     self._target_en, self._target_alt_m = here, self.airframe.kin.alt_m
             else:
-                return Goal(climb_point(self.airframe), self._takeoff_alt_m)
+                return Goal(climb_point(self.airframe), self._takeoff_alt_m, climb_rate_m_s=self._takeoff_climb_m_s)
         if self.ardupilot and self.copter and self.mode == Mode.LOITER:
             # SITL has no RC: LOITER's throttle is at its minimum and the copter sinks and lands
             return None if self.landed else Goal(None, -1.0, landing=True)
@@ -218,7 +226,7 @@ class Guidance:
         cmd = item.command
         alt = self._alt_rel(item.z, item.frame)
         if cmd == mavlink.MAV_CMD_NAV_TAKEOFF:
-            return Goal(climb_point(self.airframe), alt)
+            return Goal(climb_point(self.airframe), alt, climb_rate_m_s=self._takeoff_climb_m_s)
         if cmd == mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             if not self.landing and self._rtl_alt_m <= 0.0:
                 self._rtl_alt_m = max(self.airframe.kin.alt_m, self._rtl_alt_setting_m)

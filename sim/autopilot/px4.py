@@ -328,7 +328,19 @@ def _landing_problems(items: list[MissionItem], nav: list[MissionItem], frame: L
 
 CELLS = 4
 V_EMPTY, V_CHARGED, V_LOAD_DROP = 3.6, 4.05, 0.1  # per cell: BAT1_V_EMPTY, BAT1_V_CHARGED, BAT1_V_LOAD_DROP
-HOVER_THROTTLE = 0.5
+VOLTAGE_TAU_S = 1.0  # PX4's battery filters the voltage it reports: 15.3 V to 16.2 V on disarm in ~3 s
+# the SIH quad's thrust (VFR_HUD throttle, docs/energy.md): 0.48 hovering, 0.54 at 5 m/s, 0.69 at
+# 9.8 m/s (its top speed: SIH_KDV drag at MPC_TILTMAX_AIR), 0.55-0.64 climbing 1.4-2.9 m/s,
+# 0.40-0.45 descending; 0.5 spooling up
+HOVER_THROTTLE, THROTTLE_PER_SPEED2, THROTTLE_PER_CLIMB, THROTTLE_PER_DESCENT = 0.48, 0.0022, 0.055, 0.07
+SPOOL_THROTTLE = 0.5
+MAX_SPEED_M_S = 9.8
+
+
+def copter_throttle(speed_m_s: float, climb_m_s: float) -> float:
+    """The SIH quad's thrust flying at a speed (m/s) and climb rate (m/s, negative down)."""
+    per_climb = THROTTLE_PER_CLIMB if climb_m_s > 0 else THROTTLE_PER_DESCENT
+    return min(1.0, max(0.3, HOVER_THROTTLE + THROTTLE_PER_SPEED2 * speed_m_s ** 2 + per_climb * climb_m_s))
 
 
 def battery_voltage_v(charge: float) -> float:
@@ -337,8 +349,9 @@ def battery_voltage_v(charge: float) -> float:
 
 
 def battery_remaining(voltage_v: float, throttle: float) -> float:
-    """PX4's estimate (0..1) from the cell voltage, compensated for the load: 11 % above the
-    charge while hovering (SIM_BAT_MIN_PCT 50 reads 61 %, 0 reads 11 %)."""
+    """PX4's estimate (0..1) from the cell voltage, compensated for the load by BAT1_V_LOAD_DROP
+    times the thrust (SIH reports no current, so BAT1_R_INTERNAL is not used): 11 % above the
+    charge while hovering (SIM_BAT_MIN_PCT 50 reads 61 %, 65 % cruising at 9.8 m/s)."""
     cell = voltage_v / CELLS + V_LOAD_DROP * throttle
     return min(1.0, max(0.0, (cell - V_EMPTY) / (V_CHARGED - V_EMPTY)))
 

@@ -50,7 +50,6 @@ _OFFBOARD_LOSS_S = 3.5  # setpoint stream gone: failsafe to POSCTL (§9)
 _OFFBOARD_FRESH_S = 1.0  # OFFBOARD needs a setpoint this recent
 _POSCTL_SINK_M_S = 0.75  # POSCTL without RC: 19 m to 7 m in 16 s (§9)
 _FRAME_TEXT_S = 2.0  # "RTL: unsupported MAV_FRAME" while armed with a rally point in frame 5/6 (§6)
-_LANDING_THROTTLE = 0.3
 # the navigator takes up a new list this long after it arrives (§5 R4: MISSION_CURRENT 0.57 s
 # after a MISSION_START that followed an upload; after an upload on the ground over 1 s); a
 # command that needs the mission takes it up at once
@@ -106,6 +105,7 @@ class Px4Vehicle(SimVehicle):
         self._land_reported: int | None = None
         self._frame_text_s = 0.0
         self._dt_s = 0.0
+        self._voltage_v = px4.battery_voltage_v(1.0)
 
     def _new_battery(self) -> SihBattery:
         return SihBattery()
@@ -153,13 +153,19 @@ class Px4Vehicle(SimVehicle):
 
     @property
     def throttle(self) -> float:
-        if not self.armed or self.landed:
+        if not self.armed:
             return 0.0
-        return _LANDING_THROTTLE if self.landing else px4.HOVER_THROTTLE
+        if self.landed:
+            return px4.SPOOL_THROTTLE if self._lift_at_s is not None else 0.0
+        if not self.copter:
+            return px4.HOVER_THROTTLE
+        kin = self.airframe.kin
+        return px4.copter_throttle(kin.speed_m_s, kin.climb_m_s)
 
     @property
     def battery_voltage_v(self) -> float:
-        return px4.battery_voltage_v(self.airframe.battery.charge)
+        """The voltage PX4 reports: SIH's, through PX4's filter."""
+        return self._voltage_v
 
     @property
     def battery_pct(self) -> float:
@@ -684,7 +690,10 @@ class Px4Vehicle(SimVehicle):
         body = self.airframe
         if goal.landing and self.copter and body.kin.alt_m <= _LAND_SLOW_BELOW_M:
             goal.alt_m = max(goal.alt_m, body.kin.alt_m - self.params["MPC_LAND_SPEED"] * dt_s)
-        body.step(dt_s, goal, self._speed_m_s)
+        speed = self._speed_m_s
+        if speed is not None:  # the SIH quad's top speed, whatever is asked
+            speed = min(speed, max(px4.MAX_SPEED_M_S, self.config.cruise_speed_m_s))
+        body.step(dt_s, goal, speed)
         if goal.landing and body.kin.alt_m <= 0.0:
             self._touchdown()
         elif self.mode == Mode.AUTO:
@@ -723,10 +732,13 @@ class Px4Vehicle(SimVehicle):
             self._navigator_cycle()
 
     def _battery_step(self, dt_s: float) -> None:
-        """SIH drains its battery only while armed (§7)."""
+        """SIH drains its battery only while armed (§7); PX4 filters the voltage it reads."""
+        battery = self.airframe.battery
         if self.armed:
-            self.airframe.battery.step(dt_s, drain_s=self.params["SIM_BAT_DRAIN"],
-                                       floor_fraction=self.params["SIM_BAT_MIN_PCT"] / 100.0)
+            battery.step(dt_s, drain_s=self.params["SIM_BAT_DRAIN"],
+                         floor_fraction=self.params["SIM_BAT_MIN_PCT"] / 100.0)
+        sih_v = px4.battery_voltage_v(battery.charge)
+        self._voltage_v += (sih_v - self._voltage_v) * (1.0 - math.exp(-dt_s / px4.VOLTAGE_TAU_S))
 
     def _check_failsafe(self) -> None:
         """COM_LOW_BAT_ACT (§7): 2 holds 5 s at critical, then lands; 3 returns instead, and

@@ -26,6 +26,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from sim.autopilot import px4
 from sim.autopilot.failsafe import FailsafeLevel
 from sim.autopilot.modes import Mode
+from sim.physics.battery import Battery
 from sim.physics.sensor import Observation, SensorConfig
 
 if TYPE_CHECKING:
@@ -219,9 +220,9 @@ def attitude(v: SimVehicle) -> mavlink.MAVLink_message:
 
 def vfr_hud(v: SimVehicle) -> mavlink.MAVLink_message:
     s = v.airframe.kin
-    throttle = 0 if not v.armed else (50 if not v.landed else 10)
+    airspeed = 0.0 if not v.ardupilot and v.copter else s.speed_m_s  # the SIH quad has no airspeed sensor
     return mavlink.MAVLink_vfr_hud_message(
-        s.speed_m_s, s.speed_m_s, round(math.degrees(s.heading_rad)) % 360, throttle,
+        airspeed, s.speed_m_s, round(math.degrees(s.heading_rad)) % 360, round(100 * v.throttle),
         v.home.alt_m + s.alt_m, s.climb_m_s,
     )
 
@@ -234,10 +235,10 @@ def sys_status(v: SimVehicle) -> mavlink.MAVLink_message:
             px4.SENSORS_PRESENT[ready], px4.SENSORS_ENABLED[ready], health, 400, round(v.battery_voltage_v * 1000),
             -100, round(v.battery_pct), 0, 0, 0, 0, 0, 0)
     b = v.airframe.battery
-    present = health = _SENSORS
-    if v.ardupilot:  # the pre-arm bit: healthy when its pre-arm checks pass in the current mode
-        present |= mavlink.MAV_SYS_STATUS_PREARM_CHECK
-        health |= mavlink.MAV_SYS_STATUS_PREARM_CHECK if v.prearm_ok else 0
+    assert isinstance(b, Battery)
+    present = _SENSORS | mavlink.MAV_SYS_STATUS_PREARM_CHECK
+    # the pre-arm bit: healthy when its pre-arm checks pass in the current mode
+    health = _SENSORS | (mavlink.MAV_SYS_STATUS_PREARM_CHECK if v.prearm_ok else 0)
     return mavlink.MAVLink_sys_status_message(
         present, present, health, 200, round(v.battery_voltage_v * 1000), _clamp(b.current_a * 100, -1, 32767),
         round(b.remaining_pct), 0, 0, 0, 0, 0, 0,
@@ -245,21 +246,14 @@ def sys_status(v: SimVehicle) -> mavlink.MAVLink_message:
 
 
 def battery_status(v: SimVehicle) -> mavlink.MAVLink_message:
-    """ArduPilot (flight §5): the pack voltage in voltages[0], no time remaining (0), consumed
-    charge and energy; px4: cell voltages and a time-remaining estimate."""
+    """ArduPilot (docs/energy.md): the pack voltage in voltages[0], the current, consumed charge
+    and energy, no time remaining (0); px4: SIH's battery as PX4 reports it (px4 §7)."""
     b = v.airframe.battery
-    if not v.ardupilot:  # SIH's battery as PX4 reports it (px4 §7)
+    voltages = [round(v.battery_voltage_v * 1000)] + [0xFFFF] * 9
+    if not isinstance(b, Battery):
         return mavlink.MAVLink_battery_status_message(
-            0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, 0x7FFF,
-            [round(v.battery_voltage_v * 1000)] + [0xFFFF] * 9, -100, 0, -1, round(v.battery_pct), 0,
-            v.charge_state)
-    if v.ardupilot:
-        voltages = [round(v.battery_voltage_v * 1000)] + [0xFFFF] * 9
-        remaining_s, energy_hj = 0, _clamp(b.energy_j / 100.0, -1, 2**31 - 1)
-    else:
-        cell_mv = round(b.voltage_v / b.config.cells * 1000)
-        voltages = [cell_mv] * b.config.cells + [0xFFFF] * (10 - b.config.cells)
-        remaining_s, energy_hj = _clamp(b.time_remaining_s, 0, 2**31 - 1), -1
+            0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, 0x7FFF, voltages, -100, 0, -1,
+            round(v.battery_pct), 0, v.charge_state)
     if b.remaining_fraction <= 0.0:
         charge = mavlink.MAV_BATTERY_CHARGE_STATE_FAILED
     else:
@@ -270,8 +264,8 @@ def battery_status(v: SimVehicle) -> mavlink.MAVLink_message:
         }[v.failsafe]
     return mavlink.MAVLink_battery_status_message(
         0, mavlink.MAV_BATTERY_FUNCTION_ALL, mavlink.MAV_BATTERY_TYPE_LIPO, 0x7FFF, voltages,
-        _clamp(b.current_a * 100, -1, 32767), _clamp(b.consumed_mah, -1, 2**31 - 1), energy_hj,
-        round(b.remaining_pct), remaining_s, charge,
+        _clamp(b.current_a * 100, -1, 32767), _clamp(b.consumed_mah, -1, 2**31 - 1),
+        _clamp(b.energy_j / 100.0, -1, 2**31 - 1), round(b.remaining_pct), 0, charge,
     )
 
 

@@ -38,7 +38,7 @@ from sim.autopilot.modes import Mode, custom_mode_of, mode_from_custom, mode_tab
 from sim.autopilot.px4 import BOOT_TIMES as PX4_BOOT_TIMES, Px4BootTimes
 from sim.autopilot.telemetry import reading_message, reading_text
 from sim.physics.airframe import Airframe, HomePose
-from sim.physics.battery import Battery, BatteryConfig, SihBattery
+from sim.physics.battery import Battery, BatteryConfig, Load, SihBattery, draw_for
 from sim.physics.kinematics import KinematicLimits
 from sim.physics.sensor import DownwardSensor, Observation, SensorConfig
 
@@ -47,8 +47,12 @@ _FORCE_MAGIC = 21196
 _ABSOLUTE_ALT_FRAMES = frozenset({mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_INT})
 _LAND_SLOW_BELOW_M, _LAND_SLOW_M_S = 10.0, 0.5  # ArduCopter's LAND_ALT_LOW and LAND_SPEED
 # from the take-off command to leaving the ground: ArduCopter 3.25 s after MISSION_START, ArduPlane
-# 2.0 s after arming in AUTO (landed_state TAKEOFF then, flight §2, §3)
-_COPTER_SPOOL_S, _PLANE_ROLL_S = 3.25, 2.0
+# 3.0 s after arming in AUTO, at full throttle (landed_state TAKEOFF then, flight §2, §3; 2 m up
+# 3.2-3.4 s after the throttle, docs/energy.md)
+_COPTER_SPOOL_S, _PLANE_ROLL_S = 3.25, 3.0
+# ArduCopter SITL's quad flies no faster than this, whatever DO_CHANGE_SPEED asks (its lean angle
+# limit; docs/energy.md)
+_COPTER_MAX_SPEED_M_S = 10.3
 _TYPE_DEFAULTS = {
     # cruise m/s, turn deg/s, climb m/s, descent m/s, acceptance m, RTL altitude m
     ("ardupilot", "copter"): (10.0, 90.0, 2.5, 1.5, 2.0, 15.0),
@@ -210,8 +214,11 @@ class SimVehicle(Guidance):
         self._pending: list[MAVMessage] = []
 
     def _new_battery(self) -> Battery | SihBattery:
-        """The airframe's battery: ArduPilot SITL's simulated pack (the px4 profile: SIH's)."""
-        return Battery(self.config.battery)
+        """The airframe's battery: ArduPilot SITL's simulated pack drawn as its copter or plane
+        draws (the px4 profile: SIH's); an endurance is counted at the cruise speed's current."""
+        cfg = self.config
+        draw = draw_for(cfg.vehicle_type)
+        return Battery(cfg.battery, draw, draw.cruise_current_a(cfg.cruise_speed_m_s))
 
     def _default_params(self) -> dict[str, float]:
         cfg = self.config
@@ -298,15 +305,27 @@ class SimVehicle(Guidance):
         return self.airframe.battery.remaining_pct
 
     @property
+    def load(self) -> Load:
+        """What the airframe draws on its battery now."""
+        kin = self.airframe.kin
+        return Load(self.armed, flying=self.armed and not self.landed,
+                    launching=self.armed and self.landed and self._lift_at_s is not None,
+                    airspeed_m_s=kin.speed_m_s, climb_m_s=kin.climb_m_s)
+
+    @property
+    def throttle(self) -> float:
+        """0..1, as VFR_HUD reports it."""
+        battery = self.airframe.battery
+        assert isinstance(battery, Battery)
+        return battery.draw.throttle(self.load)
+
+    @property
     def battery_voltage_v(self) -> float:
-        """ArduPilot SITL: a copter's battery stays at SIM_BATT_VOLTAGE; a plane's sags with
-        throttle (12.0 V climbing, 12.26 V cruising, flight §5)."""
-        if not self.ardupilot:
-            return self.airframe.battery.voltage_v
-        volts = self.params["SIM_BATT_VOLTAGE"]
-        if self.copter or not self.armed or self.landed:
-            return volts
-        return volts - 0.7 * (0.86 if self.airframe.kin.climb_m_s > 0.5 else 0.49)
+        """ArduPilot SITL: a copter's battery stays at SIM_BATT_VOLTAGE; a plane's sags by 0.7 V
+        at full throttle (11.9 V taking off, 12.26 V cruising; docs/energy.md)."""
+        battery = self.airframe.battery
+        assert isinstance(battery, Battery)
+        return self.params["SIM_BATT_VOLTAGE"] - battery.draw.sag_v(self.load)
 
     @property
     def mission_total(self) -> int:
@@ -793,8 +812,9 @@ class SimVehicle(Guidance):
         self.time_s += dt_s
         if self.ardupilot:
             self._boot_step()
-        self.airframe.battery.step(dt_s, flying=self.armed and not self.landed,
-                                   powered=self.armed or not self.ardupilot, voltage_v=self.battery_voltage_v)
+        battery = self.airframe.battery
+        assert isinstance(battery, Battery)
+        battery.step(dt_s, self.load, self.battery_voltage_v)
         self._check_failsafe()
         if self._disarm_at_s is not None and self.landed and self.time_s >= self._disarm_at_s:
             self._disarm()
@@ -821,7 +841,10 @@ class SimVehicle(Guidance):
         body = self.airframe
         if goal.landing and self.ardupilot and self.copter and body.kin.alt_m < _LAND_SLOW_BELOW_M:
             goal.alt_m = max(goal.alt_m, body.kin.alt_m - _LAND_SLOW_M_S * dt_s)  # LAND_SPEED (flight §2)
-        body.step(dt_s, goal, self._speed_m_s)
+        speed = self._speed_m_s
+        if speed is not None and self.copter:
+            speed = min(speed, max(_COPTER_MAX_SPEED_M_S, self.config.cruise_speed_m_s))
+        body.step(dt_s, goal, speed)
         if goal.landing and body.kin.alt_m <= 0.0:
             self._touchdown()
         elif self.mode == Mode.AUTO:

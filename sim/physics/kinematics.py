@@ -49,11 +49,14 @@ def step_toward(
     target_en: tuple[float, float] | None,
     target_alt_m: float,
     speed_m_s: float | None = None,
+    climb_rate_m_s: float | None = None,
 ) -> None:
-    """Advance `s` by dt toward a horizontal target (None: hold) and a target altitude.
+    """Advance `s` by dt toward a horizontal target (None: hold) and a target altitude, at
+    `speed_m_s` and climbing at `climb_rate_m_s` (None: the limits').
 
     Holding: a copter stops; a plane circles at its minimum turn radius.
     """
+    climb = limits.climb_rate_m_s if climb_rate_m_s is None else climb_rate_m_s
     cruise = speed_m_s if speed_m_s is not None else limits.cruise_speed_m_s
     max_turn = limits.turn_rate_rad_s * dt_s
     if target_en is None:
@@ -68,7 +71,7 @@ def step_toward(
         if limits.can_hover and dist <= cruise * dt_s:
             s.east_m, s.north_m = target_en
             s.speed_m_s, s.turn_rate_rad_s = dist / dt_s, 0.0
-            _climb(s, limits, dt_s, target_alt_m)
+            _climb(s, climb, limits.descent_rate_m_s, dt_s, target_alt_m)
             return
         if dist > 1e-6:
             err = wrap_pi(math.atan2(de, dn) - s.heading_rad)
@@ -84,11 +87,12 @@ def step_toward(
             s.speed_m_s = cruise
     s.east_m += s.speed_m_s * math.sin(s.heading_rad) * dt_s
     s.north_m += s.speed_m_s * math.cos(s.heading_rad) * dt_s
-    _climb(s, limits, dt_s, target_alt_m)
+    _climb(s, climb, limits.descent_rate_m_s, dt_s, target_alt_m)
 
 
-def _climb(s: KinematicState, limits: KinematicLimits, dt_s: float, target_alt_m: float) -> None:
+def _climb(s: KinematicState, climb_rate_m_s: float, descent_rate_m_s: float, dt_s: float,
+           target_alt_m: float) -> None:
     dz = target_alt_m - s.alt_m
-    dz = max(-limits.descent_rate_m_s * dt_s, min(limits.climb_rate_m_s * dt_s, dz))
+    dz = max(-descent_rate_m_s * dt_s, min(climb_rate_m_s * dt_s, dz))
     s.alt_m += dz
     s.climb_m_s = dz / dt_s

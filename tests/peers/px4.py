@@ -125,11 +125,16 @@ class Px4Sitl(SitlProcess):
                                          f"{lon:.7f}", f"{alt:g}"], env=env, stdout=log, stderr=subprocess.STDOUT,
                                         cwd=self.workdir, start_new_session=True)
         log.close()
-        deadline = time.monotonic() + 30.0
+        # rcS runs a client process per parameter: on a loaded machine PX4 takes well over 30 s
+        deadline = time.monotonic() + 90.0
         while port_free(self.gcs_port, udp=True):  # the GCS port is bound once PX4's mavlink is up
             if self.process.poll() is not None:
-                raise RuntimeError(f"PX4 exited at start: {(self.workdir / 'px4.log').read_text()[-2000:]}")
-            assert time.monotonic() < deadline, "PX4 did not open its MAVLink ports"
+                log_text = (self.workdir / "px4.log").read_text()[-2000:]
+                self.stop()
+                raise RuntimeError(f"PX4 exited at start: {log_text}")
+            if time.monotonic() > deadline:
+                self.stop()  # PX4 does not end with its parent
+                raise AssertionError("PX4 did not open its MAVLink ports")
             time.sleep(0.05)
         if self.params:
             self._set_params()

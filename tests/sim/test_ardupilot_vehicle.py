@@ -457,19 +457,22 @@ def test_plane_ignores_position_targets_and_circles_a_reposition():
 
 
 def test_batt_capacity_changes_the_remaining_charge_at_once_and_consumption_counts_in_mah():
-    s = ready(battery=BatteryConfig(endurance_s=1200.0, flight_current_a=20.0))
-    assert s.v.params["BATT_CAPACITY"] == pytest.approx(20.0 * 1200 / 3.6, abs=1)
+    s = ready(battery=BatteryConfig(endurance_s=1200.0))
+    assert s.v.params["BATT_CAPACITY"] == pytest.approx(30.3 * 1200 / 3.6, abs=1)  # at 10 m/s cruise
     s.run(5.0)
     assert s.v.airframe.battery.consumed_mah == 0.0  # no current while disarmed
     s.mode(COPTER["GUIDED"])
     s.arm()
+    s.run(2.0)
+    assert s.v.airframe.battery.consumed_mah == 0.0  # nor armed on the ground (ArduCopter SITL)
     s.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 30)
     s.run(10.0, until=lambda v: not v.landed)
-    on_ground = s.v.airframe.battery.consumed_mah  # armed, spooling up: the ground current
-    assert 0.0 < on_ground < 20.0 * 3.3 / 3.6
+    on_ground = s.v.airframe.battery.consumed_mah  # spooling up: the climb's current
+    assert on_ground == pytest.approx(3.25 * 30.525 / 3.6, rel=0.05)
     s.run(60.0)
     used = s.v.airframe.battery.consumed_mah
-    assert used - on_ground == pytest.approx(20.0 * 60.0 / 3.6, rel=0.01)
+    assert used - on_ground == pytest.approx((12.0 * 30.525 + 48.0 * 28.1) / 3.6, rel=0.01)  # climb, hover
+    assert s.v.airframe.battery.energy_j == pytest.approx(used * 3.6 * 12.6, rel=1e-6)
     before = s.v.airframe.battery.remaining_pct
     s.param("BATT_CAPACITY", 1000.0)
     assert s.v.airframe.battery.remaining_pct == pytest.approx(100.0 * (1000.0 - used) / 1000.0, abs=0.01)

@@ -16,7 +16,7 @@ from planner.sensor_noise import reading_draw
 from sim.autopilot.failsafe import FailsafeLevel, failsafe_level, failsafe_to_trigger
 from sim.autopilot.modes import Mode, custom_mode_of, mode_from_custom
 from sim.physics.airframe import Airframe, Goal, HomePose
-from sim.physics.battery import Battery, BatteryConfig, SihBattery
+from sim.physics.battery import Battery, BatteryConfig, CopterDraw, Load, PlaneDraw, SihBattery
 from sim.physics.kinematics import KinematicLimits, KinematicState, step_toward, wrap_pi
 from sim.physics.sensor import DownwardSensor, SensorConfig
 
@@ -80,18 +80,54 @@ def test_failsafe_triggers_only_on_escalation():
         assert failsafe_to_trigger(current, reached) == expected
 
 
-def test_battery_drains_with_flight_time_less_on_the_ground_and_fails_on_demand():
-    b = Battery(BatteryConfig(endurance_s=1000, ground_drain_fraction=0.05))
-    b.step(100, flying=True)
-    assert b.remaining_pct == pytest.approx(90.0)
-    b.step(100, flying=False)
-    assert b.remaining_pct == pytest.approx(89.5)
+def test_battery_integrates_the_draws_current_into_charge_and_energy_and_fails_on_demand():
+    b = Battery(BatteryConfig(endurance_s=1000), CopterDraw(), cruise_current_a=36.0)
+    assert b.capacity_mah == pytest.approx(10_000.0)  # the endurance at the cruise current
+    b.step(100, Load(armed=False), 12.6)
+    b.step(100, Load(armed=True), 12.6)
+    assert b.consumed_mah == 0.0 and b.current_a == 0.0  # ArduCopter draws nothing on the ground
+    b.step(100, Load(armed=True, flying=True), 12.6)  # hovering: 28.1 A
+    assert b.current_a == pytest.approx(28.1)
+    assert b.consumed_mah == pytest.approx(28.1 * 100 / 3.6)
+    assert b.energy_j == pytest.approx(28.1 * 12.6 * 100)
+    assert b.remaining_pct == pytest.approx(100.0 - 100.0 * 28.1 * 100 / 3.6 / 10_000.0)
     b.drain_multiplier = 10
-    b.step(10, flying=True)
-    assert b.remaining_pct == pytest.approx(79.5)
-    assert 4 * 3.3 < b.voltage_v < 4 * 4.2
+    b.step(1, Load(armed=True, flying=True), 12.6)
+    assert b.current_a == pytest.approx(281.0)
     b.fail()
-    assert b.remaining_pct == 0 and b.voltage_v == pytest.approx(13.2)
+    assert b.remaining_pct == 0
+    assert Battery(BatteryConfig(capacity_mah=3300, endurance_s=5), CopterDraw(), 30.0).capacity_mah == 3300
+
+
+def test_arducopter_draw_rises_with_air_speed_and_climb_as_measured_on_sitl():
+    """docs/energy.md: hover 28.1 A, 5 m/s 28.3 A, 10 m/s 30.3 A, climbing 2.5 m/s 30.5 A,
+    descending 1.5 m/s 26.9 A and 0.5 m/s 27.7 A; spooling up for take-off the climb's current."""
+    d = CopterDraw()
+    flying = dict(armed=True, flying=True)
+    assert d.current_a(Load(**flying)) == pytest.approx(28.1)
+    assert d.current_a(Load(**flying, airspeed_m_s=5.0)) == pytest.approx(28.3)
+    assert d.current_a(Load(**flying, airspeed_m_s=7.5)) == pytest.approx(29.3)
+    assert d.current_a(Load(**flying, airspeed_m_s=10.0)) == pytest.approx(30.3)
+    assert d.current_a(Load(**flying, airspeed_m_s=30.0)) == pytest.approx(31.8)  # the table's end
+    assert d.current_a(Load(**flying, climb_m_s=2.5)) == pytest.approx(30.5, abs=0.05)
+    assert d.current_a(Load(**flying, climb_m_s=-1.5)) == pytest.approx(26.9)
+    assert d.current_a(Load(**flying, climb_m_s=-0.5)) == pytest.approx(27.7)
+    assert d.current_a(Load(armed=True, launching=True)) == pytest.approx(30.5, abs=0.05)
+    assert d.throttle(Load(**flying)) == pytest.approx(0.36, abs=0.005)
+    assert d.sag_v(Load(**flying, climb_m_s=2.5)) == 0.0
+
+
+def test_arduplane_draw_is_full_throttle_to_climb_and_sags_the_voltage():
+    """docs/energy.md: 47.2 A and 0.7 V under SIM_BATT_VOLTAGE at full throttle (take-off roll
+    and climb), 11.3 A and 0.34 V cruising (49 %), 2.5 A gliding down (23 %), nothing on the ground."""
+    d = PlaneDraw()
+    assert d.current_a(Load(armed=True, launching=True)) == pytest.approx(47.2)
+    assert d.sag_v(Load(armed=True, launching=True)) == pytest.approx(0.7)
+    assert d.current_a(Load(armed=True, flying=True, airspeed_m_s=22, climb_m_s=5.0)) == pytest.approx(47.2)
+    assert d.current_a(Load(armed=True, flying=True, airspeed_m_s=22)) == pytest.approx(11.3, abs=0.05)
+    assert d.sag_v(Load(armed=True, flying=True, airspeed_m_s=22)) == pytest.approx(0.343)
+    assert d.current_a(Load(armed=True, flying=True, airspeed_m_s=17, climb_m_s=-0.75)) == pytest.approx(2.5, abs=0.05)
+    assert d.current_a(Load(armed=True)) == 0.0 and d.current_a(Load(armed=False, flying=True)) == 0.0
 
 
 def test_sih_battery_drains_linearly_to_its_floor_refills_and_fails_for_good():
@@ -196,7 +232,8 @@ def test_the_simulator_uses_the_planners_local_frame():
 def test_airframe_flies_toward_its_goal_touches_down_and_senses():
     frame = LocalFrame(-35.0, 149.0)
     sensor = DownwardSensor(SensorConfig(cell_size_m=10.0), frame, [], seed=0, vehicle_id=1, origin_en=(-5.0, -5.0))
-    body = Airframe(HomePose(-35.0, 149.0, 100.0, 90.0), frame, COPTER, Battery(BatteryConfig()), sensor)
+    battery = Battery(BatteryConfig(), CopterDraw(), 30.3)
+    body = Airframe(HomePose(-35.0, 149.0, 100.0, 90.0), frame, COPTER, battery, sensor)
     assert body.position_en == pytest.approx((0.0, 0.0), abs=1e-9) and body.heading_deg == pytest.approx(90.0)
     assert body.sense(0.0) is None  # on the ground
     for _ in range(40):

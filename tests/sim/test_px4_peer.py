@@ -94,7 +94,7 @@ def test_sim_bat_drain_and_sim_bat_min_pct_set_the_drain_while_armed(make_fleet,
     gcs = make_gcs(fleet)
     gcs.hello()
     gcs.wait("SYS_STATUS", lambda m: m.onboard_control_sensors_health & PREARM, timeout_s=10.0)
-    for name, value in (("SIM_BAT_DRAIN", 10.0), ("SIM_BAT_MIN_PCT", 20.0)):
+    for name, value in (("SIM_BAT_DRAIN", 5.0), ("SIM_BAT_MIN_PCT", 20.0)):
         gcs.mav.param_set_send(*gcs.target, name.encode(), value, mavlink.MAV_PARAM_TYPE_REAL32)
         echo = gcs.wait("PARAM_VALUE", lambda m, n=name: m.param_id == n)
         assert echo.param_value == value
@@ -102,11 +102,12 @@ def test_sim_bat_drain_and_sim_bat_min_pct_set_the_drain_while_armed(make_fleet,
     assert gcs.wait("BATTERY_STATUS").battery_remaining == 100  # disarmed: full
     assert gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mavlink.MAV_RESULT_ACCEPTED
     first = gcs.wait("BATTERY_STATUS")
-    low = gcs.wait("BATTERY_STATUS", lambda m: m.voltages[0] <= round(14400 + 1800 * 0.2), timeout_s=5.0)
-    assert first.voltages[0] > low.voltages[0] == 14760  # 20 % of the charge left: the floor
+    # 20 % of the charge left, the floor, through PX4's voltage filter (1 s)
+    low = gcs.wait("BATTERY_STATUS", lambda m: m.voltages[0] <= round(14400 + 1800 * 0.2) + 2, timeout_s=5.0)
+    assert first.voltages[0] > low.voltages[0] >= 14760
     assert low.battery_remaining == 20  # on the ground: no load on the estimate
     gcs.wait("HEARTBEAT", lambda m: not m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED, timeout_s=5.0)
-    assert gcs.wait("BATTERY_STATUS").voltages[0] == 16200  # full again once disarmed
+    gcs.wait("BATTERY_STATUS", lambda m: m.voltages[0] == 16200, timeout_s=2.0)  # full again once disarmed
 
 
 def test_the_vehicle_keeps_answering_its_first_station_only(make_fleet, make_gcs):
