@@ -359,7 +359,8 @@ async def upload_verified(link: MavLink, sysid: int, items: list[WireItem], auto
                           attempts: int = 3, fixed_wing: bool = False) -> UploadReport:
     """Upload `items` (for ArduPilot's mission list, item 0 must be the home placeholder), read
     them back and compare with what the autopilot should hold (`gcs.autopilots.compare_items`);
-    retries the whole upload when the read-back differs. A refused upload raises at once and is
+    retries the whole upload when the read-back differs, and when the vehicle gave up waiting for
+    an item (OPERATION_CANCELLED: a slow link). A refused upload raises at once and is
     never reported as uploaded: ArduPilot replaces items as they arrive, so after a refusal it
     holds the new items up to the refused one and the old ones after it; that mixed list is
     cleared (MISSION_CLEAR_ALL) so it cannot be flown, and the error says so."""
@@ -374,6 +375,13 @@ async def upload_verified(link: MavLink, sysid: int, items: list[WireItem], auto
             back = await download(link, sysid, mission_type, timeout_s=timeout_s)
         except MissionTransferError as exc:
             resends += up.resends
+            if exc.result == mavlink.MAV_MISSION_OPERATION_CANCELLED and attempt < attempts:
+                # the vehicle gave up waiting for an item (ArduPilot: 8 s, "Mission upload timeout"):
+                # a slow link, not a refusal; the partly replaced list goes, the upload starts again
+                await asyncio.sleep(timeout_s)  # answers still on their way to the old upload arrive first
+                if up.requested and autopilot.replaces_items_as_they_arrive():
+                    await clear(link, sysid, mission_type, timeout_s=timeout_s)
+                continue
             if exc.result is not None and up.requested and not up.done and autopilot.replaces_items_as_they_arrive():
                 cleared = await clear(link, sysid, mission_type, timeout_s=timeout_s)
                 raise MissionTransferError(exc.operation, exc.result, exc.detail + (

@@ -55,7 +55,7 @@ class FlightAborted(UserError):
 
 #: Farther than this from its airport a vehicle has landed away, by airframe: a copter lands on its
 #: spot, a plane rolls out along its runway.
-LANDED_AWAY_M = {"copter": 25.0, "plane": 150.0}
+LANDED_AWAY_M = {"copter": 25.0, "plane": 200.0}
 
 REFUSED_FOR_NOW = (mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED, mavlink.MAV_RESULT_FAILED)
 

@@ -53,16 +53,18 @@ STOCK_PROFILES: dict[tuple[str, Airframe], EnergyProfile] = {
     ("ardupilot", Airframe.PLANE): EnergyProfile(
         airframe=Airframe.PLANE, capacity_mah=3300.0, cruise_speed_m_s=22.0, cruise_mah_per_m=0.137,
         loiter_mah_per_s=3.2, launch_mah=40.0, climb_mah_per_m=1.23, landing_mah=0.0, descent_mah_per_m=1.4),
-    # PX4 SIH quad: no current measured, its percentage drains in armed time (SIM_BAT_DRAIN s from
-    # full to empty; 600 s in our tests, see docs/energy.md): a nominal 5000 mAh pack, 8.3 mAh/s
+    # PX4 SIH quad: no current measured; its percentage drains in armed time only (SIM_BAT_DRAIN s
+    # from full to empty; PX4's 60 s halves it in 30 s: our tests and --sim give it 1200 s, a
+    # 20-minute pack, docs/energy.md): a nominal 5000 mAh, 4.17 mAh/s whatever it does; missions
+    # at MPC_XY_CRUISE 5 m/s, climbing 1.9 m/s, descending 1.35 m/s, the last 10 m at 0.7 m/s
     ("px4", Airframe.COPTER): EnergyProfile(
-        airframe=Airframe.COPTER, capacity_mah=5000.0, cruise_speed_m_s=5.0, cruise_mah_per_m=1.67,
-        loiter_mah_per_s=8.33, launch_mah=0.0, climb_mah_per_m=5.6, landing_mah=0.0, descent_mah_per_m=11.9),
-    # PX4 SIH plane: does not take off at v1.15.3 (../shared/peers/px4/README.md): PX4's copter figures
-    # in time, at a plane's speed
+        airframe=Airframe.COPTER, capacity_mah=5000.0, cruise_speed_m_s=5.0, cruise_mah_per_m=0.833,
+        loiter_mah_per_s=4.17, launch_mah=0.0, climb_mah_per_m=2.2, landing_mah=29.0, descent_mah_per_m=3.1),
+    # PX4 SIH plane: does not take off at v1.15.3 (../shared/peers/px4/README.md): the same pack in
+    # time, at a plane's speed
     ("px4", Airframe.PLANE): EnergyProfile(
-        airframe=Airframe.PLANE, capacity_mah=5000.0, cruise_speed_m_s=15.0, cruise_mah_per_m=0.56,
-        loiter_mah_per_s=8.33, launch_mah=0.0, climb_mah_per_m=2.0, landing_mah=0.0, descent_mah_per_m=4.0),
+        airframe=Airframe.PLANE, capacity_mah=5000.0, cruise_speed_m_s=15.0, cruise_mah_per_m=0.278,
+        loiter_mah_per_s=4.17, launch_mah=0.0, climb_mah_per_m=1.0, landing_mah=0.0, descent_mah_per_m=2.0),
 }
 
 

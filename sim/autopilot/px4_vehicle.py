@@ -116,8 +116,9 @@ class Px4Vehicle(SimVehicle):
         if self.config.vehicle_type == "copter":
             defaults["MPC_XY_CRUISE"] = (cfg.cruise_speed_m_s, px4.REAL32)
         defaults["NAV_ACC_RAD"] = (cfg.acceptance_radius_m, px4.REAL32)
-        if cfg.battery.endurance_s is not None:
+        if cfg.battery.endurance_s is not None:  # a pack that lasts that long, down to empty
             defaults["SIM_BAT_DRAIN"] = (cfg.battery.endurance_s, px4.REAL32)
+            defaults["SIM_BAT_MIN_PCT"] = (0.0, px4.REAL32)
         defaults["RTL_RETURN_ALT"] = (cfg.rtl_alt_m, px4.REAL32)
         self.param_types = {name: kind for name, (_, kind) in defaults.items()}
         return {name: float(value) for name, (value, _) in defaults.items()}

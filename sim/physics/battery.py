@@ -124,8 +124,8 @@ class BatteryConfig:
     """A pack's capacity: `capacity_mah` (ArduPilot SITL's BATT_CAPACITY is 3300), else flight
     endurance (None: 1200 s) at the vehicle's cruise current (`Battery` is told it);
     `low_pct`, `critical_pct`: the ardupilot profile's failsafe levels. The px4 profile's
-    battery is SIH's: an endurance given is its SIM_BAT_DRAIN (None: PX4's 60 s), and the rest
-    does not apply (PX4's BAT_*_THR)."""
+    battery is SIH's: an endurance given is its SIM_BAT_DRAIN, with SIM_BAT_MIN_PCT 0 (None:
+    PX4's 60 s, down to 50 %), and the rest does not apply (PX4's BAT_*_THR)."""
 
     endurance_s: float | None = None
     capacity_mah: float | None = None
