@@ -150,7 +150,7 @@ def path_route(naming: Naming, uav: int, waypoints: Sequence[tuple[float, float]
                stale: datetime, kind: str = "path") -> ET.Element:
     """UAV `uav`'s planned path (or, `kind` "return", the return leg it was sent home on) as a route
     through its waypoints (lat, lon), flown `alt_m` above home."""
-    key = naming.uid("uav", uav, kind)
+    key = naming.uid("uav", uav, "path" if kind == "path" else "return-leg")  # "return" is the marker's
     children = [_element("link", uid=f"{key}.{i}", callsign=f"{'R' if kind == 'return' else 'W'}{i}",
                          type=WAYPOINT_TYPE, point=_point_text(lat, lon), relation="c")
                 for i, (lat, lon) in enumerate(waypoints, 1)]

@@ -271,7 +271,9 @@ class Received:
 
     @property
     def remarks(self) -> str:
-        return self.element.findtext("detail/remarks") or ""
+        """The remarks element; FreeTAKServer 2.2.1 relays it as an attribute of `detail` instead."""
+        detail = self.element.find("detail")
+        return self.element.findtext("detail/remarks") or ("" if detail is None else detail.get("remarks", ""))
 
     @property
     def callsign(self) -> str:

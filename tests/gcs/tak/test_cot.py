@@ -68,7 +68,7 @@ def test_a_path_is_a_route_through_every_waypoint_in_order():
     assert got.element.find("detail/link_attr").get("method") == "Flying"
     assert got.remarks == "valley UAV2 path: 40 waypoints, 70 m above home"
     leg = _read(cot.path_route(NAMING, 2, points[:3], 70.0, NOW, LATER, kind="return"))
-    assert leg.uid == "gcs.valley.uav.2.return" and leg.callsign == "valley UAV2 return leg"
+    assert leg.uid == "gcs.valley.uav.2.return-leg" and leg.callsign == "valley UAV2 return leg"
 
 
 def test_markers_say_what_was_seen_where_when_and_by_whom():
