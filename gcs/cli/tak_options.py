@@ -70,6 +70,8 @@ def tak_setup_from(args: argparse.Namespace, name_default: str) -> tuple[list[Ta
                      args.tak_insecure)
     elif args.tak_key or args.tak_ca or args.tak_insecure:
         raise UserError("--tak-key, --tak-ca and --tak-insecure go with --tak-cert (a tls:// TAK server)")
+    if args.tak_interface and not any(url.lower().startswith("udp:") for url in args.tak):
+        raise UserError("--tak-interface is for the mesh: it goes with a udp:// --tak")
     destinations = []
     try:
         for url in args.tak:

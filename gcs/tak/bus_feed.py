@@ -93,7 +93,7 @@ class BusOnTak:
             if uav in self._returning:
                 return
             self._returning.add(uav)
-            self.publisher.track(self._sample(uav, last, data["stage"]), now=True)
+            self.publisher.track(self._sample(uav, last, kind), now=True)
             text = f"going home: {data['reason'] or data['text']}"
         else:
             self.publisher.track(self._sample(uav, last, kind), final=True)
@@ -110,7 +110,14 @@ async def tak_on_bus(watcher: FleetWatcher, destinations: Sequence[TakDestinatio
     follower = BusOnTak(publisher, plan)
     if plan is not None:
         publisher.plan(plan)
-    unsubscribe = watcher.subscribe(follower.on_message)
+    def follow(kind: MessageType, uav: int, data: dict) -> None:
+        try:
+            follower.on_message(kind, uav, data)
+        except Exception as exc:  # the watcher drops a listener that raises: say so, once
+            say(f"TAK: stopped following the bus ({type(exc).__name__}: {exc})")
+            raise
+
+    unsubscribe = watcher.subscribe(follow)
     refresh = asyncio.create_task(publisher.run(), name="tak-refresh")
     try:
         yield follower

@@ -2,10 +2,10 @@
 the plan into CoT (`gcs.tak.cot`) with their stale times, and hands them to every destination's
 sender. The flight's feed (`gcs.tak.flight_feed`) and the bus's (`gcs.tak.bus_feed`) both feed it.
 
-- A vehicle's track is sent at most every `every_s` and goes stale `stale_s` after it was sent:
-  a vehicle that stops reporting fades from the map on its own. Its last word (landed, failed)
-  is sent at once and goes stale the same way; a lost link is said in the remarks without
-  lengthening the stale time the track already had.
+- A vehicle's track is sent about every `every_s` (never sooner than 0.9 of it) and goes stale
+  `stale_s` after it was sent: a vehicle that stops reporting fades from the map on its own.
+  Its last word (landed, failed) is sent at once and goes stale the same way; a lost link is
+  said in the remarks without lengthening the stale time the track already had.
 - The area, keep-out zones, paths and markers stay `keep_s` (12 h: an operational period) and
   are sent again every `refresh_s`, so a TAK client that joins mid-flight gets them."""
 
@@ -28,6 +28,8 @@ if TYPE_CHECKING:
     from gcs.plans.plan_folder import FleetPlan
 
 __all__ = ["TakPublisher", "TakSettings", "plan_events"]
+
+RATE_SLACK = 0.9  # positions come on their own clock (2 Hz on the bus): one 0.49 s after the last passes a 0.5 s rate
 
 
 def plan_events(naming: Naming, plan: FleetPlan, when: datetime, stale: datetime) -> list[ET.Element]:
@@ -84,7 +86,8 @@ class TakPublisher:
         anyway); `final` is its last word (kept for a server that comes back). True when sent."""
         when = self.clock()
         last = self._tracks.get(sample.uav)
-        if last is not None and not (now or final) and (when - last[1]).total_seconds() < self.settings.every_s:
+        if last is not None and not (now or final) and \
+                (when - last[1]).total_seconds() < RATE_SLACK * self.settings.every_s:
             return False
         stale = when + timedelta(seconds=self.settings.stale_s)
         self._tracks[sample.uav] = (sample, when, stale)
