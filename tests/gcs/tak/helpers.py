@@ -13,6 +13,7 @@ import socket
 import ssl
 import subprocess
 import sys
+import threading
 import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -343,12 +344,38 @@ class MulticastReader:
         self.datagrams: list[bytes] = []
         self._transport: asyncio.DatagramTransport | None = None
 
-    async def __aenter__(self) -> MulticastReader:
+    def _socket(self) -> socket.socket:
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         sock.bind((self.group, self.port))
         sock.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP,
                         socket.inet_aton(self.group) + socket.inet_aton("127.0.0.1"))
+        return sock
+
+    def __enter__(self) -> MulticastReader:
+        """The same in a thread of its own, beside a flight that runs its own event loop."""
+        sock = self._socket()
+        sock.settimeout(0.1)
+        self._stop = threading.Event()
+
+        def receive() -> None:
+            while not self._stop.is_set():
+                try:
+                    self.received(sock.recv(65536))
+                except TimeoutError:
+                    continue
+            sock.close()
+
+        self._thread = threading.Thread(target=receive, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self._stop.set()
+        self._thread.join(5)
+
+    async def __aenter__(self) -> MulticastReader:
+        sock = self._socket()
         reader = self
 
         class Protocol(asyncio.DatagramProtocol):
