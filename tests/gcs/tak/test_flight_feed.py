@@ -19,8 +19,8 @@ def test_a_vehicle_that_goes_silent_fades_on_the_map_and_the_other_lands(square_
     feed = TakFeed([parse_tak_url(f"udp://239.2.3.1:{port}", interface="127.0.0.1")],
                    TakSettings("silent", every_s=0.3, stale_s=2.0))
     with MulticastReader(port) as mesh:
-        # 100 s of vehicle time: in flight (the simulated ArduCopter is ready to arm after 42 s)
-        controller, _ = fly(plan, fast_options(), during=lambda f: f.call(f.stop_answering, 2, 100.0),
+        # 180 s of vehicle time: in flight (the simulated ArduCopter is ready to arm after 42 s)
+        controller, _ = fly(plan, fast_options(), during=lambda f: f.call(f.stop_answering, 2, 180.0),
                             watchers=[feed])
     assert controller.status[2].stage is Stage.LOST and controller.status[1].stage is Stage.LANDED
     silent = sorted((e for e in mesh.events if e.uid == "gcs.silent.uav.2"), key=lambda e: e.time())
