@@ -179,7 +179,8 @@ class TakSender:
         while not self._queue.empty():  # positions queued before a drop are stale now
             self._take()
         self.connected = True
-        settled = asyncio.get_running_loop().call_later(SETTLE_S if self.destination.stream else 0.0, self._up)
+        # a stream is announced once it has held; a datagram socket once a send went out (in `_write`)
+        settled = asyncio.get_running_loop().call_later(SETTLE_S, self._up) if self.destination.stream else None
         heard = asyncio.Event()
         tasks = [asyncio.create_task(self._write(worker, heard), name="tak-write")]
         if reader is not None:
@@ -189,7 +190,8 @@ class TakSender:
             for task in done:
                 task.result()
         finally:
-            settled.cancel()
+            if settled is not None:
+                settled.cancel()
             for task in tasks:
                 task.cancel()
             await asyncio.gather(*tasks, return_exceptions=True)
@@ -204,15 +206,19 @@ class TakSender:
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(heard.wait(), HELLO_WAIT_S)
         for data in list(self._kept.values()):
-            await worker.send_data(data)
-            self.sent += 1
+            await self._send_one(worker, data)
         while True:
             data = await self._queue.get()
             try:
-                await worker.send_data(data)
-                self.sent += 1
+                await self._send_one(worker, data)
             finally:
                 self._queue.task_done()
+
+    async def _send_one(self, worker: pytak.TXWorker, data: bytes) -> None:
+        await worker.send_data(data)
+        self.sent += 1
+        if not self.destination.stream:
+            self._up()
 
     async def _read(self, reader: asyncio.StreamReader, heard: asyncio.Event) -> None:
         """Read and drop what the server sends; EOFError when it closes the connection."""

@@ -117,6 +117,24 @@ def test_a_server_that_is_not_there_is_said_once():
     assert sender.dropped == 30
 
 
+def test_a_mesh_that_cannot_be_sent_to_is_said_once():
+    """An interface address this machine does not have: the socket cannot be bound (nothing is sent)."""
+    mesh = parse_tak_url(f"udp://239.2.3.1:{free_udp_port()}", interface="203.0.113.7")
+    lines: list[str] = []
+
+    async def scenario():
+        senders = open_senders([mesh], TakSettings("nomesh"), lines.append)
+        publisher = TakPublisher(senders, TakSettings("nomesh"))
+        for step in range(30):
+            publisher.track(_sample(1, step), now=True)
+            await asyncio.sleep(0.12)
+        await close_senders(senders, lines.append)
+
+    asyncio.run(scenario())
+    assert lines == [f"TAK {mesh}: cannot send: cannot assign requested address; trying again in the background, "
+                     "the flight goes on", f"TAK {mesh}: 0 CoT events sent; the last sends failed"]
+
+
 class CotInput:
     """A plain TCP CoT input on loopback that keeps what it is sent (and says `greeting` to each
     client first); `drop()` closes it and every connection, as a server that goes down."""
