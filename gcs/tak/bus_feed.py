@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING
 from gcs.bus.messages import MessageType
 from gcs.tak.cot import TrackSample
 from gcs.tak.destination import TakDestination
-from gcs.tak.flight_feed import close_senders, open_senders
 from gcs.tak.publisher import TakPublisher
+from gcs.tak.sender import close_senders, open_senders
 from gcs.tak.settings import TakSettings
 
 if TYPE_CHECKING:

@@ -11,26 +11,22 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import uuid
 from collections.abc import AsyncIterator, Sequence
-from datetime import timedelta
 from typing import TYPE_CHECKING
 
 from gcs.flight.events import FlightEvent, MissionUploaded, ReadingReceived, StageChanged
-from gcs.tak import cot
 from gcs.tak.cot import TrackSample
 from gcs.tak.destination import TakDestination
 from gcs.tak.publisher import TakPublisher
-from gcs.tak.sender import TakSender
+from gcs.tak.sender import close_senders, open_senders
 from gcs.tak.settings import TakSettings
 from gcs.telemetry.status import FINAL_STAGES, Stage, VehicleStatus
 
 if TYPE_CHECKING:
     from gcs.flight.controller import FlightController
 
-__all__ = ["FlightOnTak", "TakFeed", "open_senders", "track_of"]
+__all__ = ["FlightOnTak", "TakFeed", "track_of"]
 
-FLUSH_S = 2.0
 _RETURNING = (Stage.RETURN, Stage.RTL)
 _MARKER_OF_STAGE = {Stage.RETURN: "return", Stage.RTL: "return", Stage.LANDED: "landed", Stage.FAILED: "failed"}
 
@@ -108,28 +104,6 @@ class FlightOnTak:
         else:
             text = event.note or st.note or "failed"
         self.publisher.stage(uid, kind, sample.lat_deg, sample.lon_deg, text)
-
-
-def open_senders(destinations: Sequence[TakDestination], settings: TakSettings, say) -> list[TakSender]:
-    """A started sender per destination; a stream (TCP, TLS) opens with the station's hello."""
-    naming = cot.Naming(settings.name)
-
-    def hello() -> bytes:
-        when = cot.utc_now()
-        return cot.encode(cot.station_hello(naming, uuid.uuid4().hex[:12], when,
-                                            when + timedelta(seconds=settings.stale_s)))
-
-    senders = [TakSender(d, say, hello if d.stream else None) for d in destinations]
-    for sender in senders:
-        sender.start()
-    return senders
-
-
-async def close_senders(senders: Sequence[TakSender], say) -> None:
-    """Send what is queued (for at most `FLUSH_S`), stop, and say what each destination got."""
-    await asyncio.gather(*(sender.close(FLUSH_S) for sender in senders))
-    for sender in senders:
-        say(sender.summary())
 
 
 class TakFeed:

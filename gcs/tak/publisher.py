@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 
     from gcs.plans.plan_folder import FleetPlan
 
-__all__ = ["TakPublisher", "TakSettings", "plan_events"]
+__all__ = ["TakPublisher", "plan_events"]
 
 RATE_SLACK = 0.9  # positions come on their own clock (2 Hz on the bus): one 0.49 s after the last passes a 0.5 s rate
 

@@ -17,13 +17,19 @@ import contextlib
 import ipaddress
 import ssl
 import time
+import uuid
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from datetime import timedelta
 
+from gcs.tak import cot
 from gcs.tak.destination import TakDestination
 from gcs.tak.pytak_module import pytak
+from gcs.tak.settings import TakSettings
 
-__all__ = ["TakSender", "describe_failure"]
+__all__ = ["TakSender", "close_senders", "describe_failure", "open_senders"]
+
+FLUSH_S = 2.0  # what is queued at the end is sent for at most this long
 
 CONNECT_TIMEOUT_S = 5.0
 RETRY_FIRST_S = 1.0
@@ -234,6 +240,29 @@ class TakSender:
                 self._line(f"the server answers with something that is not Cursor-on-Target ({text[:60]!r}); "
                            "ignored")
             first = first and not text
+
+
+def open_senders(destinations: Sequence[TakDestination], settings: TakSettings,
+                 say: Callable[[str], None]) -> list[TakSender]:
+    """A started sender per destination; a stream (TCP, TLS) opens with the station's hello."""
+    naming = cot.Naming(settings.name)
+
+    def hello() -> bytes:
+        when = cot.utc_now()
+        return cot.encode(cot.station_hello(naming, uuid.uuid4().hex[:12], when,
+                                            when + timedelta(seconds=settings.stale_s)))
+
+    senders = [TakSender(d, say, hello if d.stream else None) for d in destinations]
+    for sender in senders:
+        sender.start()
+    return senders
+
+
+async def close_senders(senders: Sequence[TakSender], say: Callable[[str], None]) -> None:
+    """Send what is queued (for at most `FLUSH_S`), stop, and say what each destination got."""
+    await asyncio.gather(*(sender.close(FLUSH_S) for sender in senders))
+    for sender in senders:
+        say(sender.summary())
 
 
 def _multicast(host: str) -> bool:

@@ -15,8 +15,8 @@ import pytest
 from gcs.plans.plan_folder import load_plan_dir
 from gcs.tak.cot import TrackSample
 from gcs.tak.destination import TakProtocol, TakTls, check_tls, parse_tak_url
-from gcs.tak.flight_feed import close_senders, open_senders
 from gcs.tak.publisher import TakPublisher
+from gcs.tak.sender import close_senders, open_senders
 from gcs.tak.settings import TakSettings
 from tests.gcs.tak.helpers import MulticastReader, TakClient, free_port, free_udp_port
 
