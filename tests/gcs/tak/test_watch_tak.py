@@ -36,7 +36,7 @@ def test_a_second_station_puts_the_fleet_on_the_bus_on_tak(tak_server, square_pl
 
             feeder = asyncio.create_task(feed())
             watch = await asyncio.create_subprocess_exec(
-                GCS, "watch", "--mqtt", broker.url, "--fleet", "watchtak", "--duration-s", "6", "--tak", tak_url,
+                GCS, "watch", "--mqtt", broker.url, "--fleet", "watchtak", "--duration-s", "12", "--tak", tak_url,
                 "--tak-every-s", "0.5", "--tak-stale-s", "3", "--plan", str(square_plan_dir),
                 stdout=subprocess.PIPE, stderr=subprocess.PIPE)
             await client.wait_for(lambda: client.of("gcs.watchtak.uav.4"), 20)
@@ -49,7 +49,10 @@ def test_a_second_station_puts_the_fleet_on_the_bus_on_tak(tak_server, square_pl
             fleet.raise_event(4, "landed", text="battery 40%")
             out, err = await asyncio.wait_for(watch.communicate(), 60)
             feeder.cancel()
-            await client.wait_for(lambda: client.of("gcs.watchtak.uav.2.path"), 10)
+            # FreeTAKServer relays markers and routes through its slower path: let them all through
+            items = ("uav.1.path", "uav.2.path", "area.1", "keep-out.1", "uav.2.reading.5", "uav.3.return",
+                     "uav.4.landed")
+            await client.wait_for(lambda: all(client.of(f"gcs.watchtak.{item}") for item in items), 30)
             await asyncio.sleep(1.0)
         return watch.returncode, out.decode(), err.decode(), client.events, sample
 
