@@ -48,7 +48,7 @@ def test_a_simulated_flight_is_on_the_tak_server_as_a_tak_client_sees_it(tak_ser
             await asyncio.sleep(1.0)
             proc = await _fly(tmp_path / "square", "--tak", tcp_url, "--tak", tls_url, "--tak", mesh_url,
                               "--tak-cert", str(certs.client_p12), "--tak-ca", str(certs.ca),
-                              "--tak-interface", "127.0.0.1", "--return-after", "1:4",
+                              "--tak-interface", "127.0.0.1", "--sim-drain", "1:4",
                               env={"GCS_TAK_CERT_PASSWORD": certs.p12_password})
             out, _ = await asyncio.wait_for(proc.communicate(), 240)
             ended = time.monotonic()
@@ -91,9 +91,9 @@ def test_a_simulated_flight_is_on_the_tak_server_as_a_tak_client_sees_it(tak_ser
             assert len(links) == len(plan.uavs[uav].waypoints) + 2
             airport = plan.uavs[uav].airport_lat_lon
             assert tuple(map(float, links[0].get("point").split(","))) == (round(airport[0], 7), round(airport[1], 7))
-        # UAV 1 was ordered home: where it turned, and the leg it was sent home on
+        # UAV 1 was sent home by the return trigger (its battery drains 4x): where it turned, and its leg home
         turned = [e for e in events if e.uid == "gcs.square.uav.1.return"]
-        assert turned and turned[0].type == "b-m-p-s-m" and "going home: order" in turned[0].remarks, name
+        assert turned and turned[0].type == "b-m-p-s-m" and "going home: battery" in turned[0].remarks, name
         leg = [e for e in events if e.uid == "gcs.square.uav.1.return-leg"]
         assert leg and leg[0].type == "b-m-r" and len(leg[0].element.findall("detail/link")) >= 2
         assert not [e for e in events if e.uid == "gcs.square.uav.2.return"]  # UAV 2 flew its plan home
@@ -143,7 +143,11 @@ def test_a_tak_server_killed_mid_flight_costs_one_line_and_every_vehicle_lands(m
                                          and client.of("gcs.square.uav"), 90), "".join(before)
             assert proc.returncode is None, "the server must die mid-flight"
             doomed.kill()
-            await asyncio.wait_for(reading, 240)
+            try:
+                await asyncio.wait_for(reading, 240)
+            except TimeoutError:
+                proc.kill()
+                raise AssertionError(f"the flight did not end: {''.join(before)[-3000:]}") from None
             await proc.wait()
         return proc.returncode, "".join(before)
 
