@@ -9,6 +9,7 @@ import json
 import math
 import time
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import aiomqtt
@@ -16,7 +17,10 @@ import aiomqtt
 from gcs.bus.connection import Broker
 from gcs.bus.messages import Command, MessageType, Topics, schema_errors
 
-__all__ = ["FleetWatcher", "Reply", "UavView", "render_fleet"]
+__all__ = ["FleetWatcher", "Reply", "UavListener", "UavView", "render_fleet"]
+
+#: called with every valid message about one UAV (telemetry, state, event): its type, the UAV, the payload
+UavListener = Callable[[MessageType, int, dict], None]
 
 
 @dataclass
@@ -61,6 +65,13 @@ class FleetWatcher:
         self._client: aiomqtt.Client | None = None
         self.error: str | None = None
         self._task: asyncio.Task | None = None
+        self._listeners: list[UavListener] = []
+
+    def subscribe(self, listener: UavListener) -> Callable[[], None]:
+        """Call `listener` with every valid UAV message from now on (after the view took it in);
+        returns the call that unsubscribes it. A listener that raises is dropped."""
+        self._listeners.append(listener)
+        return lambda: self._listeners.remove(listener) if listener in self._listeners else None
 
     async def __aenter__(self) -> FleetWatcher:
         self._client = self.broker.client(self.identifier)
@@ -137,6 +148,11 @@ class FleetWatcher:
             view.events += 1
             if data["kind"] == "return":
                 view.return_reason = data["reason"]
+        for listener in list(self._listeners):
+            try:
+                listener(message_type, uav_id, data)
+            except Exception:  # a listener's bug must not stop the view
+                self._listeners.remove(listener)
 
     async def command(self, command: Command, timeout_s: float = 5.0) -> Reply:
         """Publish a command and wait for its reply; TimeoutError when none comes, ConnectionError

@@ -83,11 +83,13 @@ async def upload_plan(plan: FleetPlan, connections: Sequence[str], options: FlyO
 
 def fly_plan(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, *, signing: SigningKey | None = None,
              simulated: bool = False, online: ClosedSearch | None = None, recorder=None, bus=None,
-             display: Display | None = None, stdin_orders: bool = False) -> FlightOutcome:
+             display: Display | None = None, stdin_orders: bool = False,
+             watchers: Sequence[Watcher] = ()) -> FlightOutcome:
     """Fly `plan` over `connections` until every vehicle is down (`fly_async`), keeping the
     flight's journal in the plan folder (a `simulated` fleet stops with the station, so its
     journal never holds a later flight back) and writing its sortie record; `online` flies the
-    search with the planner in the loop (`gcs.flight.online.observed_search`)."""
+    search with the planner in the loop (`gcs.flight.online.observed_search`); `watchers` (e.g.
+    `gcs.tak.flight_feed.TakFeed`) follow the flight after the journal and the sortie record."""
     folder = Path(plan.folder)
     rrd = recorder.rrd_path if recorder is not None else None
     start = new_start(file_sha256(folder / "plan.json"), list(connections), sim=simulated, signed=signing is not None,
@@ -96,15 +98,16 @@ def fly_plan(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, *
     sortie = SortieLog(plan)
     journal = FlightJournal.begin(plan, start, recorder)
     controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=stdin_orders, online=online,
-                                       recorder=recorder, bus=bus, signing=signing, watchers=[journal, sortie],
-                                       display=display))
+                                       recorder=recorder, bus=bus, signing=signing,
+                                       watchers=[journal, sortie, *watchers], display=display))
     _, learned = save_learned(folder, controller.vehicles, options.vehicles_file)
     return FlightOutcome(controller, sortie, rrd, learned)
 
 
 def fly_resumed(plan: FleetPlan, state: JournalState, connections: Sequence[str], options: FlyOptions, *,
                 signing: SigningKey | None = None, recorder=None, bus=None,
-                display: Display | None = None, stdin_orders: bool = False) -> FlightOutcome:
+                display: Display | None = None, stdin_orders: bool = False,
+                watchers: Sequence[Watcher] = ()) -> FlightOutcome:
     """Take over the flight `state` (`gcs.flight.resume.resumable_flight`) left in `plan`'s
     folder and fly it on to the end: the journal and sortie record carry on from what they kept,
     each `udpout` link sends from the port the dead station used, and `recorder` writes the
@@ -117,7 +120,7 @@ def fly_resumed(plan: FleetPlan, state: JournalState, connections: Sequence[str]
     journal = FlightJournal.reopen(plan, state, list(connections), _relative(rrd, Path(plan.folder)))
     links = links_from_the_same_ports(list(connections), state.udp_source_ports)
     controller = asyncio.run(fly_async(plan, links, options, stdin_orders=stdin_orders, recorder=recorder, bus=bus,
-                                       signing=signing, watchers=[journal, sortie], display=display,
+                                       signing=signing, watchers=[journal, sortie, *watchers], display=display,
                                        resume=Resumption(plan, state)))
     return FlightOutcome(controller, sortie, rrd)
 

@@ -28,6 +28,7 @@ from gcs.cli.plan_options import (
     plan_options_from,
 )
 from gcs.cli.sim_options import connections_or_sim, simulated_fleet
+from gcs.cli.tak_options import TAK_FLAGS, add_tak_arguments, tak_feed_from
 from gcs.display.status_table import LiveTable, render_summary
 from gcs.errors import UserError
 from gcs.flight.controller import FlyOptions
@@ -51,6 +52,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--resume", metavar="DIR", help="take over the flight in progress in DIR after the station that "
                                                    "flew it died (its links, unless --connect is given again)")
     add_bus_arguments(p)
+    add_tak_arguments(p, "the plan folder's name")
     p.add_argument("--fit-charge", action="store_true",
                    help="a vehicle whose charge cannot pay for its plan flies a range cut to its charge instead of "
                         "staying on the ground")
@@ -146,12 +148,16 @@ def run(args: argparse.Namespace) -> int:
     connections = connections_or_sim(args)
     signing = signing_from(args)
     bus = bus_feed_from(args)
+    folder = None
     if args.plan:
-        check_no_flight_in_progress(Path(args.plan))
+        folder = Path(args.plan)
     elif args.area:
         from gcs.plans.planning import area_out_dir
 
-        check_no_flight_in_progress(area_out_dir(args.area, args.out))
+        folder = area_out_dir(args.area, args.out)
+    tak = tak_feed_from(args, folder.name if folder is not None else "gcs")
+    if folder is not None:
+        check_no_flight_in_progress(folder)
     plan, setup = plan_for_flight(args)
     options = options_from(args, plan)
     if any(u not in plan.uavs for u in drains):
@@ -177,7 +183,8 @@ def run(args: argparse.Namespace) -> int:
               flush=True)
     try:
         outcome = fly_plan(plan, connections, options, signing=signing, simulated=args.sim, online=online,
-                           recorder=recorder, bus=bus, display=_display(), stdin_orders=_stdin_orders(args))
+                           recorder=recorder, bus=bus, display=_display(), stdin_orders=_stdin_orders(args),
+                           watchers=[tak] if tak is not None else [])
     finally:
         if fleet is not None:
             fleet.stop()
@@ -213,7 +220,7 @@ RESUMED_OPTIONS = {"--reserve-pct": "reserve_pct",
                    "--allow-home-offset": "check_home"}
 RESUME_FLAGS = {"--resume", "--connect", "--signing-key", "--signing-passphrase", "--mqtt", "--fleet", "--mqtt-station",
                 "--mqtt-telemetry-hz", "--mqtt-ca-file", "--mqtt-tls-insecure", "--return-after", "--stdin-orders",
-                "--no-rrd", "--rerun-connect", "--quiet", *RESUMED_OPTIONS}
+                "--no-rrd", "--rerun-connect", "--quiet", *TAK_FLAGS, *RESUMED_OPTIONS}
 
 
 def _flags_given(args: argparse.Namespace) -> list[str]:
@@ -236,6 +243,7 @@ def resume(args: argparse.Namespace) -> int:
         raise UserError(f"--resume {folder}: the flight's links were signed: give --signing-key or "
                         "--signing-passphrase again")
     bus = bus_feed_from(args)
+    tak = tak_feed_from(args, folder.resolve().name)
     options = resumed_options(options_from(args, plan), state,
                               {name for flag, name in RESUMED_OPTIONS.items() if flag in given})
     recorder = None
@@ -245,4 +253,5 @@ def resume(args: argparse.Namespace) -> int:
         recorder = resumed_flight_recorder(plan, state, record=not args.no_rrd, connect=args.rerun_connect)
     print(f"resuming the flight started {state.start.utc} in {folder} over {', '.join(connections)}", flush=True)
     return _ending(fly_resumed(plan, state, connections, options, signing=signing, recorder=recorder, bus=bus,
-                               display=_display(), stdin_orders=_stdin_orders(args)))
+                               display=_display(), stdin_orders=_stdin_orders(args),
+                               watchers=[tak] if tak is not None else []))

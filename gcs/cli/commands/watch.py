@@ -9,6 +9,8 @@ every vehicle heard (mode, position, battery, GPS, what it still waits for befor
     gcs watch --mqtt ... --return all | --range 2=150 | --abort 3
     gcs watch --connect tcp:127.0.0.1:5760 --once                    # vehicles on a link
     gcs watch --connect /dev/ttyUSB0,57600 --connect udpin:0.0.0.0:14550
+    gcs watch --mqtt mqtt://broker:1883 --fleet demo --tak tcp://tak.local:8087 --plan runs/demo
+                                                    # the fleet on TAK too (docs/tak.md)
 
 Exit 0 when the command was done, 2 with the reason when it was refused or not answered."""
 
@@ -16,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import math
 import sys
 import time
@@ -24,6 +27,7 @@ from collections.abc import Callable
 
 from gcs.bus import Command, CommandKind, FleetWatcher, TlsOptions, parse_broker_url, render_fleet
 from gcs.cli.link_options import add_link_arguments, connections_from, signing_from
+from gcs.cli.tak_options import add_tak_arguments, tak_setup_from
 from gcs.errors import UserError
 
 
@@ -50,6 +54,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration-s", type=float, default=None,
                    help="watch this long, print the table, exit (default: until Ctrl-C; 1 with --once)")
     p.add_argument("--every-s", type=float, default=1.0, help="refresh period of the live table (default 1 s)")
+    add_tak_arguments(p, "the fleet name")
+    p.add_argument("--plan", metavar="DIR", default=None,
+                   help="with --tak: the flight's plan folder, to put its area, keep-out zones and paths on TAK too")
     p.set_defaults(func=run)
 
 
@@ -101,7 +108,11 @@ async def _show(render: Callable[[], str], duration_s: float | None, every_s: fl
     print(render(), flush=True)
 
 
-async def _run(args: argparse.Namespace, command: Command | None) -> int:
+def _say(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+async def _run(args: argparse.Namespace, command: Command | None, tak=None, plan=None) -> int:
     tls = None
     if any((args.ca_file, args.cert_file, args.key_file, args.tls_insecure)):
         tls = TlsOptions(args.ca_file, args.cert_file, args.key_file, args.tls_insecure)
@@ -110,7 +121,11 @@ async def _run(args: argparse.Namespace, command: Command | None) -> int:
     except ValueError as exc:
         raise UserError(str(exc)) from None
     try:
-        async with FleetWatcher(broker, fleet=args.fleet) as watcher:
+        async with FleetWatcher(broker, fleet=args.fleet) as watcher, contextlib.AsyncExitStack() as stack:
+            if tak is not None:
+                from gcs.tak.bus_feed import tak_on_bus
+
+                await stack.enter_async_context(tak_on_bus(watcher, *tak, plan=plan, say=_say))
             if command is None:
                 duration = args.duration_s if args.duration_s is not None else (1.0 if args.once else None)
                 await _show(lambda: render_fleet(watcher), duration, args.every_s, lambda: watcher.error)
@@ -143,6 +158,10 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--duration-s must be >= 0")
     if bool(args.mqtt) == bool(args.connect):
         raise UserError("give --mqtt URL (the fleet bus) or --connect CONN (vehicles' MAVLink links), one of them")
+    if args.connect and (args.tak or args.plan):
+        raise UserError("--tak puts the fleet on the bus on TAK: give --mqtt (gcs fly --tak does it from the links)")
+    if args.plan and not args.tak:
+        raise UserError("--plan goes with --tak (it puts the plan's area and paths on TAK)")
     if args.connect:
         if any(v is not None for v in (args.return_uav, args.range_change, args.abort_uav)):
             raise UserError("--return, --range and --abort go to the flying station over the bus: give --mqtt")
@@ -157,7 +176,15 @@ def run(args: argparse.Namespace) -> int:
         check_name(args.fleet, "--fleet")
     except ValueError as exc:
         raise UserError(str(exc)) from None
+    if command is not None and args.tak:
+        raise UserError("--tak watches the fleet: it does not go with --return, --range or --abort")
+    tak = tak_setup_from(args, args.fleet)
+    plan = None
+    if args.plan:
+        from gcs.plans.plan_folder import load_plan_dir
+
+        plan = load_plan_dir(args.plan)
     try:
-        return asyncio.run(_run(args, command))
+        return asyncio.run(_run(args, command, tak, plan))
     except KeyboardInterrupt:
         return 130

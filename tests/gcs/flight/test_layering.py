@@ -1,6 +1,6 @@
 """The flight's public surface for the modules beside the controller (online mode, resume, the
 journal, the recorder, the bus feed), the terminal's live table given from outside, and the
-direction of the imports: display, bus and recording depend on the flight, never the reverse."""
+direction of the imports: display, bus, recording and TAK depend on the flight, never the reverse."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from gcs.telemetry.status import Stage
 from tests.gcs.flight.conftest import fast_options
 
 ROOT = Path(__file__).resolve().parents[3]
-WATCHING_THE_FLIGHT = ("gcs.display", "gcs.bus", "gcs.recording", "gcs.cli")
+WATCHING_THE_FLIGHT = ("gcs.display", "gcs.bus", "gcs.recording", "gcs.tak", "gcs.cli")
 
 
 def _imports(path: Path) -> list[tuple[str, str | None]]:
@@ -44,6 +44,16 @@ def test_the_flight_imports_nothing_that_watches_it():
     wrong = [f"{path.relative_to(ROOT)}: {module}" for path in sorted((ROOT / "gcs" / "flight").glob("*.py"))
              for module, function in _imports(path)
              if module.startswith(WATCHING_THE_FLIGHT)]
+    assert not wrong, wrong
+
+
+def test_tak_imports_no_command_line_and_pytak_stays_in_gcs_tak():
+    """TAK watches the flight and the bus; only the command line chooses it, and only gcs/tak loads pytak."""
+    wrong = [f"{path.relative_to(ROOT)}: {module}" for path in sorted((ROOT / "gcs" / "tak").glob("*.py"))
+             for module, _ in _imports(path) if module.startswith("gcs.cli")]
+    wrong += [f"{path.relative_to(ROOT)}: {module}" for path in sorted((ROOT / "gcs").rglob("*.py"))
+              if path.parent.name != "tak" for module, _ in _imports(path)
+              if module.split(".")[0] in ("pytak", "takproto")]
     assert not wrong, wrong
 
 
