@@ -660,6 +660,7 @@ class FlightController:
             leg = self.return_leg(uid)
             autopilot = st.autopilot or Autopilot.GENERIC
             self.vehicles[uid].holding = True
+            held_from = st.time_boot_s
             await self.set_mode(uid, autopilot.hold_mode(st.fixed_wing))
             await upload_verified(self.link_of[uid], uid, task.return_wire(autopilot, leg), autopilot,
                                   timeout_s=self.options.transfer_timeout_s, fixed_wing=st.fixed_wing)
@@ -668,6 +669,9 @@ class FlightController:
                 await self.command(uid, mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, autopilot.first_mission_seq())
             await self._start_mission(uid)
             self.vehicles[uid].holding = False
+            held = st.time_boot_s - held_from  # what a return's hold takes, in the vehicles' time
+            for vehicle in self.vehicles.values():
+                vehicle.hold_s = max(vehicle.hold_s, held)
             self.return_latency_s[uid] = time.monotonic() - started
             self.say(uid, f"return leg of {len(leg)} waypoints uploaded and started")
         except (LinkError, MissionTransferError, ValueError, KeyError) as exc:

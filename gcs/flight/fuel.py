@@ -32,7 +32,9 @@ reports a wind (ArduPlane's WIND, PX4's WIND_COV), at what that wind does to a v
 its cruise speed V through the air, -a (w_e, w_n) / V to first order (a tailwind is cheaper). A
 first noisy reading cannot move it far; a battery that drains faster than its profile says, or a
 wind the autopilot does not report, shows within a few hundred metres of search legs in a few
-directions; a direction never flown is priced at the average. No direction is priced under MIN_SHARE of the average."""
+directions; a direction never flown is priced near the profile. Once SHOWN_AFTER_M metres are
+sampled, no metre is priced under what level flight has cost on average (the prior never talks a
+failing pack down), and no direction under MIN_SHARE of the average."""
 
 from __future__ import annotations
 
@@ -51,6 +53,9 @@ PRIOR_WEIGHT_M = 300.0
 
 #: Seconds of level flight after the climb before cruise is sampled.
 SETTLE_S = 10.0
+
+#: Metres of level flight sampled before their average cost is trusted over the profile's prior.
+SHOWN_AFTER_M = 200.0
 
 #: No direction is priced under this share of the cost averaged over directions.
 MIN_SHARE = 0.4
@@ -197,18 +202,34 @@ class FuelGauge:
         return self._fit
 
     @property
+    def shown_mah_per_m(self) -> float | None:
+        """What level flight has cost per metre on average, once SHOWN_AFTER_M have been sampled."""
+        return self.cruise_mah / self.cruise_m if self.cruise_m >= SHOWN_AFTER_M else None
+
+    @property
+    def _lift(self) -> float:
+        """How far the fit, over the stretches sampled, lies under what they cost (0 when it
+        does not): the prior's pull, taken back."""
+        shown = self.shown_mah_per_m
+        if shown is None:
+            return 0.0
+        fitted = float(self.fit @ self._normal[:, 0]) / self.cruise_m  # column 0 sums each stretch's terms
+        return max(0.0, shown - fitted)
+
+    @property
     def rate_mah_per_m(self) -> float:
-        """Charge per metre of cruise, averaged over directions."""
-        return max(float(self.fit[0]), 1e-9)
+        """Charge per metre of cruise, averaged over directions: the fit's, never under what
+        level flight has shown (a pack draining faster than its profile says is priced as it
+        drains, not pulled back towards the profile)."""
+        return max(float(self.fit[0]) + self._lift, 1e-9)
 
     def rate_along(self, east: float, north: float) -> float:
-        """Charge per metre of cruise in the direction (east, north)."""
+        """Charge per metre of cruise in the direction (east, north), lifted as the average is."""
         length = math.hypot(east, north)
-        fit = self.fit
-        a = max(float(fit[0]), 1e-9)
+        a = self.rate_mah_per_m
         if length == 0:
             return a
-        return max(MIN_SHARE * a, float(fit @ _terms(east, north)) / length)
+        return max(MIN_SHARE * a, float(self.fit @ _terms(east, north)) / length + self._lift)
 
     @property
     def remaining_mah(self) -> float | None:

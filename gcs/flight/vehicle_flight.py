@@ -23,6 +23,10 @@ Legs = list[tuple[float, float]]
 
 MAVMessage = mavlink.MAVLink_message
 
+#: Vehicle seconds a return is expected to hold the vehicle while its way home is sent, until a
+#: return of the flight has shown how long (`gcs.flight.controller`: the longest seen).
+HOLD_S = 3.0
+
 #: A vehicle's launch is over once it is within this share of its mission altitude (the fuel gauge
 #: waits a few seconds more before it samples cruise); on its way home, a vehicle descending faster
 #: than LEVEL_CLIMB_M_S below that is landing.
@@ -86,6 +90,7 @@ class VehicleFlight:
         self._last_s: float | None = None
         self.holding = False  # held in the air by the station (while its way home is uploaded)
         self.hover_s = 0.0    # vehicle seconds held so
+        self.hold_s = HOLD_S  # vehicle seconds a return's hold is expected to take
         self.launch_profile: EnergyProfile | None = None
         self.autopilot = "generic"
         self.home_legs: dict[int, Legs] = {}
@@ -175,11 +180,13 @@ class VehicleFlight:
         return min(approach.alt_m, self.task.altitude_m) if approach is not None else self.task.altitude_m
 
     def landing_mah(self) -> float:
-        """The landing's charge: the profile's, scaled up as far as cruise costs more than the
-        profile says (a pack that drains faster in cruise drains faster on the way down too),
-        never down."""
+        """What coming home costs beyond its way: the hold while the station sends the way home
+        (`hold_s` of vehicle time) and the landing, at the profile's prices scaled up as far as
+        cruise costs more than the profile says (a pack that drains faster in cruise drains
+        faster in a hover and on the way down too), never down."""
         scale = max(1.0, self.fuel.rate_mah_per_m / self.profile.cruise_mah_per_m)
-        return self.profile.landing_cost_mah(self.landing_altitude_m) * scale
+        profile = self.profile
+        return (profile.loiter_mah_per_s * self.hold_s + profile.landing_cost_mah(self.landing_altitude_m)) * scale
 
     def must_return(self, now_s: float) -> bool:
         """Whether the last evaluation, confirmed (`gcs.flight.return_trigger.confirmed`), sends
