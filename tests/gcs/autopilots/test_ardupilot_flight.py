@@ -123,7 +123,8 @@ def test_a_fast_draining_battery_brings_its_copter_home_first_and_the_other_sear
     finally:
         broker.stop()
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
-    assert "UAV 2: battery" in done.stdout and "the way home needs" in done.stdout
+    assert re.search(r"UAV 2: battery \d+% \(\d+ mAh\) pays for \d+ m above the 30% reserve and the landing; the way "
+                     r"home is \d+ m", done.stdout), done.stdout[-3000:]
     at_landing = {int(m.group(1)): int(m.group(2))
                   for m in re.finditer(r"UAV (\d): landed - battery (\d+)%", done.stdout)}
     assert at_landing[2] >= 25  # the 30 % reserve, give or take the whole percent ArduPilot reports and the descent

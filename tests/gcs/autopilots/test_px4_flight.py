@@ -84,7 +84,8 @@ def test_a_mixed_fleet_brings_the_fast_draining_px4_home_first(tmp_path):
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     out = done.stdout
     assert "UAV 1: preparing - ardupilot autopilot" in out and "UAV 2: preparing - px4 autopilot" in out
-    assert re.search(r"UAV 2: battery \d+% covers [\d.]+ steps, the way home needs", out)
+    assert re.search(r"UAV 2: battery \d+% \(\d+ mAh\) pays for \d+ m above the 30% reserve and the landing; the way "
+                     r"home is \d+ m", out), out[-3000:]
     rows = {line.split()[0]: line.split() for line in out.splitlines() if re.match(r"^\s+[12] ", line)}
     assert rows["1"][5] == "plan" and rows["2"][5] == "battery"
     assert out.index("UAV 2: return - going home (battery)") < out.index("UAV 1: landed")
@@ -100,15 +101,15 @@ def test_a_mixed_fleet_brings_the_fast_draining_px4_home_first(tmp_path):
 
 
 def test_operator_orders_on_a_px4_a_shorter_range_then_home(tmp_path):
-    """The operator's `range 1 N` mid-search (a range of N steps from take-off) makes the trigger
+    """The operator's `range 1 N` mid-search (a range of N metres along its plan from take-off) makes the trigger
     send the PX4 home along its planned way as soon as that way no longer fits in it."""
     plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
     with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4:
         done = fly(plan_dir, [px4.gcs_connection], "--no-rrd",
-                   orders=(("UAV 1: search", "range 1 12", 0.0),))
+                   orders=(("UAV 1: search", "range 1 360", 0.0),))
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     out = done.stdout
-    assert "UAV 1: range set to 12 steps" in out, out[-3000:]
+    assert "UAV 1: range set to 360 m" in out, out[-3000:]
     assert re.search(r"UAV 1: return - going home \((range|operator)", out), out[-3000:]
     row = next(line.split() for line in out.splitlines() if line.startswith("  1 west"))
     assert row[2] == "landed" and float(row[3]) <= 3.0
