@@ -22,11 +22,11 @@ from tests.gcs.autopilots.flights import (
 )
 from tests.gcs.bus.helpers import Mosquitto
 from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
-from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
+from tests.peers.px4 import ONE_AT_A_TIME, STEADY_BATTERY, Px4Sitl
 from tests.peers.relay import UdpRelay
 from tests.peers.site import COPTERS, Site
 
-pytestmark = pytest.mark.autopilot
+pytestmark = [pytest.mark.autopilot, ONE_AT_A_TIME]
 
 
 
@@ -39,7 +39,7 @@ def test_a_planned_mission_uploads_to_px4_and_reads_back_as_px4_stores_it(tmp_pa
     """Over the instance's GCS port (`udpout:127.0.0.1:18570+I`), or listening where every PX4
     SITL sends its telemetry (`udpin:127.0.0.1:14550`, vehicles told apart by system id)."""
     plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
-    with Px4Sitl(home=_px4_home(COPTERS, 0)) as px4:
+    with Px4Sitl(home=_px4_home(COPTERS, 0), alone=link == "udpin") as px4:
         connection = px4.gcs_connection if link == "udpout" else "udpin:127.0.0.1:14550"
         done = subprocess.run([sys.executable, "-m", "gcs.cli", "upload", "--plan", str(plan_dir), "--connect",
                                connection, "--connect-timeout", "30"], capture_output=True, text=True, timeout=300)
@@ -133,13 +133,13 @@ def test_a_px4_that_fails_its_pre_arm_checks_stays_on_the_ground_with_its_reason
 
 
 def test_a_px4_whose_link_goes_silent_flies_its_mission_on_and_is_picked_up_again(tmp_path):
-    """The station's link to PX4 goes through a relay that drops everything for 10 s of wall time
-    (50 s of vehicle time) mid-search: the station marks it lost; PX4 (NAV_DLL_ACT 0, its default)
-    flies its mission on; the station picks it up when the link is back, and it lands at home."""
+    """The station's link to PX4 goes through a relay that drops everything for 50 s of vehicle
+    time, 15 s into the search: the station marks it lost; PX4 (NAV_DLL_ACT 0, its default) flies
+    its mission on; the station picks it up when the link is back, and it lands at home."""
     plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
     with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4, UdpRelay(px4.gcs_port) as relay:
         done = fly_with_a_dropout(plan_dir, [f"udpout:127.0.0.1:{relay.port}"], relay, 1,
-                                  "--lost-giveup", "60")
+                                  "--lost-giveup", "60", after_s=15.0 / px4.speedup, silent_s=50.0 / px4.speedup)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     assert relay.dropped > 20
     assert "UAV 1: lost - no telemetry" in done.stdout and "UAV 1: search - link back" in done.stdout
