@@ -117,6 +117,8 @@ def fly_fleet(tmp_path: Path, site: Site, vehicles: list[Vehicle], *gcs_args: st
         landed_m = float(landed.group(1)) if landed else None
         verdicts[uid] = Verdict(uid, len(u["waypoints"]), waypoints_passed(f.positions, u["waypoints"], within),
                                 returned, f.touchdown_pct, landed_m)
+    for v in verdicts.values():  # the figures docs/energy.md quotes (pytest -s shows them)
+        print(v)
     return FleetFlight(plan_dir, done.stdout, done.returncode, flown, verdicts)
 
 

@@ -90,10 +90,11 @@ def test_a_vehicle_whose_charge_cannot_pay_for_its_plan_stays_on_the_ground_nami
 
 
 def test_a_copter_that_comes_down_away_from_its_airport_is_reported_for_its_crew(tmp_path):
-    """Its GPS fails 15 s into its search: ArduCopter's EKF failsafe lands it where it is."""
+    """Its GPS fails 60 s into its search (its mission start: the take-off, then some 400 m of
+    its search), far from its airport: ArduCopter's EKF failsafe lands it where it is."""
     require_ardupilot()
     flight = fly_fleet(tmp_path, FIELD_COPTERS, [Vehicle()] * 3, "--fit-charge",
-                       inject=(1, 15.0, {"SIM_GPS1_ENABLE": 0.0}))
+                       inject=(1, 60.0, {"SIM_GPS1_ENABLE": 0.0}))
     out = flight.stdout
     assert "UAV 1: landed away - LANDED AWAY at" in out and "fetch it" in out, out[-3000:]
     assert flight.returncode == 1 and "LANDED AWAY: UAV 1" in out
