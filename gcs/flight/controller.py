@@ -150,7 +150,10 @@ class FlightController:
         self.link_of.setdefault(uid, link)
         readings, airborne, mode = len(status.detections), status.airborne_seen, status.mode_name
         status.update(msg, time.monotonic())
-        self.vehicles[uid].on_message(msg)
+        vehicle = self.vehicles[uid]
+        vehicle.on_message(msg)
+        while vehicle.notes:
+            self.say(uid, vehicle.notes.pop(0))
         if status.airborne_seen and not airborne:
             self.emit(TookOff(uid, status.rel_alt_m, status.mode_name))
         if status.mode_name != mode:
