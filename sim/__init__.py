@@ -3,13 +3,15 @@
 `sim.autopilot` is each vehicle's MAVLink behaviour (protocol, modes, missions, parameters,
 telemetry), `sim.physics` the airframe it flies (motion, battery, sensor); the fleet
 (`sim.fleet`) and its UDP links (`sim.vehicle_link`) run them. `LocalFrame` is the planner's
-(`planner.georef`), re-exported here.
+(`planner.georef`), `WireItem` and `MissionType` the station's (`gcs.autopilots.wire_item`),
+re-exported here.
 """
 
+from gcs.autopilots.wire_item import MissionType, WireItem
 from planner.georef import LocalFrame
 from sim.autopilot.ardupilot import BootTimes
 from sim.autopilot.failsafe import FailsafeLevel
-from sim.autopilot.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
+from sim.autopilot.mission_protocol import MissionProtocol, ProtocolConfig
 from sim.autopilot.modes import Mode
 from sim.autopilot.px4 import Px4BootTimes
 from sim.autopilot.vehicle import SimVehicle, VehicleConfig, VehicleState
@@ -27,7 +29,6 @@ __all__ = [
     "HomePose",
     "LinkFaults",
     "LocalFrame",
-    "MissionItem",
     "MissionProtocol",
     "MissionType",
     "Mode",
@@ -39,6 +40,7 @@ __all__ = [
     "SimVehicle",
     "VehicleConfig",
     "VehicleState",
+    "WireItem",
     "homes_for",
     "signing_key_from",
 ]

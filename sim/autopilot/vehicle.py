@@ -27,13 +27,14 @@ from functools import partial
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.ardupilot_storage import stored_item
+from gcs.autopilots.wire_item import MissionType, WireItem
 from planner.georef import LocalFrame
 from sim.autopilot import telemetry
 from sim.autopilot.ardupilot import BOOT_TIMES, CAPACITY, BootTimes, boot_refusals, ekf_flags
 from sim.autopilot.ardupilot_mission import ArduPilotMissionProtocol
 from sim.autopilot.failsafe import FailsafeLevel, failsafe_level, failsafe_to_trigger
 from sim.autopilot.guidance import NAV_COMMANDS, Guidance
-from sim.autopilot.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
+from sim.autopilot.mission_protocol import MissionProtocol, ProtocolConfig
 from sim.autopilot.modes import Mode, custom_mode_of, mode_from_custom, mode_table
 from sim.autopilot.px4 import BOOT_TIMES as PX4_BOOT_TIMES, Px4BootTimes
 from sim.autopilot.telemetry import reading_message, reading_text
@@ -364,7 +365,7 @@ class SimVehicle(Guidance):
     def set_mode(self, mode: Mode) -> int:
         return self._set_mode(mode)
 
-    def load_mission(self, items: list[MissionItem]) -> None:
+    def load_mission(self, items: list[WireItem]) -> None:
         self.mission.replace(items)
 
     def statustext(self, text: str, severity: int = mavlink.MAV_SEVERITY_INFO) -> None:
