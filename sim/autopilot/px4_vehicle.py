@@ -76,8 +76,10 @@ class _Rtl:
 
 
 class Px4Vehicle(SimVehicle):
-    """A SimVehicle with the px4 profile (`SimVehicle(..., VehicleConfig(profile="px4"))`)."""
+    """The px4 profile's vehicle (`sim.autopilot.profiles.new_vehicle` makes it for a config with
+    `profile="px4"`)."""
 
+    PROFILE = "px4"
     HANDLERS = {kind: name for kind, name in SimVehicle.HANDLERS.items() if kind != "REQUEST_DATA_STREAM"}
 
     def __init__(self, sysid: int, home: HomePose, config: VehicleConfig | None = None, **kwargs) -> None:

@@ -10,7 +10,7 @@ import math
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim import BatteryConfig, HomePose, Mode, SimVehicle, VehicleConfig, WireItem
+from sim import BatteryConfig, HomePose, Mode, VehicleConfig, WireItem, new_vehicle
 from sim.autopilot.ardupilot import BOOT_TIMES
 from tests.sim.helpers import SteppedVehicle, distance_m, offset
 
@@ -53,7 +53,7 @@ class Sim(SteppedVehicle):
 
 
 def sim(vehicle_type: str = "copter", **config) -> Sim:
-    return Sim(SimVehicle(1, HOME, VehicleConfig(vehicle_type=vehicle_type, **config)))
+    return Sim(new_vehicle(1, HOME, VehicleConfig(vehicle_type=vehicle_type, **config)))
 
 
 def ready(vehicle_type: str = "copter", **config) -> Sim:

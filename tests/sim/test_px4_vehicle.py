@@ -13,7 +13,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.wire_item import renumber
-from sim import HomePose, MissionType, Mode, SimVehicle, VehicleConfig, WireItem
+from sim import HomePose, MissionType, Mode, VehicleConfig, WireItem, new_vehicle
 from sim.autopilot.px4 import BOOT_TIMES
 from tests.sim.helpers import SteppedVehicle, distance_m, offset
 
@@ -80,7 +80,7 @@ class Sim(SteppedVehicle):
 
 
 def sim(**config) -> Sim:
-    return Sim(SimVehicle(1, HOME, VehicleConfig(profile="px4", **config)))
+    return Sim(new_vehicle(1, HOME, VehicleConfig(profile="px4", **config)))
 
 
 def ready(**config) -> Sim:
@@ -592,7 +592,7 @@ def test_texts_end_with_a_tab_and_longer_ones_come_in_chunks_of_50():
 
 
 def test_a_plane_mission_needs_a_landing_and_a_glide_slope_no_steeper_than_fw_lnd_ang():
-    plane = Sim(SimVehicle(1, HOME, VehicleConfig(profile="px4", vehicle_type="plane")))
+    plane = Sim(new_vehicle(1, HOME, VehicleConfig(profile="px4", vehicle_type="plane")))
     wp, land_start = mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_DO_LAND_START
 
     def landing(approach_m: float, approach_alt: float = 30.0, starts: int = 1) -> list[WireItem]:
