@@ -50,7 +50,7 @@ def run(folder: Path, speedup: float, area_fence: bool) -> str:
         _area_only_fence(plan_dir)
     started = time.monotonic()
     with ArduPilotSitl("plane", home=MEADOW.home(0), speedup=speedup, params=PARAMS) as sitl:
-        done = fly(plan_dir, sitl.gcs_port, "--cruise-speed", "22")
+        done = fly(plan_dir, sitl.gcs_port)
         wall = time.monotonic() - started
         fence = sitl.fence_status()
     if done.returncode != 0:

@@ -76,14 +76,21 @@ class SearchMap:
 
 @njit
 def tep_after_report(p: float, pc: float, pf: float) -> float:
-    """Eq. (2): TEP after the sensor reported a target."""
-    return p * pc / ((pc - pf) * p + pf)
+    """Eq. (2): TEP after the sensor reported a target, P Pc / ((Pc - Pf) P + Pf).
+
+    With Pc > Pf a report never lowers the belief; the result is kept in [P, 1], which rounding
+    can leave at the edge (P = 1 gave 1.0000000000000002 with some Pc, Pf)."""
+    return min(max(p * pc / ((pc - pf) * p + pf), p), 1.0)
 
 
 @njit
 def tep_after_no_report(p: float, pc: float, pf: float) -> float:
-    """Eq. (3): TEP after the sensor reported nothing."""
-    return p * (1.0 - pc) / ((pf - pc) * p + 1.0 - pf)
+    """Eq. (3): TEP after the sensor reported nothing, P (1 - Pc) / ((Pf - Pc) P + 1 - Pf).
+
+    With Pc > Pf a look that sees nothing never raises the belief; the result is kept in [0, P],
+    which rounding can leave at the edge (P = 1, Pc = 0.875, Pf = 0.4885 gave 1.0000000000000004
+    after one look and 1.0000000000000018 after two)."""
+    return min(max(p * (1.0 - pc) / ((pf - pc) * p + 1.0 - pf), 0.0), p)
 
 
 @njit

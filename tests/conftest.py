@@ -1,9 +1,54 @@
-"""Test-wide settings: property tests are derandomised under CI so every run is reproducible."""
+"""Test-wide settings: Hypothesis profiles, how many processes run the suite, and which tests
+reach a numba kernel (the tests `.ci/run` runs once more with the JIT off).
+
+Property tests: under `CI` (`.ci/run` sets it) the `ci` profile: derandomised (the same examples
+on every run, drawn from a seed derived from each test), no example database, no deadline and no
+too-slow health check (the time a shared machine takes must not decide a result); examples that
+ever failed are kept in the tests as `@example`. Elsewhere the default profile draws new examples
+on every run and replays the failures it saved in `.hypothesis/`.
+
+Workers (pytest-xdist, `-n auto` in pyproject's addopts): the whole suite, `pytest` without
+arguments, runs in `GCS_TEST_WORKERS` processes (default 3: one for the PX4 tests, which run one
+at a time, two for the rest; more made the timing-sensitive tests fail on the loaded 2-core
+machine); tests named on the command line run in one process unless `-n N` is given."""
+
+from __future__ import annotations
 
 import os
+from importlib import metadata
 
-from hypothesis import settings
+import pytest
+from hypothesis import HealthCheck, settings
+from packaging.version import Version
 
-settings.register_profile("ci", derandomize=True, print_blob=True)
-if os.environ.get("CI"):
-    settings.load_profile("ci")
+from tests import kernel_reach
+
+settings.register_profile("ci", derandomize=True, database=None, deadline=None, print_blob=True,
+                          suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("ci" if os.environ.get("CI") else "default")
+
+WORKERS = 3
+
+
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+    if "GCS_TEST_WORKERS" in os.environ:
+        return int(os.environ["GCS_TEST_WORKERS"])
+    return WORKERS if config.args_source is pytest.Config.ArgsSource.TESTPATHS else 0
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    kernel_reach.add_option(parser)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.pluginmanager.register(kernel_reach.KernelReach(config), "gcs-kernel-reach")
+    if config.getoption("dist", "no") == "loadgroup" and _groups_lost():
+        raise pytest.UsageError("pytest-xdist 3.8 does not keep an xdist_group in one worker under pytest 9.2 "
+                                "(pytest-dev/pytest-xdist#1386): install the test extra's pytest, below 9.2")
+
+
+def _groups_lost() -> bool:
+    """Whether this pytest and pytest-xdist are the pair whose `--dist loadgroup` spreads a group's
+    tests over workers without a word (xdist renames the tests, pytest 9.2 ignores the renaming)."""
+    return Version(pytest.__version__) >= Version("9.2") and Version(metadata.version("pytest-xdist")) <= Version("3.8")
+

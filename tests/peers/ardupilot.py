@@ -17,9 +17,10 @@ from pathlib import Path
 
 import pytest
 
-from tests.peers.process import SitlProcess, port_free
+from tests.peers.process import InstanceClaim, SitlProcess, claim, port_free
 
 REPO = Path(__file__).resolve().parents[2]
+KIND = "ardupilot"
 
 
 def peers_dir() -> Path:
@@ -43,12 +44,19 @@ def free_udp_port() -> int:
         return s.getsockname()[1]
 
 
-def free_instance(first: int = 0) -> int:
-    """An instance number whose TCP ports (5760 + 10 I .. 5763 + 10 I) are all free."""
-    for instance in range(first, first + 50):
-        if all(port_free(5760 + 10 * instance + k) for k in (0, 2, 3)):
-            return instance
-    raise RuntimeError("no free SITL instance number")
+def _ports_free(instance: int) -> bool:
+    """Whether the instance's TCP ports (5760 + 10 I, 5762 + 10 I, 5763 + 10 I) and its RC input
+    (UDP 5501 + 10 I) are free."""
+    return (all(port_free(5760 + 10 * instance + k) for k in (0, 2, 3))
+            and port_free(5501 + 10 * instance, udp=True))
+
+
+def claim_instance(instance: int | None = None) -> InstanceClaim:
+    """`instance`, or the lowest free instance number, held for this process (see
+    `tests.peers.process`)."""
+    if instance is not None:
+        return claim(KIND, _ports_free, count=1, first=instance)
+    return claim(KIND, _ports_free, count=50)
 
 
 @dataclass
@@ -66,6 +74,7 @@ class ArduPilotSitl(SitlProcess):
     serial2: str | None = None
     process: subprocess.Popen | None = None
     workdir: Path | None = None
+    claim: InstanceClaim | None = None
 
     @property
     def tcp_port(self) -> int:
@@ -87,7 +96,8 @@ class ArduPilotSitl(SitlProcess):
 
     def start(self) -> ArduPilotSitl:
         folder = require_ardupilot()
-        self.instance = free_instance() if self.instance is None else self.instance
+        self.claim = claim_instance(self.instance)
+        self.instance = self.claim.number
         self.gcs_port = self.gcs_port or free_udp_port()
         self.workdir = Path(tempfile.mkdtemp(prefix=f"sitl-{self.vehicle}-{self.instance}-"))
         env = dict(os.environ, SPEEDUP=f"{self.speedup:g}", WIPE="1", SYSID=str(self.sysid),

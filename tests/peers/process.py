@@ -1,13 +1,26 @@
-"""What every SITL peer shares: a process started in a working folder of its own, stopped (and
-its folder deleted) when the `with` block ends."""
+"""What every SITL peer shares: a process started in a working folder of its own, on an instance
+number (its port block) claimed for it alone, stopped (its folder deleted, its number given
+back) when the `with` block ends.
+
+Tests run in several processes at once (pytest-xdist workers, and other checkouts' test runs on
+the same machine), so an instance number is claimed with a lock file held while the instance
+runs: two processes never pick the same port block, even when they look at the same moment."""
 
 from __future__ import annotations
 
+import fcntl
+import os
 import shutil
 import socket
 import subprocess
+import tempfile
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Self
+from typing import IO, Self
+
+LOCKS = Path(tempfile.gettempdir()) / f"gcs-sitl-locks-{os.getuid()}"
 
 
 def port_free(port: int, *, udp: bool = False) -> bool:
@@ -31,11 +44,54 @@ def stop_process(process: subprocess.Popen) -> None:
             process.wait(5)
 
 
+def lock_file(name: str) -> IO[str]:
+    """The lock file `name` under `LOCKS`, opened (not locked)."""
+    LOCKS.mkdir(exist_ok=True)
+    return open(LOCKS / f"{name}.lock", "a")
+
+
+@dataclass
+class InstanceClaim:
+    """An instance number held by this process until `release()`."""
+
+    number: int
+    _file: IO[str]
+
+    def release(self) -> None:
+        self._file.close()  # closing the file drops its lock
+
+
+def claim(kind: str, ports_free: Callable[[int], bool], count: int, first: int = 0) -> InstanceClaim:
+    """The lowest instance number of `kind` from `first` that no other process holds and whose
+    ports are free (against programs that do not take these locks)."""
+    for number in range(first, first + count):
+        file = lock_file(f"{kind}-{number}")
+        try:
+            fcntl.flock(file, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            file.close()
+            continue
+        if ports_free(number):
+            return InstanceClaim(number, file)
+        file.close()
+    raise RuntimeError(f"no free {kind} instance number in {first}..{first + count - 1}")
+
+
+@contextmanager
+def exclusive(name: str) -> Iterator[None]:
+    """Held by one process at a time, machine-wide (a lock file under `LOCKS`)."""
+    with lock_file(name) as file:
+        fcntl.flock(file, fcntl.LOCK_EX)
+        yield
+
+
 class SitlProcess:
-    """Mixin for a dataclass with `process` and `workdir` fields and a `start()` returning self."""
+    """Mixin for a dataclass with `process`, `workdir` and `claim` fields and a `start()`
+    returning self."""
 
     process: subprocess.Popen | None
     workdir: Path | None
+    claim: InstanceClaim | None
 
     def start(self) -> Self:
         raise NotImplementedError
@@ -47,9 +103,16 @@ class SitlProcess:
         if self.workdir is not None:
             shutil.rmtree(self.workdir, ignore_errors=True)
             self.workdir = None
+        if self.claim is not None:
+            self.claim.release()
+            self.claim = None
 
     def __enter__(self) -> Self:
-        return self.start()
+        try:
+            return self.start()
+        except BaseException:
+            self.stop()  # a start that failed half-way leaves no process and no claim behind
+            raise
 
     def __exit__(self, *exc: object) -> None:
         self.stop()

@@ -12,6 +12,7 @@ API port (14580+I), so the GCS port is still free for the station."""
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import struct
@@ -20,11 +21,17 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import IO
 
 import pytest
 
 from tests.peers.ardupilot import peers_dir
-from tests.peers.process import SitlProcess, port_free
+from tests.peers.process import InstanceClaim, SitlProcess, claim, exclusive, lock_file, port_free
+
+#: PX4 SITL in lockstep takes most of a core at speed-up 5 and loses answers (mission items,
+#: command acknowledgements) when several run at once on the 2-core CI machine: the tests that
+#: start one run in one process (an xdist group), one after the other
+ONE_AT_A_TIME = pytest.mark.xdist_group("px4")
 
 #: PX4's simulated battery drains 100 % over SIM_BAT_DRAIN seconds of armed vehicle time (its
 #: default, 60 s, then stops at SIM_BAT_MIN_PCT 50 %); an hour keeps it well above the reserve
@@ -32,6 +39,7 @@ from tests.peers.process import SitlProcess, port_free
 STEADY_BATTERY = {"SIM_BAT_DRAIN": 3600.0, "SIM_BAT_MIN_PCT": 5.0}
 
 _BUNDLE_COPY = Path(tempfile.gettempdir()) / f"gcs-px4-bundle-{os.getuid()}"
+KIND = "px4"
 
 
 def px4_dir() -> Path:
@@ -48,8 +56,14 @@ def require_px4() -> Path:
 
 
 def _bundle() -> Path:
-    """A copy of the PX4 bundle whose module aliases are symbolic links to `px4` (made once)."""
+    """A copy of the PX4 bundle whose module aliases are symbolic links to `px4` (made once, by
+    one test process while the others wait)."""
     src = require_px4()
+    with exclusive("px4-bundle"):
+        return _bundle_copy(src)
+
+
+def _bundle_copy(src: Path) -> Path:
     if (_BUNDLE_COPY / "bin" / "px4").exists() and (_BUNDLE_COPY / "bin" / "px4-param").is_symlink():
         return _BUNDLE_COPY
     staging = Path(tempfile.mkdtemp(prefix="gcs-px4-bundle-"))
@@ -73,16 +87,41 @@ def _bundle() -> Path:
     return _BUNDLE_COPY
 
 
-def free_instance(first: int = 0) -> int:
-    for instance in range(first, first + 20):
-        if all(port_free(p + instance, udp=True) for p in (18570, 14580, 14280, 13030, 19450)):
-            return instance
-    raise RuntimeError("no free PX4 instance number")
+def _free(instance: int) -> bool:
+    """Whether no PX4 server runs as `instance` (it holds a POSIX lock on /tmp/px4_lock-N while it
+    does, wherever it was started from) and the instance's ports are free."""
+    with open(f"/tmp/px4_lock-{instance}", "a") as lock:
+        try:
+            fcntl.lockf(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            return False
+        fcntl.lockf(lock, fcntl.LOCK_UN)
+    return all(port_free(p + instance, udp=True) for p in (18570, 14580, 14280, 13030, 19450))
+
+
+def claim_instance(instance: int | None = None) -> InstanceClaim:
+    """`instance`, or the lowest free instance number, held for this process (see
+    `tests.peers.process`; PX4 itself refuses a second `-i N` on the machine)."""
+    if instance is not None:
+        return claim(KIND, _free, count=1, first=instance)
+    return claim(KIND, _free, count=20)
+
+
+def _hold_udp_14550(alone: bool) -> IO[str]:
+    """Every PX4 instance sends to 127.0.0.1:14550 until a station calls it on its GCS port, so a
+    station that listens there must have the only PX4 running: an `alone` instance holds this
+    lock exclusively, every other one shared. Waiting `alone` instances go first (they hold the
+    turnstile that new shared holders pass), so a stream of shared ones cannot starve them."""
+    with exclusive("px4-14550-turnstile"):
+        file = lock_file("px4-14550")
+        fcntl.flock(file, fcntl.LOCK_EX if alone else fcntl.LOCK_SH)
+    return file
 
 
 @dataclass
 class Px4Sitl(SitlProcess):
-    """One PX4 SITL process; `gcs_connection` is the station's link to it."""
+    """One PX4 SITL process; `gcs_connection` is the station's link to it. `alone`: no other PX4
+    instance of these tests runs meanwhile (for a station listening on UDP 14550)."""
 
     vehicle: str = "copter"
     home: tuple[float, float, float] = (47.2771883, 11.4039709, 584.0)
@@ -90,8 +129,11 @@ class Px4Sitl(SitlProcess):
     speedup: float = 5.0
     params: dict[str, float | int] = field(default_factory=dict)  # int: an INT32 parameter
     instance: int | None = None
+    alone: bool = False
     process: subprocess.Popen | None = None
     workdir: Path | None = None
+    claim: InstanceClaim | None = None
+    _udp_14550: IO[str] | None = None
 
     @property
     def gcs_port(self) -> int:
@@ -115,7 +157,9 @@ class Px4Sitl(SitlProcess):
 
     def start(self) -> Px4Sitl:
         bundle = _bundle()
-        self.instance = free_instance() if self.instance is None else self.instance
+        self._udp_14550 = _hold_udp_14550(self.alone)
+        self.claim = claim_instance(self.instance)
+        self.instance = self.claim.number
         self.workdir = Path(tempfile.mkdtemp(prefix=f"px4-{self.vehicle}-{self.instance}-"))
         env = dict(os.environ, SPEEDUP=f"{self.speedup:g}", WIPE="1", SYSID=str(self.sysid),
                    PX4_SITL_HOME=str(self.workdir))
@@ -139,6 +183,12 @@ class Px4Sitl(SitlProcess):
         if self.params:
             self._set_params()
         return self
+
+    def stop(self) -> None:
+        super().stop()
+        if self._udp_14550 is not None:
+            self._udp_14550.close()
+            self._udp_14550 = None
 
     def _set_params(self) -> None:
         """PARAM_SET through the API port, confirmed by PARAM_VALUE, before the station connects."""

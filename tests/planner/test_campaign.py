@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, example, given, settings, strategies as st
 
 from planner.campaign import Belief, look_counts, predicted_after, sortie_seed
 from planner.dtscs import ClosedSearch, MissionConfig
@@ -31,6 +31,8 @@ def one_cell(p: float, eu: float = 0.5) -> SearchMap:
 
 @settings(max_examples=300, deadline=None)
 @given(p=probability, sensor=sensors(), negatives=st.integers(1, 12))
+@example(p=1.0, sensor=(0.875, 0.4885), negatives=2)  # found on a fresh clone: 1.0000000000000018 (issue 25)
+@example(p=1.0, sensor=(0.5, 0.27059440680254127), negatives=5)  # found in a full run: 1.0000000000000018
 def test_a_cell_with_only_negative_readings_never_ends_above_its_prior(p, sensor, negatives):
     pc, pf = sensor
     m = one_cell(p)
@@ -38,14 +40,15 @@ def test_a_cell_with_only_negative_readings_never_ends_above_its_prior(p, sensor
     for _ in range(negatives):
         m.observe(0, 0, False, pc, pf)
         trail.append(m.tep[0, 0])
-    assert all(b <= a + 1e-15 for a, b in zip(trail, trail[1:])), trail  # every look lowers it, or keeps it
-    assert 0.0 <= m.tep[0, 0] <= p + 1e-15
+    assert all(b <= a for a, b in zip(trail, trail[1:])), trail  # every look lowers it, or keeps it
+    assert 0.0 <= m.tep[0, 0] <= p
     if 1e-9 < p < 1.0 - 1e-9:  # (not in float's last digits)
         assert m.tep[0, 0] < p  # a look that sees nothing is evidence of absence (Pc > Pf)
 
 
 @settings(max_examples=300, deadline=None)
 @given(p=probability, sensor=sensors())
+@example(p=1.0, sensor=(0.9, 0.2))  # eq. (2) as written gives 1.0000000000000002
 def test_a_positive_reading_raises_the_belief_by_exactly_eq_2(p, sensor):
     pc, pf = sensor
     m = one_cell(p, eu=0.8)
@@ -55,7 +58,7 @@ def test_a_positive_reading_raises_the_belief_by_exactly_eq_2(p, sensor):
         assert m.tep[0, 0] == pytest.approx(p * pc / denominator, rel=1e-12, abs=1e-300)
     else:
         assert m.tep[0, 0] == p  # P = 0 and Pf = 0: the model rules the report out; the belief stays
-    assert m.tep[0, 0] >= p - 1e-15
+    assert p <= m.tep[0, 0] <= 1.0
     if 1e-9 < p < 1.0 - 1e-9:
         assert m.tep[0, 0] > p
     assert m.eu[0, 0] == 0.4 and m.visits[0, 0] == 1
@@ -98,7 +101,7 @@ def _sortie(scenario, belief: Belief, seed: int, oc, np_steps: int):
     return searched, search.plan()
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
 @given(seed=st.integers(0, 100_000), oc=st.sampled_from([OC3, OC8]), np_steps=st.integers(1, 3),
        sorties=st.integers(2, 4))
 def test_split_sorties_are_each_closed_and_legal_and_the_campaign_adds_up(seed, oc, np_steps, sorties):
@@ -127,7 +130,7 @@ def test_split_sorties_are_each_closed_and_legal_and_the_campaign_adds_up(seed, 
     assert cumulative[-1] <= belief.available() + 1e-9
 
 
-@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
 @given(seed=st.integers(0, 100_000), np_steps=st.integers(1, 3), data=st.data())
 def test_a_sortie_continued_from_any_flown_belief_is_closed_and_legal(seed, np_steps, data):
     """Readings as a flight brings them (any cells, positive or not) folded into the prior; the

@@ -15,7 +15,7 @@ from tests.planner.helpers import assert_plan_safe, random_scenario
 OCS = [OC3, OC4, OC8]
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
 @given(seed=st.integers(0, 100_000), oc_index=st.integers(0, 2), np_steps=st.integers(1, 4),
        n_uavs=st.integers(1, 4), range_steps=st.integers(12, 45), return_planner=st.sampled_from(["exact", "st"]),
        range_aware=st.booleans(), costs=st.sampled_from([STEPS, cell_lengths()]))

@@ -26,7 +26,10 @@ def test_bayes_after_no_report_matches_hand_computation():
 
 def test_certain_cells_stay_certain():
     assert tep_after_report(0.0, 0.9, 0.1) == 0.0
-    assert tep_after_no_report(1.0, 0.9, 0.1) == pytest.approx(1.0)
+    assert tep_after_no_report(0.0, 0.9, 0.1) == 0.0
+    # exactly, where the equations as written round past 1 (1.0000000000000002 and 1.0000000000000004)
+    assert tep_after_report(1.0, 0.9, 0.2) == 1.0
+    assert tep_after_no_report(1.0, 0.875, 0.4885) == 1.0
 
 
 def test_eu_halves_per_visit():

@@ -12,6 +12,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -281,11 +282,20 @@ def test_one_process_serves_several_vehicles_until_interrupted(plan_dir, plan):
         proc = subprocess.Popen([sys.executable, "-m", "gcs.cli", "detector", "--plan", str(plan_dir), "--seed", "4",
                                  "--uav", "1", "--connect", tcp[0], "--uav", "3", "--connect", tcp[2]],
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        watchdog = threading.Timer(60.0, proc.kill)  # a detector that never comes up fails the test, not CI
+        watchdog.start()
         try:
-            time.sleep(4.0)
+            started = []
+            for line in proc.stdout:  # interrupted once both are serving (its start takes seconds on a busy machine)
+                started.append(line)
+                if "UAV 3: detector on" in line:
+                    break
+            time.sleep(2.0)  # 20 s of the vehicles' time: positions asked for and received
             proc.send_signal(signal.SIGINT)
-            out, _ = proc.communicate(timeout=10)
+            rest, _ = proc.communicate(timeout=10)
+            out = "".join(started) + rest
         finally:
+            watchdog.cancel()
             proc.kill()
     assert proc.returncode == 0, out
     assert f"world of {plan_dir}: 20 m cells, 10 targets, seed 4, pc 0.9, pf 0.1" in out

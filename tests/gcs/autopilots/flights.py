@@ -67,7 +67,7 @@ def fly(plan: Path, connections: list[str] | int, *extra: str, timeout: float = 
 
 
 def fly_with_a_dropout(plan: Path, connections: list[str] | int, relay, uav_id: int, *extra: str,
-                       after_s: float = 3.0, silent_s: float = 10.0) -> subprocess.CompletedProcess:
+                       after_s: float, silent_s: float) -> subprocess.CompletedProcess:
     """`fly`, with `relay` (a `tests.peers.relay.UdpRelay`) silent for `silent_s` of wall time from
     `after_s` after UAV `uav_id` started its search."""
     searching = threading.Event()

@@ -34,7 +34,7 @@ AWAY_S = 1.0  # and the restarted station's own start: some 30 s of the copter's
 def test_a_copter_flies_on_while_the_station_is_dead_and_the_restarted_station_brings_it_home_on_fuel(tmp_path):
     site = Site(COPTERS.airports[1:2])
     plan_dir = site.plan(tmp_path)
-    with ArduPilotSitl("copter", home=site.home(0), params={"BATT_CAPACITY": 2600}) as sitl:
+    with ArduPilotSitl("copter", home=site.home(0), speedup=10, params={"BATT_CAPACITY": 2600}) as sitl:
         first = station(plan_dir, [sitl.udp_connection])
         before = kill_when(first, plan_dir, lambda s: 1 in s.vehicles and len(s.vehicles[1].battery_samples) >= 10,
                            timeout_s=300)  # 10 s of the copter's time in the air, searching

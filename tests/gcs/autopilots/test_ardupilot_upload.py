@@ -8,6 +8,7 @@ import asyncio
 import json
 import subprocess
 import sys
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -22,6 +23,7 @@ pytestmark = pytest.mark.autopilot
 
 SITE = Site(COPTERS.airports[:1])
 SITES = {"copter": SITE, "plane": PLANE}
+SPEEDUP = 20.0  # the highest the flight tests pass at; an upload waits only for the vehicle's home
 KEY = SigningKey.from_passphrase("gcs autopilot tests")
 
 
@@ -35,12 +37,31 @@ def plans(tmp_path_factory) -> dict[str, Path]:
     return {"copter": SITE.plan(root / "copter"), "plane": PLANE.plan(root / "plane", "--vehicle", "plane")}
 
 
-@pytest.mark.parametrize("vehicle", ["copter", "plane"])
+@pytest.fixture(scope="module")
+def shared_sitl() -> Iterator[Callable[[str], ArduPilotSitl]]:
+    """One SITL per vehicle type, started when first asked for and shared by the upload tests (an
+    upload replaces the whole mission, fence and rally points, and changes nothing else); the
+    tests that share one are in one xdist group, so in one process."""
+    started: dict[str, ArduPilotSitl] = {}
+
+    def get(vehicle: str) -> ArduPilotSitl:
+        if vehicle not in started:
+            started[vehicle] = ArduPilotSitl(vehicle, home=SITES[vehicle].home(0), speedup=SPEEDUP)
+            started[vehicle].start()
+        return started[vehicle]
+
+    yield get
+    for sitl in started.values():
+        sitl.stop()
+
+
+@pytest.mark.parametrize("vehicle", [pytest.param(v, marks=pytest.mark.xdist_group(f"ardupilot_upload_{v}"))
+                                     for v in ("copter", "plane")])
 @pytest.mark.parametrize("transport", ["udp", "tcp"])
-def test_planned_mission_uploads_and_reads_back(plans, vehicle, transport):
-    with ArduPilotSitl(vehicle, home=SITES[vehicle].home(0)) as sitl:
-        conn = sitl.udp_connection if transport == "udp" else sitl.tcp_connection
-        done = _gcs("upload", "--plan", str(plans[vehicle]), "--connect", conn, "--connect-timeout", "30")
+def test_planned_mission_uploads_and_reads_back(plans, shared_sitl, vehicle, transport):
+    sitl = shared_sitl(vehicle)
+    conn = sitl.udp_connection if transport == "udp" else sitl.tcp_connection
+    done = _gcs("upload", "--plan", str(plans[vehicle]), "--connect", conn, "--connect-timeout", "30")
     assert done.returncode == 0, done.stdout + done.stderr
     plan = json.loads((plans[vehicle] / "plan.json").read_text())
     landing = 3 if vehicle == "plane" else 1  # DO_LAND_START, approach, NAV_LAND; or NAV_LAND
@@ -52,8 +73,8 @@ def test_planned_mission_uploads_and_reads_back(plans, vehicle, transport):
 
 @pytest.mark.parametrize("vehicle", ["copter", "plane"])
 def test_signed_upload_after_provisioning_and_unsigned_station_told_why(plans, vehicle):
-    with ArduPilotSitl(vehicle, home=SITES[vehicle].home(0)) as sitl:
-        provisioned = _gcs("signing", "--connect", sitl.tcp_connection, "--signing-passphrase",
+    with ArduPilotSitl(vehicle, home=SITES[vehicle].home(0), speedup=SPEEDUP) as sitl:
+        provisioned = _gcs("signing", "--connect", sitl.tcp_connection, "--uav", "1", "--signing-passphrase",
                            "gcs autopilot tests", "--wait", "15")
         assert provisioned.returncode == 0, provisioned.stdout + provisioned.stderr
         # SERIAL0 is ArduPilot's USB port, which it trusts unsigned; the UDP link below must refuse
@@ -84,7 +105,7 @@ def _waypoints(n: int, frame: int = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT) -> li
 
 def test_refusals_are_named_with_the_vehicles_words_and_leave_no_mixed_mission():
     async def main():
-        with ArduPilotSitl("copter", home=SITE.home(0)) as sitl:
+        with ArduPilotSitl("copter", home=SITE.home(0), speedup=SPEEDUP) as sitl:
             async with MavLink(sitl.tcp_connection) as link:
                 await _ready(link)
                 good = _waypoints(6)

@@ -21,8 +21,8 @@ from tests.peers.site import FIELD_COPTERS, FIELD_PLANES
 pytestmark = pytest.mark.autopilot
 
 #: PX4 SIH's stock battery halves in the first 30 s armed and stays there (docs/energy.md): no
-#: pack a flight can be priced by. Our PX4 vehicles drain from full to empty in 10 minutes armed.
-PX4_PACK = {"SIM_BAT_DRAIN": 600.0, "SIM_BAT_MIN_PCT": 0.0}
+#: pack a flight can be priced by. Our PX4 vehicles drain from full to empty in 20 minutes armed.
+PX4_PACK = {"SIM_BAT_DRAIN": 1200.0, "SIM_BAT_MIN_PCT": 0.0}
 
 COPTERS = [Vehicle(), Vehicle(params={"BATT_CAPACITY": 1800}), Vehicle()]  # UAV 2 with a small pack
 PLANES = [Vehicle(airframe="plane")] * 3

@@ -22,11 +22,11 @@ from tests.gcs.autopilots.flights import (
 )
 from tests.gcs.bus.helpers import Mosquitto
 from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
-from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
+from tests.peers.px4 import ONE_AT_A_TIME, STEADY_BATTERY, Px4Sitl
 from tests.peers.relay import UdpRelay
 from tests.peers.site import COPTERS, Site
 
-pytestmark = pytest.mark.autopilot
+pytestmark = [pytest.mark.autopilot, ONE_AT_A_TIME]
 
 
 
@@ -39,7 +39,7 @@ def test_a_planned_mission_uploads_to_px4_and_reads_back_as_px4_stores_it(tmp_pa
     """Over the instance's GCS port (`udpout:127.0.0.1:18570+I`), or listening where every PX4
     SITL sends its telemetry (`udpin:127.0.0.1:14550`, vehicles told apart by system id)."""
     plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
-    with Px4Sitl(home=_px4_home(COPTERS, 0)) as px4:
+    with Px4Sitl(home=_px4_home(COPTERS, 0), alone=link == "udpin") as px4:
         connection = px4.gcs_connection if link == "udpout" else "udpin:127.0.0.1:14550"
         done = subprocess.run([sys.executable, "-m", "gcs.cli", "upload", "--plan", str(plan_dir), "--connect",
                                connection, "--connect-timeout", "30"], capture_output=True, text=True, timeout=300)
@@ -84,7 +84,8 @@ def test_a_mixed_fleet_brings_the_fast_draining_px4_home_first(tmp_path):
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     out = done.stdout
     assert "UAV 1: preparing - ardupilot autopilot" in out and "UAV 2: preparing - px4 autopilot" in out
-    assert re.search(r"UAV 2: battery \d+% covers [\d.]+ steps, the way home needs", out)
+    assert re.search(r"UAV 2: battery \d+% \(\d+ mAh\) pays for \d+ m above the 30% reserve and the landing; the way "
+                     r"home is \d+ m", out), out[-3000:]
     rows = {line.split()[0]: line.split() for line in out.splitlines() if re.match(r"^\s+[12] ", line)}
     assert rows["1"][5] == "plan" and rows["2"][5] == "battery"
     assert out.index("UAV 2: return - going home (battery)") < out.index("UAV 1: landed")
@@ -100,15 +101,15 @@ def test_a_mixed_fleet_brings_the_fast_draining_px4_home_first(tmp_path):
 
 
 def test_operator_orders_on_a_px4_a_shorter_range_then_home(tmp_path):
-    """The operator's `range 1 N` mid-search (a range of N steps from take-off) makes the trigger
+    """The operator's `range 1 N` mid-search (a range of N metres along its plan from take-off) makes the trigger
     send the PX4 home along its planned way as soon as that way no longer fits in it."""
     plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
     with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4:
         done = fly(plan_dir, [px4.gcs_connection], "--no-rrd",
-                   orders=(("UAV 1: search", "range 1 12", 0.0),))
+                   orders=(("UAV 1: search", "range 1 360", 0.0),))
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     out = done.stdout
-    assert "UAV 1: range set to 12 steps" in out, out[-3000:]
+    assert "UAV 1: range set to 360 m" in out, out[-3000:]
     assert re.search(r"UAV 1: return - going home \((range|operator)", out), out[-3000:]
     row = next(line.split() for line in out.splitlines() if line.startswith("  1 west"))
     assert row[2] == "landed" and float(row[3]) <= 3.0
@@ -132,13 +133,13 @@ def test_a_px4_that_fails_its_pre_arm_checks_stays_on_the_ground_with_its_reason
 
 
 def test_a_px4_whose_link_goes_silent_flies_its_mission_on_and_is_picked_up_again(tmp_path):
-    """The station's link to PX4 goes through a relay that drops everything for 10 s of wall time
-    (50 s of vehicle time) mid-search: the station marks it lost; PX4 (NAV_DLL_ACT 0, its default)
-    flies its mission on; the station picks it up when the link is back, and it lands at home."""
+    """The station's link to PX4 goes through a relay that drops everything for 50 s of vehicle
+    time, 15 s into the search: the station marks it lost; PX4 (NAV_DLL_ACT 0, its default) flies
+    its mission on; the station picks it up when the link is back, and it lands at home."""
     plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
     with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4, UdpRelay(px4.gcs_port) as relay:
         done = fly_with_a_dropout(plan_dir, [f"udpout:127.0.0.1:{relay.port}"], relay, 1,
-                                  "--lost-giveup", "60")
+                                  "--lost-giveup", "60", after_s=15.0 / px4.speedup, silent_s=50.0 / px4.speedup)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     assert relay.dropped > 20
     assert "UAV 1: lost - no telemetry" in done.stdout and "UAV 1: search - link back" in done.stdout

@@ -24,10 +24,10 @@ from planner.sensor_noise import reading_draw
 from sim.detector import CAMERA_COMPONENT_ID
 from tests.gcs.autopilots.flights import metres
 from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
-from tests.peers.px4 import STEADY_BATTERY, Px4Sitl, free_instance
+from tests.peers.px4 import ONE_AT_A_TIME, STEADY_BATTERY, Px4Sitl
 from tests.peers.site import Airport, Site
 
-pytestmark = pytest.mark.autopilot
+pytestmark = [pytest.mark.autopilot, ONE_AT_A_TIME]
 
 SEED, PC, PF = 3, 0.9, 0.1
 SITE = Site((Airport("west", -225.0, -45.0, "E", 600.0), Airport("south", -45.0, -225.0, "N", 600.0)),
@@ -38,16 +38,16 @@ def test_online_search_on_a_mixed_fleet_with_detectors_folds_both_vehicles_readi
     plan_dir = SITE.plan(tmp_path, "--seed", str(SEED), "--altitude", "15")
     plan = load_plan_dir(plan_dir)
     ardupilot_camera_port = free_udp_port()
-    px4_instance = free_instance()
-    detector = subprocess.Popen(
-        [sys.executable, "-m", "gcs.cli", "detector", "--plan", str(plan_dir),
-         "--uav", "1", "--connect", f"udpin:127.0.0.1:{ardupilot_camera_port}",
-         "--uav", "2", "--connect", f"udpout:127.0.0.1:{14280 + px4_instance}"],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    detector = None
     try:
         with ArduPilotSitl("copter", home=SITE.home(0), sysid=1, speedup=5,
                            serial2=f"udpclient:127.0.0.1:{ardupilot_camera_port}") as ardupilot, \
-                Px4Sitl(home=SITE.home(1)[:3], sysid=2, instance=px4_instance, params=STEADY_BATTERY) as px4:
+                Px4Sitl(home=SITE.home(1)[:3], sysid=2, params=STEADY_BATTERY) as px4:
+            detector = subprocess.Popen(
+                [sys.executable, "-m", "gcs.cli", "detector", "--plan", str(plan_dir),
+                 "--uav", "1", "--connect", f"udpin:127.0.0.1:{ardupilot_camera_port}",
+                 "--uav", "2", "--connect", px4.payload_connection],
+                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
             setup = build_area_search(tmp_path / "site.geojson", AreaOptions(altitude_m=15),
                                       SearchOptions(seed=SEED, strategy="exhaustive"))
             search = observed_search(setup.search.scenario, setup.search.config, seed=SEED)
@@ -55,11 +55,12 @@ def test_online_search_on_a_mixed_fleet_with_detectors_folds_both_vehicles_readi
             controller = asyncio.run(asyncio.wait_for(
                 fly_async(plan, [ardupilot.udp_connection, px4.gcs_connection], FlyOptions(), online=search), 400))
     finally:
-        detector.send_signal(signal.SIGTERM)
-        try:
-            out, _ = detector.communicate(timeout=10)
-        finally:
-            detector.kill()
+        if detector is not None:
+            detector.send_signal(signal.SIGTERM)
+            try:
+                out, _ = detector.communicate(timeout=10)
+            finally:
+                detector.kill()
     assert detector.returncode == 0, out
     targets, folded = set(plan.targets), 0
     for uid in (1, 2):

@@ -160,12 +160,6 @@ def differences(sim: Transcript, real: Transcript) -> list[str]:
     return problems
 
 
-@pytest.fixture(scope="module")
-def plans(tmp_path_factory) -> dict[str, Path]:
-    root = tmp_path_factory.mktemp("site")
-    return {"copter": SITE.plan(root / "copter"), "plane": SITE.plan(root / "plane", "--vehicle", "plane")}
-
-
 def _sim_transcript(vehicle: str, plan_dir: Path) -> Transcript:
     lat, lon, alt, heading = SITE.home(0)
     fleet = SimFleet([HomePose(lat, lon, alt, heading)], VehicleConfig(vehicle_type=vehicle),
@@ -183,7 +177,7 @@ def _sim_transcript(vehicle: str, plan_dir: Path) -> Transcript:
 
 
 def _sitl_transcript(vehicle: str, plan_dir: Path) -> Transcript:
-    with ArduPilotSitl(vehicle, home=SITE.home(0)) as sitl:
+    with ArduPilotSitl(vehicle, home=SITE.home(0), speedup=20) as sitl:
         conn = mavutil.mavlink_connection(sitl.udp_connection, source_system=255, source_component=190,
                                           dialect="ardupilotmega")
         try:
@@ -192,16 +186,10 @@ def _sitl_transcript(vehicle: str, plan_dir: Path) -> Transcript:
             conn.close()
 
 
-@pytest.fixture(scope="module")
-def transcripts(plans) -> dict[str, tuple[Transcript, Transcript]]:
-    """(simulator, SITL) per vehicle type, one SITL at a time; each about 6 s."""
-    return {vehicle: (_sim_transcript(vehicle, plans[vehicle]), _sitl_transcript(vehicle, plans[vehicle]))
-            for vehicle in ("copter", "plane")}
-
-
 @pytest.mark.parametrize("vehicle", ["copter", "plane"])
-def test_the_sim_reads_back_what_arducopter_and_arduplane_read_back(transcripts, vehicle):
-    sim, real = transcripts[vehicle]
+def test_the_sim_reads_back_what_arducopter_and_arduplane_read_back(tmp_path, vehicle):
+    plan_dir = SITE.plan(tmp_path, "--vehicle", vehicle)
+    sim, real = _sim_transcript(vehicle, plan_dir), _sitl_transcript(vehicle, plan_dir)  # each about 6 s
     assert real.results["refused"] == mavlink.MAV_MISSION_UNSUPPORTED_FRAME  # the SITL did refuse it
     assert real.results["too many"] == mavlink.MAV_MISSION_NO_SPACE
     assert real.results["late item"] == mavlink.MAV_MISSION_ERROR  # not a repeated ACCEPTED

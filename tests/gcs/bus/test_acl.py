@@ -33,7 +33,10 @@ def test_only_the_command_role_may_command_the_fleet(make_broker, tmp_path, flee
             await bus.wait_connected(5)
             await bus.drain(5)
             async with FleetWatcher(parse_broker_url(url), fleet=fleet_name) as anonymous:
-                await asyncio.sleep(0.5)
+                for _ in range(100):  # the retained states, within 10 s (0.5 s was too short on a busy machine)
+                    if len(anonymous.uavs) == 4:
+                        break
+                    await asyncio.sleep(0.1)
                 out["anonymous sees"] = sorted(anonymous.uavs)  # reading is allowed
                 with pytest.raises(TimeoutError):
                     await anonymous.command(Command("anon1", CommandKind.RETURN, 1), timeout_s=1.0)

@@ -51,6 +51,8 @@ def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fle
                 flight = asyncio.create_task(controller.run())
                 async with FleetWatcher(url, fleet=fleet_name) as watcher:
                     while not controller.status[2].airborne_seen:  # ordered on the ground, it would stay there
+                        assert not flight.done() and controller.status[2].stage is not Stage.FAILED, \
+                            f"UAV 2 will not take off: {controller.status[2].note}"
                         await asyncio.sleep(0.05)
                     replies["return 2"] = await watcher.command(Command("r2", CommandKind.RETURN, 2), 5)
                     replies["return 2 again"] = await watcher.command(Command("r2b", CommandKind.RETURN, 2), 5)

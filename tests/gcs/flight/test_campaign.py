@@ -278,7 +278,8 @@ def reading_plan(tmp_path_factory, plan_dir):
     return load_plan_dir(_copy_plan(plan_dir, tmp_path_factory.mktemp("readings") / "plan"))
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(data=st.data())
 def test_the_posterior_never_says_more_than_the_readings(reading_plan, data):
     """Any stream of readings, in any order, outside the grid too: a cell ends where its readings
