@@ -13,13 +13,10 @@ import math
 import struct
 from dataclasses import replace
 from enum import Enum
-from typing import TYPE_CHECKING
 
 from gcs.autopilots import ardupilot_storage, modes, px4_storage
+from gcs.autopilots.wire_item import WireItem
 from gcs.links import mavlink
-
-if TYPE_CHECKING:
-    from gcs.autopilots.mission_transfer import WireItem
 
 __all__ = ["Autopilot", "compare_items"]
 
