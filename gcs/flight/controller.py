@@ -68,7 +68,9 @@ class FlyOptions:
     a UAV without one gets its autopilot's stock profile (`gcs.plans.vehicle_file.stock_profile`).
     `confirm_s`: vehicle seconds the return trigger must hold before it is acted on.
     `fit_charge`: a vehicle whose charge cannot pay for its plan flies a range cut to its charge
-    instead of being kept on the ground. `vehicles_file`: the vehicles.json the profiles this
+    instead of being kept on the ground. `wind_m_s`: (east, north) m/s the air moves towards, as
+    the crew measured it at launch: the check before arming and the trigger price the plan in it
+    until the vehicle's own wind reading replaces it. `vehicles_file`: the vehicles.json the profiles this
     flight learns are merged into. `landed_away_m[airframe]`: farther than this from its airport a
     vehicle has landed away."""
 
@@ -76,6 +78,7 @@ class FlyOptions:
     profiles: dict[int, EnergyProfile] = field(default_factory=dict)
     confirm_s: float = 3.0
     fit_charge: bool = False
+    wind_m_s: tuple[float, float] | None = None
     vehicles_file: str | None = None
     landed_away_m: dict[str, float] = field(default_factory=lambda: dict(LANDED_AWAY_M))
     link_timeout_s: float = 3.0
@@ -106,7 +109,8 @@ class FlightController:
         self.options = options = options or FlyOptions()
         self.out = out or (lambda line: print(line, flush=True))
         self.vehicles = {uid: VehicleFlight(plan, task, self._profile(uid, task.vehicle.value),
-                                            reserve_pct=options.reserve_pct, confirm_s=options.confirm_s)
+                                            reserve_pct=options.reserve_pct, confirm_s=options.confirm_s,
+                                            wind_m_s=options.wind_m_s)
                          for uid, task in plan.uavs.items()}
         self.status = {uid: v.status for uid, v in self.vehicles.items()}
         self.link_of: dict[int, MavLink] = {}
@@ -544,22 +548,34 @@ class FlightController:
         path_m = float(self.plan.raw_uav(uid).get("length_m", self._along_m[uid][-1]))
         reserve = fuel.reserve_mah(self.options.reserve_pct)
         ends = profile.launch_cost_mah(task.altitude_m) + profile.landing_cost_mah(vehicle.landing_altitude_m)
-        need = ends + fuel.rate_mah_per_m * path_m + reserve
+        legs = [(float(e), float(n)) for e, n in np.diff(self._track_m[uid], axis=0)]
+        along = fuel.way_cost(legs)
+        per_m = along.mah / along.metres if along.metres > 0 else fuel.rate_mah_per_m  # the wind known included
+        need = ends + per_m * path_m + reserve
         pct = f"{st.battery_pct:.0f}%" if st.battery_pct is not None else "charge"
+        wind = "" if fuel.wind_m_s is None else " in the wind"
         if have >= need:
-            self.say(uid, f"charge {pct} ({have:.0f} of {fuel.capacity_mah:.0f} mAh) pays for its {path_m:.0f} m plan: "
-                          f"{need:.0f} mAh with the {self.options.reserve_pct:g}% reserve")
+            self.say(uid, f"charge {pct} ({have:.0f} of {fuel.capacity_mah:.0f} mAh) pays for its {path_m:.0f} m plan"
+                          f"{wind}: {need:.0f} mAh with the {self.options.reserve_pct:g}% reserve")
             return True
-        covers_m = fuel.cruise_m_for(have - reserve - ends)
-        what = (f"charge {pct} = {have:.0f} mAh pays for {covers_m:.0f} m of its plan's {path_m:.0f} m (the plan needs "
-                f"{need:.0f} mAh with the {self.options.reserve_pct:g}% reserve of a {fuel.capacity_mah:.0f} mAh pack)")
+        covers_m = max(0.0, have - reserve - ends) / per_m
+        what = (f"charge {pct} = {have:.0f} mAh pays for {covers_m:.0f} m of its plan's {path_m:.0f} m{wind} (the plan "
+                f"needs {need:.0f} mAh with the {self.options.reserve_pct:g}% reserve of a {fuel.capacity_mah:.0f} mAh "
+                f"pack)")
         if not self.options.fit_charge:
             self.set_stage(uid, Stage.FAILED, f"not armed: {what}; charge it, or fly a range cut to its charge "
                                               "(--fit-charge)")
             return False
         overhead = max(0.0, path_m - float(self._along_m[uid][-1]))
-        if covers_m - overhead <= 0:
-            self.set_stage(uid, Stage.FAILED, f"not armed: {what}, not even the way out and back")
+        if len(task.trajectory) > 1:
+            home = fuel.way_cost(self._home_legs(uid, 1))
+            shortest_m = float(self._along_m[uid][1]) + home.metres
+            shortest_mah = float(self._along_m[uid][1]) * per_m + home.mah
+        else:
+            shortest_m = shortest_mah = 0.0
+        if (covers_m - overhead) * per_m < shortest_mah:
+            self.set_stage(uid, Stage.FAILED, f"not armed: {what}, less than its shortest way out and home "
+                                              f"({shortest_m:.0f} m{wind})")
             return False
         self.operator_range[uid] = covers_m - overhead
         self.say(uid, f"{what}: flying a range cut to {covers_m - overhead:.0f} m along its plan (--fit-charge)")

@@ -78,12 +78,13 @@ class VehicleFlight:
     """One vehicle of the flight (see the module docstring)."""
 
     def __init__(self, plan: FleetPlan, task: UavTask, profile: EnergyProfile, *, reserve_pct: float,
-                 confirm_s: float = 3.0) -> None:
+                 confirm_s: float = 3.0, wind_m_s: tuple[float, float] | None = None) -> None:
         self.plan = plan
         self.task = task
         self.status = VehicleStatus(task.uav_id)
         self.profile = profile
-        self.fuel = FuelGauge(profile)
+        self.crew_wind = wind_m_s  # the wind the crew measured at launch (`gcs fly --wind`)
+        self.fuel = self._gauge(profile)
         self.reserve_pct = reserve_pct
         self.confirm_s = confirm_s
         self.phase = FlightPhase.GROUND
@@ -115,10 +116,16 @@ class VehicleFlight:
         capacity already read from the autopilot)."""
         capacity = self.fuel.capacity_mah if self.fuel.capacity_mah != self.profile.capacity_mah else None
         self.profile = profile
-        self.fuel = FuelGauge(profile)
+        self.fuel = self._gauge(profile)
         self.lean_wind = LeanWind(profile.lean_tan_at_10_m_s) if profile.lean_tan_at_10_m_s else None
         if capacity is not None:
             self.fuel.set_capacity(capacity)
+
+    def _gauge(self, profile: EnergyProfile) -> FuelGauge:
+        gauge = FuelGauge(profile)
+        if self.crew_wind is not None:
+            gauge.set_wind(*self.crew_wind)
+        return gauge
 
     # ---- telemetry ---------------------------------------------------------------------------
 
@@ -153,7 +160,7 @@ class VehicleFlight:
             return
         lean.sample(thrust_lean(msg.roll, msg.pitch, msg.yaw), self._velocity, self._acceleration)
         wind = lean.wind_m_s
-        if wind is None or lean.samples % 10:
+        if wind is None or lean.samples % 4:
             return
         self.fuel.set_wind(*wind)
         said = self._wind_said
