@@ -24,9 +24,9 @@ MIN_SAMPLES = 6
 WINDOW = 60
 
 #: A wind read as slower than this is taken for still air: in level flight the lean law, measured
-#: hovering, reads ArduCopter SITL's still air as up to 1.9 m/s (the drag of a quad flying nose
-#: first is not quite the drag of a quad holding in a wind)
-CALM_M_S = 2.5
+#: hovering, reads ArduCopter SITL's still air as up to 2.6 m/s along its track (a quad flying
+#: nose first leans less than one holding in a wind of its speed)
+CALM_M_S = 3.5
 
 #: Samples accelerating harder than this are left out (the acceleration is read from velocities
 #: a quarter of a second apart: a turn's or a stop's is too coarse to take out of the lean)

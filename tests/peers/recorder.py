@@ -3,8 +3,9 @@ from the vehicle itself, not from the station's log. Where it flew (GLOBAL_POSIT
 battery (BATTERY_STATUS), whether it is down (HEARTBEAT armed bit, EXTENDED_SYS_STATE); from that,
 how many of its planned waypoints it passed and the battery it touched down with.
 
-ArduPilot SITL's spare port is SERIAL2 (TCP 5763 + 10 I); PX4 SITL's the onboard API port
-(14580 + I, which sends to 14540 + I). The recorder asks for its own streams on its own link
+ArduPilot SITL's spare port is SERIAL2 (TCP 5763 + 10 I); PX4 SITL's its onboard payload link
+(14280 + I, which sends to 14030 + I): the API link (14540 + I), once `Px4Sitl` has set parameters
+through it, sent a recorder listening there nothing more. The recorder asks for its own streams on its own link
 (SET_MESSAGE_INTERVAL is per link on both autopilots), so the station's settings do not matter."""
 
 from __future__ import annotations
@@ -20,6 +21,13 @@ from pymavlink import mavutil
 
 #: GLOBAL_POSITION_INT, BATTERY_STATUS, EXTENDED_SYS_STATE, SYS_STATUS
 STREAMS_HZ = {33: 4.0, 147: 1.0, 245: 1.0, 1: 1.0}
+
+#: Streams PX4's onboard link sends at 50-250 Hz of vehicle time unasked (ATTITUDE, its quaternion
+#: and target, HIGHRES_IMU, LOCAL_POSITION_NED, ODOMETRY, ALTITUDE, DISTANCE_SENSOR,
+#: POSITION_TARGET_LOCAL_NED, SERVO_OUTPUT_RAW, TIMESYNC): thousands of messages a second of wall
+#: time at a speed-up of 5, more than a recorder thread beside a fleet's others parses. Turned off
+#: on the recorder's own link (interval -1).
+NOT_WANTED = (30, 31, 83, 105, 32, 331, 141, 132, 85, 36, 111)
 
 
 @dataclass
@@ -67,6 +75,8 @@ class SpareRecorder:
     def _ask_streams(self, conn) -> None:
         for msg_id, hz in STREAMS_HZ.items():
             conn.mav.command_long_send(self.sysid, 1, 511, 0, msg_id, 1e6 / hz, 0, 0, 0, 0, 0)
+        for msg_id in NOT_WANTED:
+            conn.mav.command_long_send(self.sysid, 1, 511, 0, msg_id, -1, 0, 0, 0, 0, 0)
 
     def _run(self) -> None:
         conn = None

@@ -94,7 +94,7 @@ def fly_fleet(tmp_path: Path, site: Site, vehicles: list[Vehicle], *gcs_args: st
                 px4 = stack.enter_context(Px4Sitl(v.airframe, home=(lat, lon, alt), sysid=sysid, speedup=speedup,
                                                   params=dict(v.params)))
                 connections.append(px4.gcs_connection)
-                spare = f"udpin:127.0.0.1:{14540 + px4.instance}"
+                spare = f"udpin:127.0.0.1:{14030 + px4.instance}"  # its payload link: the API one sets its params
             else:
                 params = {**(WIND if wind else {}), **v.params}
                 sitl = stack.enter_context(ArduPilotSitl(v.airframe, home=site.home(i), sysid=sysid, gcs_port=port,

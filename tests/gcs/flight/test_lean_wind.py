@@ -77,7 +77,7 @@ def test_the_simulated_copter_leans_as_the_profile_reads_and_shows_no_wind():
 
 
 def test_a_light_wind_reads_as_still_air():
-    """Below CALM_M_S the lean law's own error in level flight (up to 1.9 m/s on SITL) could be
+    """Below CALM_M_S the lean law's own error in level flight (up to 2.6 m/s on SITL) could be
     all there is: still air."""
     wind = LeanWind(L10)
     for _ in range(MIN_SAMPLES):
