@@ -150,13 +150,13 @@ def test_upload_under_20_percent_packet_loss_still_verifies(plan):
         fleet.stop()
     resends = 0
     for uid, task in plan.uavs.items():
-        report = controller.upload_reports[uid]["mission"]
+        report = controller.vehicles[uid].upload_reports["mission"]
         resends += report.resends
         wanted = task.mission_wire(controller.status[uid].autopilot)
         got = stored[uid]
         assert len(got) == len(wanted)
         assert [(g.command, g.x, g.y) for g in got[1:]] == [(w.command, w.x, w.y) for w in wanted[1:]]
-        assert controller.upload_reports[uid]["fence"].items == len(task.fence_wire())
+        assert controller.vehicles[uid].upload_reports["fence"].items == len(task.fence_wire())
     assert resends > 0  # the loss really hit the transfers
 
 
