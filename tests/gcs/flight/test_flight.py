@@ -255,19 +255,20 @@ def test_fly_area_with_operator_orders_on_stdin(tmp_path):
 def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch):
     """A bug in the GCS loop mid-flight: every vehicle in the air is commanded RTL before the
     command ends with one error (FlightAborted), never left flying unwatched."""
-    from gcs.flight.controller import FlightAborted, FlightController
+    from gcs.flight.controller import FlightAborted
     from gcs.flight.fly import fly_async
+    from gcs.flight.vehicle_flight import VehicleFlight
     from sim import Mode
     from sim.plan_fleet import fleet_for_plan
 
-    real = FlightController.evaluate
+    real = VehicleFlight.watch
 
-    def evaluate(self, uid):
-        if self.status[uid].stage is Stage.SEARCH and self.status[uid].track_index >= 3:
+    def watch(self):
+        if self.status.stage is Stage.SEARCH and self.status.track_index >= 3:
             raise ZeroDivisionError("injected bug")
-        return real(self, uid)
+        return real(self)
 
-    monkeypatch.setattr(FlightController, "evaluate", evaluate)
+    monkeypatch.setattr(VehicleFlight, "watch", watch)
     fleet = fleet_for_plan(plan, speedup=20.0).start()
     try:
         with pytest.raises(FlightAborted, match="injected bug.*commanded RTL"):
