@@ -8,8 +8,12 @@ the landing (each metre of descent, and the touch-down). Over a real area the pl
 range in metres (`planner.motion.MoveCosts`); `range_m` is the range a charge pays for once the
 launch, the landing and the reserve are kept back, so a plan's range comes from the battery.
 
-Wind changes what a metre over the ground costs, one way more than the other; a flight learns
-that from its own charge (the ground station's fuel gauge), so a profile holds still-air figures."""
+Wind changes what a metre over the ground costs, one way more than the other: `wind_factor` is
+what a wind does to a vehicle that draws its cruise current wherever it flies, at its cruise
+speed through the air (a plane) or over the ground as far as its air speed allows (a
+multicopter: upwind it makes only what its air speed leaves). A profile holds still-air figures,
+and, for a multicopter, how far it leans into the air it moves through, from which a station
+reads a wind its autopilot does not report."""
 
 from __future__ import annotations
 
@@ -17,7 +21,10 @@ import math
 from dataclasses import dataclass, replace
 from enum import Enum
 
-__all__ = ["Airframe", "EnergyProfile"]
+__all__ = ["Airframe", "EnergyProfile", "MAX_WIND_FACTOR", "wind_factor"]
+
+#: A direction the vehicle can barely make headway in costs at most this many times its still-air metre.
+MAX_WIND_FACTOR = 10.0
 
 
 class Airframe(str, Enum):
@@ -34,7 +41,9 @@ class EnergyProfile:
     speed, per ground metre in still air, turns included as a search path makes them;
     `loiter_mah_per_s`: hover (copter) or loiter circle (plane); `launch_mah` + `climb_mah_per_m`
     per metre of climb: from arming to the mission altitude; `landing_mah` + `descent_mah_per_m`
-    per metre of descent: from the mission altitude to disarmed on the ground."""
+    per metre of descent: from the mission altitude to disarmed on the ground;
+    `lean_tan_per_m2s2` (multicopters): the tangent of its tilt per (m/s)^2 of air speed, its drag
+    against its weight (None: unknown, its wind is not read from its lean)."""
 
     airframe: Airframe
     capacity_mah: float
@@ -45,6 +54,7 @@ class EnergyProfile:
     climb_mah_per_m: float
     landing_mah: float
     descent_mah_per_m: float
+    lean_tan_per_m2s2: float | None = None
 
     def __post_init__(self) -> None:
         positive = ("capacity_mah", "cruise_speed_m_s", "cruise_mah_per_m")
@@ -56,6 +66,9 @@ class EnergyProfile:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a number >= 0, got {value}")
+        lean = self.lean_tan_per_m2s2
+        if lean is not None and not (math.isfinite(lean) and lean > 0):
+            raise ValueError(f"lean_tan_per_m2s2 must be a positive number or None, got {lean}")
 
     def launch_cost_mah(self, altitude_m: float) -> float:
         """Arming, take-off and the climb to `altitude_m` above the airport."""
@@ -87,3 +100,23 @@ class EnergyProfile:
     def with_capacity(self, capacity_mah: float) -> EnergyProfile:
         """The same airframe with another pack."""
         return replace(self, capacity_mah=capacity_mah)
+
+
+def wind_factor(profile: EnergyProfile, east: float, north: float, wind_m_s: tuple[float, float]) -> float:
+    """What a metre flown in the direction (east, north) costs in the wind `wind_m_s` (east, north
+    m/s the air moves towards), against a still-air metre: the cruise speed over the ground in
+    still air over the ground speed made good in that direction, its air speed the cruise speed
+    (a multicopter's ground speed never above it: its autopilot holds that speed over the ground),
+    at most MAX_WIND_FACTOR."""
+    length = math.hypot(east, north)
+    speed = profile.cruise_speed_m_s
+    if length == 0:
+        return 1.0
+    along = (east * wind_m_s[0] + north * wind_m_s[1]) / length
+    across2 = wind_m_s[0] ** 2 + wind_m_s[1] ** 2 - along * along
+    if across2 >= speed * speed:
+        return MAX_WIND_FACTOR
+    ground = along + math.sqrt(speed * speed - across2)
+    if profile.airframe is Airframe.COPTER:
+        ground = min(ground, speed)
+    return MAX_WIND_FACTOR if ground * MAX_WIND_FACTOR <= speed else speed / ground

@@ -87,7 +87,8 @@ def add_area_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--max-cells", type=int, default=d.max_cells, help="refuse grids with more cells than this")
     g.add_argument("--vehicles", metavar="FILE", default=d.vehicles,
                    help="vehicle energy profiles (the vehicles.json gcs fly writes): each UAV's range is what its "
-                        "vehicle's battery pays for, the reserve kept back (docs/energy.md)")
+                        "vehicle's battery pays for, the reserve kept back; gcs fly prices its flight with them "
+                        "(default: the file its plan was made with; docs/energy.md)")
     g.add_argument("--reserve-pct", type=float, default=d.reserve_pct,
                    help="battery kept back: by the ranges planned from --vehicles, and by gcs fly's return trigger")
 

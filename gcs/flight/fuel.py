@@ -20,16 +20,16 @@ it (ArduCopter's EKF estimates no wind without drag fusion: WIND says 0 while an
 the copter to 2.2 m/s over the ground, at 4.6 times its calm cost per metre; docs/energy.md).
 So the cost of a metre is learned as a function of the direction flown, from the charge itself:
 
-    charge of a stretch = a * metres + b * metres east + c * metres north
+    charge of a stretch = f(direction) * (a * metres + b * metres east + c * metres north + ...)
 
-(a first harmonic in the track direction: a is the cost averaged over directions, b and c how much
-dearer a metre flown east and a metre flown north is than that, negative where it is cheaper). It
-is fitted by least squares over the
+(a is the still-air cost, b, c and the second harmonic's d, e how much dearer a metre is one way
+than the average, negative where it is cheaper; f is what the wind known does to a metre flown
+that way, `planner.energy.wind_factor`, 1 when no wind is known). The wind is the autopilot's
+(ArduPlane's WIND, PX4's WIND_COV), else the one a multicopter shows by leaning into it while it
+holds its place (`gcs.flight.lean_wind`). The coefficients are fitted by least squares over the
 settled cruise since take-off, each stretch weighted by the inverse of its length (charge
 variance grows with distance), starting from a prior that counts as `prior_weight_m` metres
-already flown: a at the profile's still-air figure, (b, c) at zero, or, when the autopilot
-reports a wind (ArduPlane's WIND, PX4's WIND_COV), at what that wind does to a vehicle holding
-its cruise speed V through the air, -a (w_e, w_n) / V to first order (a tailwind is cheaper). A
+already flown: a at the profile's still-air figure, the harmonics at zero. A
 first noisy reading cannot move it far; a battery that drains faster than its profile says, or a
 wind the autopilot does not report, shows within a few hundred metres of search legs in a few
 directions; a direction never flown is priced near the profile. Once SHOWN_AFTER_M metres are
@@ -44,7 +44,7 @@ from enum import Enum
 
 import numpy as np
 
-from planner.energy import EnergyProfile
+from planner.energy import EnergyProfile, wind_factor
 
 __all__ = ["FlightPhase", "FuelGauge", "LegCost", "MIN_SHARE", "PRIOR_WEIGHT_M", "SETTLE_S"]
 
@@ -63,6 +63,9 @@ MIN_SHARE = 0.4
 
 #: a, and the first and second harmonics' cosine and sine
 TERMS = 5
+
+#: unit steps in 36 directions, to average a direction's cost over
+_COMPASS = [(math.sin(math.radians(d)), math.cos(math.radians(d))) for d in range(0, 360, 10)]
 
 
 def _terms(east: float, north: float) -> np.ndarray:
@@ -109,9 +112,9 @@ class FuelGauge:
         self.phase_mah: dict[FlightPhase, float] = dict.fromkeys(FlightPhase, 0.0)
         self.phase_m: dict[FlightPhase, float] = dict.fromkeys(FlightPhase, 0.0)
         self.used_at_launch: float | None = None
-        self._normal = np.zeros((TERMS, TERMS))  # sum of x x^T / m over sampled stretches (`_terms`)
-        self._moment = np.zeros(TERMS)           # sum of x q / m
+        self._stretches: list[tuple[np.ndarray, float]] = []  # (`_terms` of a sampled stretch, its mAh)
         self._fit: np.ndarray | None = None
+        self._fit_lift = 0.0
         self._level_since: float | None = None
         self._last_used: float | None = None
         self._last_phase: FlightPhase | None = None
@@ -131,6 +134,10 @@ class FuelGauge:
         if math.isfinite(east_m_s) and math.isfinite(north_m_s) and (east_m_s or north_m_s):
             self.wind_m_s = (float(east_m_s), float(north_m_s))
             self._fit = None
+
+    def factor(self, east: float, north: float) -> float:
+        """What the wind known does to a metre flown in the direction (east, north)."""
+        return 1.0 if self.wind_m_s is None else wind_factor(self.profile, east, north, self.wind_m_s)
 
     def moved(self, time_s: float, east_m: float, north_m: float, phase: FlightPhase) -> None:
         """A step of `(east_m, north_m)` over the ground, flown in `phase`, ending at `time_s`."""
@@ -173,8 +180,7 @@ class FuelGauge:
             if self._pure and phase is FlightPhase.CRUISE and self._settled(time_s) and metres > 0:
                 self.cruise_mah += spent
                 self.cruise_m += metres
-                self._normal += np.outer(self._pending, self._pending) / metres
-                self._moment += self._pending * spent / metres
+                self._stretches.append((self._pending, spent))
                 self._fit = None
         self.used_mah = used
         self._last_used = used
@@ -186,19 +192,21 @@ class FuelGauge:
 
     # ---- estimates ------------------------------------------------------------------------
 
-    def _prior(self) -> np.ndarray:
-        a = self.profile.cruise_mah_per_m
-        if self.wind_m_s is None:
-            return np.array([a, 0.0, 0.0, 0.0, 0.0])
-        v = self.profile.cruise_speed_m_s
-        return np.array([a, -a * self.wind_m_s[0] / v, -a * self.wind_m_s[1] / v, 0.0, 0.0])
-
     @property
     def fit(self) -> np.ndarray:
         """(a, b, c, d, e) of the module docstring, in mAh per metre."""
         if self._fit is None:
+            normal, moment = np.zeros((TERMS, TERMS)), np.zeros(TERMS)
+            xs = [terms * self.factor(terms[1], terms[2]) for terms, _ in self._stretches]
+            for x, (terms, mah) in zip(xs, self._stretches):
+                normal += np.outer(x, x) / terms[0]
+                moment += x * mah / terms[0]
             weight = np.diag([self.prior_weight_m] + [2.0 * self.prior_weight_m] * (TERMS - 1))
-            self._fit = np.linalg.solve(self._normal + weight, self._moment + weight @ self._prior())
+            prior = np.array([self.profile.cruise_mah_per_m, 0.0, 0.0, 0.0, 0.0])
+            self._fit = np.linalg.solve(normal + weight, moment + weight @ prior)
+            shown = self.shown_mah_per_m
+            fitted = sum(float(self._fit @ x) for x in xs) / self.cruise_m if shown is not None else 0.0
+            self._fit_lift = max(0.0, shown - fitted) if shown is not None else 0.0
         return self._fit
 
     @property
@@ -209,27 +217,29 @@ class FuelGauge:
     @property
     def _lift(self) -> float:
         """How far the fit, over the stretches sampled, lies under what they cost (0 when it
-        does not): the prior's pull, taken back."""
-        shown = self.shown_mah_per_m
-        if shown is None:
-            return 0.0
-        fitted = float(self.fit @ self._normal[:, 0]) / self.cruise_m  # column 0 sums each stretch's terms
-        return max(0.0, shown - fitted)
+        does not, or before SHOWN_AFTER_M are sampled): the prior's pull, taken back."""
+        return self._fit_lift if self.fit is not None else 0.0
 
     @property
     def rate_mah_per_m(self) -> float:
         """Charge per metre of cruise, averaged over directions: the fit's, never under what
         level flight has shown (a pack draining faster than its profile says is priced as it
         drains, not pulled back towards the profile)."""
-        return max(float(self.fit[0]) + self._lift, 1e-9)
+        if self.wind_m_s is None:
+            return max(float(self.fit[0]) + self._lift, 1e-9)
+        fit, lift = self.fit, self._lift
+        return max(float(np.mean([self._along(fit, e, n, lift) for e, n in _COMPASS])), 1e-9)
+
+    def _along(self, fit: np.ndarray, east: float, north: float, lift: float) -> float:
+        length = math.hypot(east, north)
+        return self.factor(east, north) * float(fit @ _terms(east, north)) / length + lift
 
     def rate_along(self, east: float, north: float) -> float:
         """Charge per metre of cruise in the direction (east, north), lifted as the average is."""
-        length = math.hypot(east, north)
         a = self.rate_mah_per_m
-        if length == 0:
+        if math.hypot(east, north) == 0:
             return a
-        return max(MIN_SHARE * a, float(self.fit @ _terms(east, north)) / length + self._lift)
+        return max(MIN_SHARE * a, self._along(self.fit, east, north, self._lift))
 
     @property
     def remaining_mah(self) -> float | None:

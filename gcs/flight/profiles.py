@@ -19,12 +19,10 @@ from pathlib import Path
 from gcs.atomic import write_json_atomic
 from gcs.flight.fuel import FlightPhase
 from gcs.flight.vehicle_energy import VehicleEnergy
-from gcs.plans.vehicle_file import VehicleRecord, merge_vehicles, vehicle_key, vehicles_to_dict
+from gcs.plans.vehicle_file import VEHICLES_FILE, VehicleRecord, merge_vehicles, vehicle_key, vehicles_to_dict
 from planner.energy import EnergyProfile
 
 __all__ = ["MIN_CRUISE_M", "VEHICLES_FILE", "learned_profile", "learned_records", "save_learned"]
-
-VEHICLES_FILE = "vehicles.json"
 
 #: Metres of sampled cruise below which a flight does not move the cruise figure.
 MIN_CRUISE_M = 100.0

@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol
 
@@ -24,6 +24,7 @@ from gcs.plans.belief_file import BELIEF_FILE, SORTIE_FILE, belief_from_dict, be
 from gcs.plans.gis_formats import area_sha256
 from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions, options_from_record, options_record
 from gcs.plans.planning import AreaSetup, area_out_dir, area_outputs, build_area_search, write_outputs
+from gcs.plans.vehicle_file import VEHICLES_FILE
 from planner.campaign import Belief, predicted_after
 from planner.dtscs import ClosedSearch
 from planner.plan import Plan
@@ -139,7 +140,8 @@ class NextSortie:
 def continued_start(folder: str | Path, out: str | Path | None = None) -> NextSortie:
     """The sortie after the flight in `folder`, into `out` (default `folder`-sortie<N+1>);
     UserError with the reason when that folder is not a finished flight of an unchanged plan
-    over an unchanged area file."""
+    over an unchanged area file. The energy profiles the flight learned (its `vehicles.json`)
+    give the next sortie's ranges."""
     folder = Path(folder)
     if not folder.is_dir():
         raise UserError(f"--continue {folder}: no such folder")
@@ -181,6 +183,9 @@ def continued_start(folder: str | Path, out: str | Path | None = None) -> NextSo
     except (KeyError, TypeError, ValueError, IndexError) as exc:
         raise UserError(f"--continue {folder}: {SORTIE_FILE} or plan.json is damaged ({type(exc).__name__}: {exc})") \
             from None
+    learned = folder / VEHICLES_FILE
+    if learned.is_file():  # the energy profiles the flight learned price the next sortie's ranges
+        area = replace(area, vehicles=str(learned.resolve()))
     available = flown.available()
     rows.append(_row(flown.sortie, "flown", str(campaign.get("belief", "prior")), folder,
                      float(done["expected_targets_found"]), float(done["expected_after"]), available,

@@ -34,10 +34,12 @@ from gcs.atomic import write_json_atomic
 from gcs.errors import UserError
 from planner.energy import Airframe, EnergyProfile
 
-__all__ = ["STOCK_PROFILES", "VehicleRecord", "load_vehicles", "merge_vehicles", "profile_for_uav",
+__all__ = ["STOCK_PROFILES", "VEHICLES_FILE", "VehicleRecord", "load_vehicles", "merge_vehicles", "profile_for_uav",
            "stock_profile", "vehicles_to_dict"]
 
 SCHEMA_VERSION = 1
+#: the name of the file a flight writes beside its sortie record
+VEHICLES_FILE = "vehicles.json"
 
 #: Stock energy profiles by (autopilot family, airframe): the SITL vehicles of ../shared/peers
 #: as `benchmarks/measure_energy.py` measured them (docs/energy.md has the figures and the command).

@@ -49,6 +49,10 @@ class SpareRecorder:
         self._thread.start()
         return self
 
+    @property
+    def stopped(self) -> bool:
+        return self._stop.is_set()
+
     def stop(self) -> Flown:
         self._stop.set()
         self._thread.join(10)

@@ -119,11 +119,25 @@ def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
                         f"(the plan has {', '.join(map(str, sorted(plan.uavs)))})")
     if not 0 <= args.reserve_pct < 100:
         raise UserError("--reserve-pct must be in [0, 100)")
-    return FlyOptions(reserve_pct=args.reserve_pct, profiles=profiles_from(args.vehicles, plan),
-                      vehicles_file=args.vehicles, fit_charge=args.fit_charge,
+    vehicles = args.vehicles or planned_vehicles_file(plan)
+    return FlyOptions(reserve_pct=args.reserve_pct, profiles=profiles_from(vehicles, plan),
+                      vehicles_file=vehicles, fit_charge=args.fit_charge,
                       link_timeout_s=args.link_timeout, lost_giveup_s=args.lost_giveup, return_after_s=returns,
                       fence=not args.no_fence, check_home=not args.allow_home_offset,
                       ready_timeout_s=args.ready_timeout, arm_timeout_s=args.arm_timeout)
+
+
+def planned_vehicles_file(plan: FleetPlan) -> str | None:
+    """The vehicles file `plan` was planned with (`gcs plan --vehicles`, or the one `--continue`
+    took from the flight before): its flight is priced with the profiles its ranges came from."""
+    options = (plan.raw.get("campaign") or {}).get("options") or {}
+    path = options.get("vehicles")
+    if not isinstance(path, str):
+        return None
+    if not Path(path).is_file():
+        raise UserError(f"{plan.folder} was planned with the energy profiles of {path}, which is gone: give "
+                        f"--vehicles FILE")
+    return path
 
 
 def profiles_from(path: str | None, plan: FleetPlan) -> dict[int, EnergyProfile]:

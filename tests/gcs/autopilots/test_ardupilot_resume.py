@@ -2,7 +2,8 @@
 copter searches in AUTO; the copter flies on by itself (ArduPilot's GCS failsafe is off by
 default); `gcs fly --resume` listens on the same port, reattaches (its mode, mission item and
 battery, its mission downloaded and compared with the one uploaded), and carries on: the copter's
-battery (a 2600 mAh pack where the site was planned for 3300: its search does not fit) sends it
+battery (its current sensor reads 3300/2600 of what it draws, BATT_AMP_PERVLT scaled: a copter thirstier
+than its stock profile, whose search does not fit) sends it
 home by the fuel-based trigger, from the consumption learned before the kill and after, above
 the 30 % reserve, and it lands at its airport.
 The flight is read back from the journal and from both segments of its Rerun recording."""
@@ -34,7 +35,7 @@ AWAY_S = 1.0  # and the restarted station's own start: some 30 s of the copter's
 def test_a_copter_flies_on_while_the_station_is_dead_and_the_restarted_station_brings_it_home_on_fuel(tmp_path):
     site = Site(COPTERS.airports[1:2])
     plan_dir = site.plan(tmp_path)
-    with ArduPilotSitl("copter", home=site.home(0), speedup=10, params={"BATT_CAPACITY": 2600}) as sitl:
+    with ArduPilotSitl("copter", home=site.home(0), speedup=10, params={"BATT_AMP_PERVLT": 17.0 * 3300 / 2600}) as sitl:
         first = station(plan_dir, [sitl.udp_connection])
         before = kill_when(first, plan_dir, lambda s: 1 in s.vehicles and len(s.vehicles[1].battery_samples) >= 10,
                            timeout_s=300)  # 10 s of the copter's time in the air, searching

@@ -15,10 +15,11 @@ import pytest
 
 from tests.gcs.autopilots.fleets import RESERVE_PCT, Vehicle, fly_fleet
 from tests.peers.ardupilot import require_ardupilot
-from tests.peers.px4 import require_px4
+from tests.peers.px4 import ONE_AT_A_TIME, Px4Sitl, require_px4
 from tests.peers.site import FIELD_COPTERS, FIELD_PLANES
 
-pytestmark = pytest.mark.autopilot
+#: each flies a fleet of three to its end (several minutes of vehicle time)
+pytestmark = [pytest.mark.autopilot, pytest.mark.timeout(900)]
 
 #: PX4 SIH's stock battery halves in the first 30 s armed and stays there (docs/energy.md): no
 #: pack a flight can be priced by. Our PX4 vehicles drain from full to empty in 20 minutes armed.
@@ -41,14 +42,15 @@ def judge(flight) -> None:
 @pytest.mark.parametrize("fleet, site, extra", [
     pytest.param(COPTERS, FIELD_COPTERS, (), id="3 ArduCopter, one small pack"),
     pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), id="3 ArduPlane"),
-    pytest.param(MIXED, FIELD_COPTERS, (), id="ArduCopter and 2 PX4"),
+    pytest.param(MIXED, FIELD_COPTERS, (), id="ArduCopter and 2 PX4", marks=ONE_AT_A_TIME),
 ])
 @pytest.mark.parametrize("wind", [False, True], ids=["still air", "8 m/s wind"])
 def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra, wind):
     require_ardupilot()
     if any(v.autopilot == "px4" for v in fleet):
         require_px4()
-    flight = fly_fleet(tmp_path, site, fleet, "--fit-charge", plan_args=extra, wind=wind)
+    speedup = Px4Sitl.speedup if any(v.autopilot == "px4" for v in fleet) else 10.0  # PX4 keeps up to 5
+    flight = fly_fleet(tmp_path, site, fleet, "--fit-charge", plan_args=extra, wind=wind, speedup=speedup)
     if wind:  # the issue's bound in wind: nobody below reserve - 5
         for v in flight.verdicts.values():
             assert v.touchdown_pct is not None and v.touchdown_pct >= RESERVE_PCT - 5, f"{v}\n{flight.stdout[-4000:]}"
@@ -90,10 +92,11 @@ def test_a_vehicle_whose_charge_cannot_pay_for_its_plan_stays_on_the_ground_nami
 
 
 def test_a_copter_that_comes_down_away_from_its_airport_is_reported_for_its_crew(tmp_path):
-    """Its GPS fails 15 s into its search: ArduCopter's EKF failsafe lands it where it is."""
+    """Its GPS fails once it is 250 m from its airport, searching: ArduCopter's EKF failsafe lands
+    it where it is."""
     require_ardupilot()
     flight = fly_fleet(tmp_path, FIELD_COPTERS, [Vehicle()] * 3, "--fit-charge",
-                       inject=(1, 15.0, {"SIM_GPS1_ENABLE": 0.0}))
+                       inject=(1, 250.0, {"SIM_GPS1_ENABLE": 0.0}))
     out = flight.stdout
     assert "UAV 1: landed away - LANDED AWAY at" in out and "fetch it" in out, out[-3000:]
     assert flight.returncode == 1 and "LANDED AWAY: UAV 1" in out

@@ -26,6 +26,7 @@ from gcs.plans.options import options_record
 from gcs.plans.plan_file import validate_plan_dict
 from gcs.plans.plan_folder import load_plan_dir
 from gcs.plans.planning import build_area_search
+from gcs.plans.vehicle_file import load_vehicles, profile_for_uav
 from gcs.telemetry.status import Detection
 from planner.motion import OC3
 from planner.success import expected_finds
@@ -177,7 +178,9 @@ def test_the_next_sortie_plans_from_the_posterior_with_fresh_batteries_and_stays
     validate_plan_dict(plan2)
     c = plan2["campaign"]
     assert c["sortie"] == 2 and c["belief"] == "flight" and c["continued_from"] == str(first)
-    assert c["options"] == plan1["campaign"]["options"] and c["area"] == plan1["campaign"]["area"]
+    learned = str((first / "vehicles.json").resolve())  # what the flight's vehicles taught prices sortie 2
+    assert c["options"] == {**plan1["campaign"]["options"], "vehicles": learned}
+    assert c["area"] == plan1["campaign"]["area"]
     assert plan2["seed"] == plan1["seed"] + 1_000_003  # a sortie's own seed
     assert [r["status"] for r in c["sorties"]] == ["flown", "planned"]
     assert c["sorties"][0]["readings"] == record["readings"]["count"]
@@ -189,12 +192,18 @@ def test_the_next_sortie_plans_from_the_posterior_with_fresh_batteries_and_stays
     belief = _json(second / "belief.json")
     validate_belief_dict(belief)
     assert belief["source"] == "flight" and belief["sortie"] == 2 and belief["tep"] == record["belief"]["tep"]
-    assert [u["range"] for u in plan2["uavs"]] == [u["range"] for u in plan1["uavs"]]  # fresh batteries
+    vehicles = load_vehicles(learned)
+    for u1, u2 in zip(plan1["uavs"], plan2["uavs"]):  # fresh batteries, ranges from the learned profiles
+        vehicle = profile_for_uav(vehicles, u2["id"])
+        assert vehicle is not None and "range_source" not in u1
+        assert u2["range_source"] == \
+            f"{learned}: vehicle {vehicle.key}, {vehicle.profile.capacity_mah:.0f} mAh, 30% reserve"
+        assert u2["range_m"] == pytest.approx(vehicle.profile.range_m(u2["altitude_m"], 30.0), abs=1.0)
 
     # closed and legal: the same sortie planned again from the options plan.json recorded, checked step by step
     nxt = continued_start(first)
     assert (nxt.area_file, Path(nxt.out)) == (campaign.area.resolve(), second.resolve())
-    assert options_record(nxt.area, nxt.search) == plan1["campaign"]["options"]
+    assert options_record(nxt.area, nxt.search) == c["options"]
     setup = build_area_search(nxt.area_file, nxt.area, nxt.search, nxt.start.belief)
     for _ in setup.search.run():
         pass
@@ -243,6 +252,22 @@ def test_sortie_after_sortie_the_campaign_counts_every_flight(campaign, capsys):
     assert c["sorties"][1]["cumulative_pos"] == pytest.approx(record["campaign"]["pos_after"], abs=1e-6)
     assert c["sorties"][1]["expected_targets_found"] == pytest.approx(record["campaign"]["expected_targets_found"],
                                                                       abs=1e-5)
+
+
+def test_a_sortie_planned_on_learned_profiles_is_flown_on_them_and_not_without_them(campaign, tmp_path, capsys):
+    """`gcs fly` prices the sortie with the vehicles file its ranges came from (on the stock
+    profile the simulated vehicles' 10100 mAh would not pay for that plan); when that file is gone
+    it says so in one line and flies nothing."""
+    first = _copy_plan(campaign.first, tmp_path / "first")
+    second = tmp_path / "second"
+    assert main(["plan", "--continue", str(first), "--out", str(second), "--no-rrd", "--quiet"]) == 0
+    assert _json(second / "plan.json")["campaign"]["options"]["vehicles"] == str((first / "vehicles.json").resolve())
+    (first / "vehicles.json").unlink()
+    capsys.readouterr()
+    assert main(["fly", "--plan", str(second), "--sim", "--speedup", SPEEDUP, "--no-rrd"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "was planned with the energy profiles of" in err and "give --vehicles FILE" in err
+    assert not (second / "sortie.json").exists()
 
 
 def _copy_plan(plan_dir: Path, to: Path) -> Path:

@@ -13,7 +13,7 @@ from hypothesis import given, strategies as st
 from gcs.flight.fuel import MIN_SHARE, PRIOR_WEIGHT_M, SETTLE_S, SHOWN_AFTER_M, FlightPhase, FuelGauge
 from gcs.flight.orders import OperatorOrder, parse_order
 from gcs.flight.return_trigger import SEVERE_SHARE, check_return, confirmed, fuel_decision
-from planner.energy import Airframe, EnergyProfile
+from planner.energy import MAX_WIND_FACTOR, Airframe, EnergyProfile
 
 COPTER = EnergyProfile(airframe=Airframe.COPTER, capacity_mah=3000.0, cruise_speed_m_s=10.0, cruise_mah_per_m=1.0,
                        loiter_mah_per_s=8.0, launch_mah=20.0, climb_mah_per_m=5.0, landing_mah=10.0,
@@ -116,7 +116,7 @@ def test_a_percentage_that_sags_and_recovers_balances_out():
 
 def test_a_reported_wind_prices_a_way_into_it_above_one_with_it():
     """ArduPlane reports its wind estimate: before any cruise is sampled, a plane holding 20 m/s
-    through the air is priced at a (1 - w.u / V) along each way."""
+    through the air draws its cruise current for as long as each way takes over the ground."""
     plane = EnergyProfile(airframe=Airframe.PLANE, capacity_mah=3300.0, cruise_speed_m_s=20.0, cruise_mah_per_m=0.3,
                           loiter_mah_per_s=6.0, launch_mah=0.0, climb_mah_per_m=0.0, landing_mah=0.0,
                           descent_mah_per_m=0.0)
@@ -126,8 +126,21 @@ def test_a_reported_wind_prices_a_way_into_it_above_one_with_it():
     gauge.set_wind(-5.0, 0.0)  # the air moves west
     west, east = gauge.way_cost([(-1000.0, 0.0)]), gauge.way_cost([(1000.0, 0.0)])
     assert west.metres == east.metres == 1000.0
-    assert west.mah == pytest.approx(300.0 * (1 - 5 / 20)) and east.mah == pytest.approx(300.0 * (1 + 5 / 20))
-    assert gauge.way_cost([(0.0, 1000.0)]).mah == pytest.approx(300.0)
+    assert west.mah == pytest.approx(300.0 * 20 / 25) and east.mah == pytest.approx(300.0 * 20 / 15)
+    assert gauge.way_cost([(0.0, 1000.0)]).mah == pytest.approx(300.0 * 20 / math.sqrt(20**2 - 5**2))
+
+
+def test_a_copter_in_the_wind_is_priced_by_the_ground_speed_it_can_make():
+    """A multicopter holds its cruise speed over the ground where its air speed allows: downwind a
+    metre costs what it costs in still air, upwind in 8 m/s at 10 m/s it makes 2 m/s, five times
+    dearer (ArduCopter SITL: 4.6, docs/energy.md); a wind it cannot fly against is capped."""
+    gauge = FuelGauge(COPTER)  # 10 m/s, 1 mAh/m
+    gauge.set_wind(0.0, -8.0)  # the air moves south
+    assert gauge.rate_along(0.0, -1.0) == pytest.approx(1.0)
+    assert gauge.rate_along(0.0, 1.0) == pytest.approx(5.0)
+    assert gauge.rate_along(1.0, 0.0) == pytest.approx(10.0 / 6.0)
+    gauge.set_wind(0.0, -12.0)
+    assert gauge.rate_along(0.0, 1.0) == pytest.approx(MAX_WIND_FACTOR)
 
 
 def test_a_wind_the_autopilot_does_not_report_is_learned_from_the_charge():

@@ -45,7 +45,7 @@ SQUARE = Path(__file__).with_name("square.geojson")
 
 @pytest.fixture(scope="session")
 def square_plan_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The README's example area (a 600 m square, a no-fly box, two UAVs), planned."""
+    """The example area of docs/areas.md (a 600 m square, a no-fly box, two UAVs), planned."""
     from gcs.cli import main
 
     out = tmp_path_factory.mktemp("square") / "square"
