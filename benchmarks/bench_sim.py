@@ -37,7 +37,7 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim import FleetOptions, HomePose, MissionItem, Mode, SimFleet, VehicleConfig, homes_for
+from sim import FleetOptions, HomePose, Mode, SimFleet, VehicleConfig, WireItem, homes_for
 from tests.sim.mission_client import MissionClient
 
 HOME = HomePose(-35.363261, 149.165230, 584.0, 0.0)
@@ -105,20 +105,20 @@ def bench_fleet(n: int, seconds: float, hz: float) -> dict:
     }
 
 
-def _square_mission(home: HomePose, side_m: float = 200.0) -> list[MissionItem]:
+def _square_mission(home: HomePose, side_m: float = 200.0) -> list[WireItem]:
     """Home, take-off to 30 m, a square of `side_m` north-east of home, then round again for ever."""
     m_per_deg = 111_319.49
     corners = [(0.0, side_m), (side_m, side_m), (side_m, 0.0), (0.0, 0.0)]
-    items = [MissionItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_WAYPOINT),
-             MissionItem(seq=1, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, command=mavlink.MAV_CMD_NAV_TAKEOFF,
-                         z=30.0)]
+    items = [WireItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_WAYPOINT),
+             WireItem(seq=1, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, command=mavlink.MAV_CMD_NAV_TAKEOFF,
+                      z=30.0)]
     for east, north in corners:
         lat = home.lat_deg + north / m_per_deg
         lon = home.lon_deg + east / (m_per_deg * math.cos(math.radians(home.lat_deg)))
-        items.append(MissionItem(seq=len(items), frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-                                 command=mavlink.MAV_CMD_NAV_WAYPOINT, x=round(lat * 1e7), y=round(lon * 1e7), z=30.0))
-    items.append(MissionItem(seq=len(items), frame=mavlink.MAV_FRAME_MISSION, command=mavlink.MAV_CMD_DO_JUMP,
-                             param1=2, param2=-1))
+        items.append(WireItem(seq=len(items), frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                              command=mavlink.MAV_CMD_NAV_WAYPOINT, x=round(lat * 1e7), y=round(lon * 1e7), z=30.0))
+    items.append(WireItem(seq=len(items), frame=mavlink.MAV_FRAME_MISSION, command=mavlink.MAV_CMD_DO_JUMP,
+                          param1=2, param2=-1))
     return items
 
 
@@ -162,8 +162,8 @@ def bench_upload(repeats: int = 5, items_n: int = 200) -> list[float]:
     from pymavlink import mavutil
 
     fleet = SimFleet([HOME], VehicleConfig(), FleetOptions(base_port=0, speedup=1.0))
-    items = [MissionItem(seq=0, frame=0, command=16)] + [
-        MissionItem(seq=i, frame=6, command=16, x=-353632610 + 100 * i, y=1491652300, z=20.0)
+    items = [WireItem(seq=0, frame=0, command=16)] + [
+        WireItem(seq=i, frame=6, command=16, x=-353632610 + 100 * i, y=1491652300, z=20.0)
         for i in range(1, items_n + 1)
     ]
     times = []

@@ -42,8 +42,8 @@ class EnergyProfile:
     `loiter_mah_per_s`: hover (copter) or loiter circle (plane); `launch_mah` + `climb_mah_per_m`
     per metre of climb: from arming to the mission altitude; `landing_mah` + `descent_mah_per_m`
     per metre of descent: from the mission altitude to disarmed on the ground;
-    `lean_tan_per_m2s2` (multicopters): the tangent of its tilt per (m/s)^2 of air speed, its drag
-    against its weight (None: unknown, its wind is not read from its lean)."""
+    `lean_tan_at_10_m_s` (multicopters): the tangent of the tilt it holds against 10 m/s of air
+    speed, its drag against its weight (None: unknown, its wind is not read from its lean)."""
 
     airframe: Airframe
     capacity_mah: float
@@ -54,7 +54,7 @@ class EnergyProfile:
     climb_mah_per_m: float
     landing_mah: float
     descent_mah_per_m: float
-    lean_tan_per_m2s2: float | None = None
+    lean_tan_at_10_m_s: float | None = None
 
     def __post_init__(self) -> None:
         positive = ("capacity_mah", "cruise_speed_m_s", "cruise_mah_per_m")
@@ -66,9 +66,9 @@ class EnergyProfile:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a number >= 0, got {value}")
-        lean = self.lean_tan_per_m2s2
+        lean = self.lean_tan_at_10_m_s
         if lean is not None and not (math.isfinite(lean) and lean > 0):
-            raise ValueError(f"lean_tan_per_m2s2 must be a positive number or None, got {lean}")
+            raise ValueError(f"lean_tan_at_10_m_s must be a positive number or None, got {lean}")
 
     def launch_cost_mah(self, altitude_m: float) -> float:
         """Arming, take-off and the climb to `altitude_m` above the airport."""

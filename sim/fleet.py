@@ -20,7 +20,7 @@ from typing import Any
 from gcs.links.connection import Connection, LinkKind, parse_connection
 from gcs.links.transport import LinkStatus, open_transport
 from planner.georef import LocalFrame
-from sim.autopilot.px4_vehicle import Px4Vehicle
+from sim.autopilot.profiles import new_vehicle
 from sim.autopilot.vehicle import SimVehicle, VehicleConfig
 from sim.physics.airframe import HomePose
 from sim.vehicle_link import Address, LinkFaults, VehicleLink
@@ -87,13 +87,12 @@ class SimFleet:
         half = 0.5 * self.config.sensor.cell_size_m
         origin = frame.geodetic2en(*options.grid_origin) if options.grid_origin else (-half, -half)
         self.vehicles = [
-            SimVehicle(i + 1, home, self.config, frame=frame, targets=list(options.targets), seed=options.seed,
-                       grid_origin_en=origin)
+            new_vehicle(i + 1, home, self.config, frame=frame, targets=list(options.targets), seed=options.seed,
+                        grid_origin_en=origin)
             for i, home in enumerate(homes)
         ]
         for v in self.vehicles:
-            if isinstance(v, Px4Vehicle):
-                v.started_at_speedup(options.speedup)
+            v.started_at_speedup(options.speedup)
         self.links = [
             VehicleLink(v, faults=options.faults, out=options.out, signing_key=options.signing_key)
             for v in self.vehicles

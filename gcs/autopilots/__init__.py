@@ -13,13 +13,10 @@ import math
 import struct
 from dataclasses import replace
 from enum import Enum
-from typing import TYPE_CHECKING
 
 from gcs.autopilots import ardupilot_storage, modes, px4_storage
+from gcs.autopilots.wire_item import WireItem
 from gcs.links import mavlink
-
-if TYPE_CHECKING:
-    from gcs.autopilots.mission_transfer import WireItem
 
 __all__ = ["Autopilot", "compare_items"]
 
@@ -83,11 +80,12 @@ class Autopilot(str, Enum):
     def optional_streams_hz(self) -> dict[int, float]:
         """Telemetry worth having but not needed (asked for, and quietly done without when
         refused): the wind estimate the return trigger prices a way home with, ArduPilot's WIND
-        (where it comes from) or PX4's WIND_COV (its velocity)."""
+        (where it comes from) or PX4's WIND_COV (its velocity), and ATTITUDE, from which a
+        multicopter's lean shows a wind its autopilot does not estimate (`gcs.flight.lean_wind`)."""
         if self is Autopilot.ARDUPILOT:
-            return {mavlink.MAVLINK_MSG_ID_WIND: 1.0}
+            return {mavlink.MAVLINK_MSG_ID_WIND: 1.0, mavlink.MAVLINK_MSG_ID_ATTITUDE: 4.0}
         if self is Autopilot.PX4:
-            return {mavlink.MAVLINK_MSG_ID_WIND_COV: 1.0}
+            return {mavlink.MAVLINK_MSG_ID_WIND_COV: 1.0, mavlink.MAVLINK_MSG_ID_ATTITUDE: 4.0}
         return {}
 
     def capacity_param(self) -> str | None:

@@ -29,12 +29,9 @@ from __future__ import annotations
 import math
 import struct
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
+from gcs.autopilots.wire_item import WireItem
 from gcs.links import mavlink
-
-if TYPE_CHECKING:
-    from gcs.autopilots.mission_transfer import WireItem
 
 __all__ = ["MAX_ABS_ALT_M", "known_command", "stored_item"]
 

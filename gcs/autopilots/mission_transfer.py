@@ -28,29 +28,18 @@ import asyncio
 import math
 import re
 import time
-from dataclasses import dataclass, replace
-from enum import Enum
+from dataclasses import dataclass
 
 from gcs.autopilots import Autopilot, compare_items
+from gcs.autopilots.wire_item import MissionType, WireItem, renumber
 from gcs.links import AUTOPILOT_COMPONENT_ID, MavLink, mavlink
 
-__all__ = ["Download", "MissionTransferError", "MissionType", "Upload", "WireItem", "download", "transfer",
-           "upload_verified"]
+__all__ = ["Download", "MissionTransferError", "MissionType", "Upload", "WireItem", "download", "renumber",
+           "transfer", "upload_verified"]
 
 MAVMessage = mavlink.MAVLink_message
-GLOBAL_FRAMES = frozenset({
-    mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_INT,
-    mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
-    mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
-})
 MISSION_MESSAGES = ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK", "MISSION_COUNT", "MISSION_ITEM_INT",
                     "MISSION_ITEM")
-
-
-class MissionType(int, Enum):
-    MISSION = mavlink.MAV_MISSION_TYPE_MISSION
-    FENCE = mavlink.MAV_MISSION_TYPE_FENCE
-    RALLY = mavlink.MAV_MISSION_TYPE_RALLY
 
 
 class MissionTransferError(Exception):
@@ -83,53 +72,6 @@ def _explained(error: MissionTransferError, machine: Upload | Download, texts: l
     if texts:
         detail += f" (vehicle: {'; '.join(dict.fromkeys(texts))})"
     return MissionTransferError(error.operation, error.result, detail, capacity)
-
-
-@dataclass(frozen=True, slots=True)
-class WireItem:
-    """One item with MISSION_ITEM_INT's fields; x, y in degE7 for global frames."""
-
-    seq: int
-    frame: int
-    command: int
-    param1: float = 0.0
-    param2: float = 0.0
-    param3: float = 0.0
-    param4: float = 0.0
-    x: int = 0
-    y: int = 0
-    z: float = 0.0
-    current: int = 0
-    autocontinue: int = 1
-    mission_type: int = MissionType.MISSION
-
-    @classmethod
-    def at(cls, seq: int, frame: int, command: int, lat_deg: float, lon_deg: float, alt_m: float,
-           params: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0), mission_type: int = MissionType.MISSION
-           ) -> WireItem:
-        return cls(seq, int(frame), int(command), *(float(p) for p in params), round(lat_deg * 1e7),
-                   round(lon_deg * 1e7), float(alt_m), mission_type=int(mission_type))
-
-    @classmethod
-    def from_msg(cls, msg: MAVMessage) -> WireItem:
-        """From MISSION_ITEM_INT, or legacy MISSION_ITEM (float degrees)."""
-        x, y = msg.x, msg.y
-        if msg.get_type() == "MISSION_ITEM":
-            scale = 1e7 if msg.frame in GLOBAL_FRAMES else 1e4
-            x, y = round(x * scale), round(y * scale)
-        return cls(msg.seq, msg.frame, msg.command, msg.param1, msg.param2, msg.param3, msg.param4, int(x), int(y),
-                   msg.z, msg.current, msg.autocontinue, msg.mission_type)
-
-    def to_msg(self, target: tuple[int, int]) -> MAVMessage:
-        """As MISSION_ITEM_INT (also the answer to a legacy MISSION_REQUEST)."""
-        return mavlink.MAVLink_mission_item_int_message(target[0], target[1], self.seq, self.frame, self.command,
-                                                        self.current, self.autocontinue, self.param1, self.param2,
-                                                        self.param3, self.param4, self.x, self.y, self.z,
-                                                        self.mission_type)
-
-
-def renumber(items: list[WireItem], mission_type: int) -> list[WireItem]:
-    return [replace(it, seq=i, mission_type=int(mission_type)) for i, it in enumerate(items)]
 
 
 class _Machine:

@@ -28,12 +28,9 @@ from __future__ import annotations
 import math
 import struct
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
+from gcs.autopilots.wire_item import WireItem
 from gcs.links import mavlink
-
-if TYPE_CHECKING:
-    from gcs.autopilots.mission_transfer import WireItem
 
 __all__ = ["MISSION_FRAME_COMMANDS", "refusal", "stored_item"]
 

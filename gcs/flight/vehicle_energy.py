@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass
 
 from gcs.flight.fuel import FlightPhase, FuelGauge
+from gcs.flight.lean_wind import LeanWind, thrust_lean
 from gcs.flight.return_trigger import FuelDecision, confirmed, fuel_decision
 from gcs.flight.vehicle_track import Legs, PlanTrack
 from gcs.links import mavlink
@@ -33,6 +34,9 @@ HOLD_S = 3.0
 #: than LEVEL_CLIMB_M_S below that is landing.
 LEVEL_SHARE = 0.9
 LEVEL_CLIMB_M_S = 0.7
+
+#: A wind read from a lean is said again when it moves this far (m/s, as a vector).
+WIND_SAID_CHANGE_M_S = 2.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,6 +117,13 @@ class VehicleEnergy:
         self.hold_s = HOLD_S  # vehicle seconds a return's hold is expected to take
         self.launch_profile: EnergyProfile | None = None
         self.autopilot = "generic"
+        self.wind_reported = False  # the autopilot estimates a wind: its lean is not read
+        self.lean_wind = LeanWind(profile.lean_tan_at_10_m_s) if profile.lean_tan_at_10_m_s else None
+        self.notes: list[str] = []  # lines for the operator, taken by the vehicle's flight
+        self._velocity: tuple[float, float] | None = None      # east, north m/s over the ground
+        self._acceleration: tuple[float, float] = (0.0, 0.0)  # and its change per second
+        self._climb_m_s = 0.0
+        self._wind_said: tuple[float, float] | None = None
 
     @property
     def uid(self) -> int:
@@ -124,6 +135,7 @@ class VehicleEnergy:
         capacity = self.fuel.capacity_mah if self.fuel.capacity_mah != self.profile.capacity_mah else None
         self.profile = profile
         self.fuel = FuelGauge(profile)
+        self.lean_wind = LeanWind(profile.lean_tan_at_10_m_s) if profile.lean_tan_at_10_m_s else None
         if capacity is not None:
             self.fuel.set_capacity(capacity)
 
@@ -142,15 +154,44 @@ class VehicleEnergy:
             if self.phase is not FlightPhase.GROUND and self.launch_profile is None:
                 self.launch_profile = self.fuel.profile
             self.fuel.battery(self.status.time_boot_s, self.phase, consumed, remaining)
+        elif kind == "ATTITUDE":
+            self._on_attitude(msg)
         else:
             wind = wind_from_message(msg)
-            if wind is not None:
+            if wind is not None and (wind[0] or wind[1]):
+                self.wind_reported = True
                 self.fuel.set_wind(*wind)
+
+    def _on_attitude(self, msg: MAVMessage) -> None:
+        """A multicopter's lean in level flight or a hover (not climbing or descending, where its
+        autopilot lets it drift): the wind its autopilot may not report (`gcs.flight.lean_wind`),
+        given to the fuel gauge and said when it first shows and when it changes."""
+        lean, st = self.lean_wind, self.status
+        if lean is None or self.wind_reported or not st.airborne or st.rel_alt_m < 3.0 or self._velocity is None \
+                or abs(self._climb_m_s) > LEVEL_CLIMB_M_S:
+            return
+        lean.sample(thrust_lean(msg.roll, msg.pitch, msg.yaw), self._velocity, self._acceleration)
+        wind = lean.wind_m_s
+        if wind is None or lean.samples % 10:
+            return
+        self.fuel.set_wind(*wind)
+        said = self._wind_said
+        if said is None or math.hypot(wind[0] - said[0], wind[1] - said[1]) > WIND_SAID_CHANGE_M_S:
+            self._wind_said = wind
+            source = math.degrees(math.atan2(-wind[0], -wind[1])) % 360.0
+            self.notes.append(f"wind {math.hypot(*wind):.1f} m/s from {source:03.0f} deg, read from its lean "
+                              f"(its way home is priced by the ground speed it can make into it)")
 
     def _on_position(self, msg: MAVMessage) -> None:
         st = self.status
         if not st.has_position:
             return
+        velocity = (msg.vy / 100.0, msg.vx / 100.0)
+        if self._velocity is not None and self._last_s is not None and st.time_boot_s > self._last_s:
+            dt = st.time_boot_s - self._last_s
+            self._acceleration = ((velocity[0] - self._velocity[0]) / dt, (velocity[1] - self._velocity[1]) / dt)
+        self._velocity = velocity
+        self._climb_m_s = -msg.vz / 100.0
         self.phase = self._phase(-msg.vz / 100.0)
         here = (st.lat_deg, st.lon_deg)
         if self._last_m is not None and self.phase is not FlightPhase.GROUND:

@@ -166,6 +166,8 @@ class VehicleFlight:
         readings, airborne, mode = len(st.detections), st.airborne_seen, st.mode_name
         st.update(msg, time.monotonic())
         self.energy.on_message(msg)
+        while self.energy.notes:
+            self.say(self.energy.notes.pop(0))
         if st.airborne_seen and not airborne:
             self.station.emit(TookOff(self.uid, st.rel_alt_m, st.mode_name))
         if st.mode_name != mode:
@@ -198,7 +200,7 @@ class VehicleFlight:
         if not (math.isfinite(range_m) and range_m > 0):
             raise ValueError(f"range must be a positive number of metres, not {range_m:g}")
         self.operator_range = float(range_m)
-        self.say(f"range set to {range_m:.0f} m ({self.flown_along_plan_m():.0f} m flown)")
+        self.say(f"range set to {range_m:.0f} m ({self.track.flown_m(self.status.track_index):.0f} m flown)")
 
     def return_due(self, elapsed_s: float) -> bool:
         """Its planned return time (`return_after_s`) has come: True once."""
@@ -209,10 +211,6 @@ class VehicleFlight:
 
     def ordered_home(self) -> bool:
         return self.station.interrupted or self.stay_on_ground or bool(self.orders)
-
-    def flown_along_plan_m(self) -> float:
-        """Metres of the plan behind the vehicle: its trajectory's length up to the pose it is at."""
-        return self.track.flown_m(self.status.track_index)
 
     # ---- preparing and launching ---------------------------------------------------------
 
@@ -304,7 +302,8 @@ class VehicleFlight:
         if st.has_position:
             st.track_index = self.track.advance(st.track_index, st.lat_deg, st.lon_deg)
             st.steps_flown = float(st.track_index)
-        ordered = None if self.operator_range is None else max(0.0, self.operator_range - self.flown_along_plan_m())
+        flown_m = self.track.flown_m(st.track_index)  # metres of the plan behind it
+        ordered = None if self.operator_range is None else max(0.0, self.operator_range - flown_m)
         if not self.energy.check_along(self.track, self.options.lookahead_steps, ordered):
             return None
         self.say(self.energy.why_home(self.operator_range))

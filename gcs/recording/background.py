@@ -1,34 +1,21 @@
 """The plan's Rerun recording made beside the planner: `BackgroundPlanRecorder` hands each step
 record to a `gcs.recording.plan.PlanRecorder` living in a `gcs.background` helper process, which has
 imported rerun while the parent planned. The recording is the same; the parent never imports
-rerun. Also the rules both sides share: how often the maps are logged, how an interruption reads."""
+rerun. The rules both sides follow are `gcs.recording.plan_rules`."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+from gcs.recording.plan_rules import interruption, map_interval
 
 if TYPE_CHECKING:
     from gcs.background import Background
     from planner.dtscs import StepRecord
     from planner.plan import Plan
     from planner.scenario import Scenario
-
-#: Grids up to this many cells log their maps every step; bigger ones every ceil(cells / this)
-#: steps, so a 1000 x 1000 area logs 2 x 3 MB of images every 100 steps, not every step.
-MAP_CELLS_EVERY_STEP = 10_000
-
-
-def map_interval(cells: int) -> int:
-    """Steps between the TEP and EU maps logged on a grid of `cells` cells, by default."""
-    return max(1, math.ceil(cells / MAP_CELLS_EVERY_STEP))
-
-
-def interruption(exc_type: type[BaseException], exc: BaseException | None) -> str:
-    """What stopped a run, as its recording's last event says it."""
-    return "Ctrl-C" if issubclass(exc_type, KeyboardInterrupt) else f"{exc_type.__name__}: {exc}"
 
 
 def _plan_recorder(*args: Any, **kwargs: Any) -> Any:

@@ -42,7 +42,7 @@ import rerun.blueprint as rrb
 
 from gcs.display.overview import mask_outline, region_masks, title_outcome, uav_colour
 from gcs.errors import UserError
-from gcs.recording.background import interruption, map_interval
+from gcs.recording.plan_rules import interruption, map_interval
 from planner.dtscs import StepRecord
 from planner.motion import HEADING_DX, HEADING_DY
 from planner.plan import Plan, ReturnReason, Stage
@@ -220,7 +220,7 @@ class PlanRecorder:
 
     `cells_to_lat_lon` adds the geographic entities and the map view. `map_every` logs the TEP
     and EU images every that many steps (always at step 0 and the last step); by default every
-    step on grids up to `gcs.recording.background.MAP_CELLS_EVERY_STEP` cells, less often on bigger ones."""
+    step on grids up to `gcs.recording.plan_rules.MAP_CELLS_EVERY_STEP` cells, less often on bigger ones."""
 
     def __init__(self, rrd_path: str | Path | None, connect: str | None, scenario: Scenario, *,
                  cells_to_lat_lon: CellsToLatLon | None = None, name: str | None = None,

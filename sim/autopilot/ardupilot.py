@@ -18,7 +18,7 @@ from dataclasses import dataclass, fields, replace
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim.autopilot.mission_protocol import GLOBAL_FRAMES, MissionItem, MissionType
+from gcs.autopilots.wire_item import GLOBAL_FRAMES, MissionType, WireItem
 
 # ---- readiness after boot (flight §1) ---------------------------------------------------------
 
@@ -160,7 +160,7 @@ def _lat_lon_result(x: int, y: int) -> int:
     return mavlink.MAV_MISSION_ACCEPTED
 
 
-def item_result(item: MissionItem) -> int:
+def item_result(item: WireItem) -> int:
     """MAV_MISSION_RESULT for one uploaded item, checked as it arrives (Q4, Q2): NaN or inf in
     a param (NaN allowed only in p4 of WAYPOINT / LAND / TAKEOFF), command 0, an unknown
     command, a location out of range, |z| >= 83000 m or NaN, an unsupported frame."""
@@ -201,10 +201,10 @@ def item_result(item: MissionItem) -> int:
     return mavlink.MAV_MISSION_ACCEPTED
 
 
-def from_legacy_item(msg: mavlink.MAVLink_message) -> tuple[MissionItem, int]:
+def from_legacy_item(msg: mavlink.MAVLink_message) -> tuple[WireItem, int]:
     """A MISSION_ITEM (float32 degrees) as ArduPilot converts it, and the result of the
     conversion: degrees * 1e7f in float32, cut towards zero (Q1: up to 0.5 m off at |lon| > 128)."""
-    item = MissionItem.from_msg(msg)
+    item = WireItem.from_msg(msg)
     if msg.command in (mavlink.MAV_CMD_DO_DIGICAM_CONTROL, mavlink.MAV_CMD_DO_DIGICAM_CONFIGURE):
         return replace(item, x=int(msg.x), y=int(msg.y)), mavlink.MAV_MISSION_ACCEPTED
     if not abs(f32(msg.x)) <= 90.0:
@@ -216,7 +216,7 @@ def from_legacy_item(msg: mavlink.MAVLink_message) -> tuple[MissionItem, int]:
         mavlink.MAV_MISSION_ACCEPTED
 
 
-def to_legacy_item(item: MissionItem, target: tuple[int, int]) -> mavlink.MAVLink_message:
+def to_legacy_item(item: WireItem, target: tuple[int, int]) -> mavlink.MAVLink_message:
     """The MISSION_ITEM ArduPilot answers a MISSION_REQUEST with: degE7 * 1e-7f in float32,
     two roundings (Q1: up to 34 degE7 off in latitude near 47 deg)."""
     x, y = float(item.x), float(item.y)
@@ -241,7 +241,7 @@ _FENCE_TYPE = {
 }
 
 
-def fence_problems(items: list[MissionItem], capacity: int) -> list[str]:
+def fence_problems(items: list[WireItem], capacity: int) -> list[str]:
     """ArduPilot's texts refusing a complete fence upload (MAV_MISSION_ERROR follows, the old
     fence stays), empty when it is accepted: vertex counts, circle radii, return points,
     coordinates, and the storage of 8 bytes per COUNT of capacity."""
@@ -283,7 +283,7 @@ def fence_problems(items: list[MissionItem], capacity: int) -> list[str]:
     return problems + ["Fence validation failed"] if problems else []
 
 
-def fence_total(items: list[MissionItem]) -> int:
+def fence_total(items: list[WireItem]) -> int:
     """FENCE_TOTAL after an upload: polygon vertices and circles, plus 2, if at least 3, else 0."""
     counted = sum(it.command in _POLYGONS or it.command in _CIRCLES for it in items)
     return counted + 2 if counted >= 3 else 0

@@ -29,8 +29,9 @@ from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from gcs.autopilots.wire_item import MissionType, WireItem
 from sim.autopilot.ardupilot import fence_problems, fence_total, from_legacy_item, item_result, to_legacy_item
-from sim.autopilot.mission_protocol import MAVMessage, MissionItem, MissionProtocol, MissionType, ProtocolConfig, _ack
+from sim.autopilot.mission_protocol import MAVMessage, MissionProtocol, ProtocolConfig, _ack
 
 _UPLOAD_NAME = {MissionType.MISSION: "Mission", MissionType.FENCE: "Fence", MissionType.RALLY: "Rally"}
 _WARNING_INTERVAL_S = 30.0
@@ -49,7 +50,7 @@ class _Receiving:
     next_seq: int
     last_request_s: float
     last_receive_s: float
-    staged: list[MissionItem] = field(default_factory=list)
+    staged: list[WireItem] = field(default_factory=list)
 
 
 class ArduPilotMissionProtocol(MissionProtocol):
@@ -125,7 +126,7 @@ class ArduPilotMissionProtocol(MissionProtocol):
                 return [_ack(sender, converted, mtype)]
             out += self._warn("got MISSION_ITEM; GCS should send MISSION_ITEM_INT")
         else:
-            item = MissionItem.from_msg(msg)
+            item = WireItem.from_msg(msg)
         if mtype not in self._stores:
             return [_ack(sender, mavlink.MAV_MISSION_UNSUPPORTED, mtype)]
         up = self._receiving
@@ -171,7 +172,7 @@ class ArduPilotMissionProtocol(MissionProtocol):
         self._commit(MissionType.FENCE, [] if wiped else up.staged)
         return [ack, _text("Fence Indexed OK")]
 
-    def _write(self, mission_type: int, seq: int, item: MissionItem) -> None:
+    def _write(self, mission_type: int, seq: int, item: WireItem) -> None:
         store = self._stores[mission_type]
         kept = self.config.store(item) if self.config.store else item
         if seq < len(store):

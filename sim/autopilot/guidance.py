@@ -15,9 +15,9 @@ from typing import TYPE_CHECKING
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from gcs.autopilots.wire_item import WireItem
 from sim.autopilot import telemetry
 from sim.autopilot.ardupilot import MISSION_TEXT_NAMES
-from sim.autopilot.mission_protocol import MissionItem
 from sim.autopilot.modes import Mode
 from sim.physics.airframe import Airframe, Goal
 
@@ -115,7 +115,7 @@ class Guidance:
         self.reached: list[int] = []
         self._jumps_done: dict[int, int] = {}
         self._hold_until_s: float | None = None
-        self._nav_item: MissionItem | None = None  # ArduPlane finishes the nav item it started
+        self._nav_item: WireItem | None = None  # ArduPlane finishes the nav item it started
         self._land_from: tuple[float, float, float] | None = None  # plane: where its glide began
         self._points_en: dict[tuple[int, int], tuple[float, float]] = {}  # mission points (degE7) in the frame
 
@@ -202,7 +202,7 @@ class Guidance:
 
     _finished_text = "Mission complete"
 
-    def _do_jump(self, item: MissionItem) -> None:
+    def _do_jump(self, item: WireItem) -> None:
         done = self._jumps_done.get(item.seq, 0)
         if item.param2 < 0 or done < item.param2:
             self._jumps_done[item.seq] = done + 1
@@ -211,7 +211,7 @@ class Guidance:
             self._advance()
         self._pending.append(telemetry.mission_current(self))
 
-    def _item_en(self, item: MissionItem) -> tuple[float, float]:
+    def _item_en(self, item: WireItem) -> tuple[float, float]:
         """Where an item's point is in the local frame (0, 0: here); each point converted once,
         not on every step it is flown toward."""
         if item.x == 0 and item.y == 0:
@@ -222,7 +222,7 @@ class Guidance:
             en = self._points_en[key] = self.frame.geodetic2en(item.x / 1e7, item.y / 1e7)
         return en
 
-    def _nav_goal(self, item: MissionItem) -> Goal:
+    def _nav_goal(self, item: WireItem) -> Goal:
         cmd = item.command
         alt = self._alt_rel(item.z, item.frame)
         if cmd == mavlink.MAV_CMD_NAV_TAKEOFF:
@@ -252,7 +252,7 @@ class Guidance:
                 return self.frame.geodetic2en(it.x / 1e7, it.y / 1e7)
         return fallback
 
-    def _radius(self, item: MissionItem) -> float:
+    def _radius(self, item: WireItem) -> float:
         """An item's acceptance radius: a waypoint's own (param2) or the vehicle's, never less
         than a plane's turn radius."""
         radius = item.param2 if item.command == mavlink.MAV_CMD_NAV_WAYPOINT and item.param2 > 0 \

@@ -13,77 +13,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from enum import IntEnum
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from gcs.autopilots.wire_item import GLOBAL_FRAMES, MissionType, WireItem, renumber
+
 MAVMessage = mavlink.MAVLink_message
-
-
-class MissionType(IntEnum):
-    MISSION = mavlink.MAV_MISSION_TYPE_MISSION
-    FENCE = mavlink.MAV_MISSION_TYPE_FENCE
-    RALLY = mavlink.MAV_MISSION_TYPE_RALLY
-    ALL = mavlink.MAV_MISSION_TYPE_ALL
-
-
-GLOBAL_FRAMES = frozenset(
-    {
-        mavlink.MAV_FRAME_GLOBAL,
-        mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
-        mavlink.MAV_FRAME_GLOBAL_INT,
-        mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-        mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT,
-        mavlink.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
-    }
-)
 SUPPORTED_FRAMES = GLOBAL_FRAMES | {mavlink.MAV_FRAME_MISSION}
-
-
-@dataclass(frozen=True, slots=True)
-class MissionItem:
-    """One item with MISSION_ITEM_INT's fields: x, y are degE7 in global frames."""
-
-    seq: int
-    frame: int
-    command: int
-    current: int = 0
-    autocontinue: int = 1
-    param1: float = 0.0
-    param2: float = 0.0
-    param3: float = 0.0
-    param4: float = 0.0
-    x: int = 0
-    y: int = 0
-    z: float = 0.0
-    mission_type: int = MissionType.MISSION
-
-    @classmethod
-    def from_msg(cls, msg: MAVMessage) -> MissionItem:
-        """From MISSION_ITEM_INT, or legacy MISSION_ITEM (float degrees, or metres * 1e4)."""
-        x, y = msg.x, msg.y
-        if msg.get_type() == "MISSION_ITEM":
-            scale = 1e7 if msg.frame in GLOBAL_FRAMES else 1e4
-            x, y = round(x * scale), round(y * scale)
-        return cls(
-            seq=msg.seq, frame=msg.frame, command=msg.command, current=msg.current,
-            autocontinue=msg.autocontinue, param1=msg.param1, param2=msg.param2,
-            param3=msg.param3, param4=msg.param4, x=int(x), y=int(y), z=msg.z,
-            mission_type=msg.mission_type,
-        )
-
-    def to_msg(self, target: tuple[int, int], *, legacy: bool = False) -> MAVMessage:
-        """As MISSION_ITEM_INT, or as MISSION_ITEM for a GCS that asked with MISSION_REQUEST."""
-        args = (
-            target[0], target[1], self.seq, self.frame, self.command, self.current,
-            self.autocontinue, self.param1, self.param2, self.param3, self.param4,
-        )
-        if legacy:
-            scale = 1e7 if self.frame in GLOBAL_FRAMES else 1e4
-            return mavlink.MAVLink_mission_item_message(
-                *args, self.x / scale, self.y / scale, self.z, self.mission_type
-            )
-        return mavlink.MAVLink_mission_item_int_message(*args, self.x, self.y, self.z, self.mission_type)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -92,7 +28,7 @@ class ProtocolConfig:
     packs items into its own format, `gcs.autopilots.ardupilot_storage`); None keeps it as sent."""
 
     home_item: bool = True
-    store: Callable[[MissionItem], MissionItem] | None = None
+    store: Callable[[WireItem], WireItem] | None = None
     capacity: dict[int, int] = field(
         default_factory=lambda: {MissionType.MISSION: 1000, MissionType.FENCE: 100, MissionType.RALLY: 20}
     )
@@ -105,7 +41,7 @@ class _Upload:
     partner: tuple[int, int]
     mission_type: int
     count: int
-    items: list[MissionItem]
+    items: list[WireItem]
     last_request_s: float
     retries: int = 0
 
@@ -122,10 +58,9 @@ class MissionProtocol:
 
     def __init__(self, config: ProtocolConfig | None = None) -> None:
         self.config = config or ProtocolConfig()
-        self._stores: dict[int, list[MissionItem]] = {int(t): [] for t in MissionType if t != MissionType.ALL}
+        self._stores: dict[int, list[WireItem]] = {int(t): [] for t in MissionType if t != MissionType.ALL}
         self.versions: dict[int, int] = dict.fromkeys(self._stores, 0)
-        self.home: MissionItem = MissionItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL,
-                                             command=mavlink.MAV_CMD_NAV_WAYPOINT)
+        self.home = WireItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_WAYPOINT)
         self._upload: _Upload | None = None
         self._done: _Done | None = None
 
@@ -133,7 +68,7 @@ class MissionProtocol:
     def busy(self) -> bool:
         return self._upload is not None
 
-    def items(self, mission_type: int = MissionType.MISSION) -> list[MissionItem]:
+    def items(self, mission_type: int = MissionType.MISSION) -> list[WireItem]:
         """The stored items; with a home item, index 0 is the current home."""
         items = self._stores[mission_type]
         if self._has_home(mission_type):
@@ -141,15 +76,11 @@ class MissionProtocol:
         return list(items)
 
     def set_home(self, lat_deg: float, lon_deg: float, alt_m: float) -> None:
-        self.home = MissionItem(
-            seq=0, frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_WAYPOINT,
-            x=round(lat_deg * 1e7), y=round(lon_deg * 1e7), z=alt_m,
-        )
+        self.home = WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, lat_deg, lon_deg, alt_m)
 
-    def replace(self, items: list[MissionItem], mission_type: int = MissionType.MISSION) -> None:
+    def replace(self, items: list[WireItem], mission_type: int = MissionType.MISSION) -> None:
         """Store items directly (the Python API's upload)."""
-        self._commit(mission_type, [MissionItem(**{**_fields(it), "seq": i, "mission_type": mission_type})
-                                    for i, it in enumerate(items)])
+        self._commit(mission_type, renumber(items, mission_type))
 
     def handle(self, msg: MAVMessage, now_s: float) -> list[MAVMessage]:
         kind = msg.get_type()
@@ -228,7 +159,7 @@ class MissionProtocol:
             return [self._request_next(up, now_s)]  # a late duplicate: ask again for the one we need
         if msg.seq != expected:
             return [_ack(sender, mavlink.MAV_MISSION_INVALID_SEQUENCE, up.mission_type)]
-        item = MissionItem.from_msg(msg)
+        item = WireItem.from_msg(msg)
         if item.frame not in SUPPORTED_FRAMES:
             self._upload = None
             return [_ack(sender, mavlink.MAV_MISSION_UNSUPPORTED_FRAME, up.mission_type)]
@@ -272,7 +203,7 @@ class MissionProtocol:
             self._commit(t, [])
         return [_ack(sender, mavlink.MAV_MISSION_ACCEPTED, msg.mission_type)]
 
-    def _commit(self, mission_type: int, items: list[MissionItem]) -> None:
+    def _commit(self, mission_type: int, items: list[WireItem]) -> None:
         store = self.config.store
         self._stores[mission_type] = [store(it) for it in items] if store else list(items)
         self.versions[mission_type] += 1
@@ -281,6 +212,3 @@ class MissionProtocol:
 def _ack(target: tuple[int, int], result: int, mission_type: int) -> MAVMessage:
     return mavlink.MAVLink_mission_ack_message(target[0], target[1], result, mission_type)
 
-
-def _fields(item: MissionItem) -> dict:
-    return {name: getattr(item, name) for name in item.__dataclass_fields__}

@@ -22,8 +22,8 @@ from dataclasses import dataclass, fields
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.px4_storage import stored_item
+from gcs.autopilots.wire_item import MissionType, WireItem
 from planner.georef import LocalFrame
-from sim.autopilot.mission_protocol import MissionItem, MissionType
 
 # ---- readiness after boot (§3) ----------------------------------------------------------------
 
@@ -134,13 +134,13 @@ def f32(value: float) -> float:
         return math.copysign(math.inf, value)
 
 
-def stored(item: MissionItem) -> MissionItem:
+def stored(item: WireItem) -> WireItem:
     """What PX4 reads back for an accepted item: the station's model
     (`gcs.autopilots.px4_storage.stored_item`), which the comparison with PX4 SITL keeps true."""
     return stored_item(item)
 
 
-def item_result(item: MissionItem, *, int_mode: bool) -> int:
+def item_result(item: WireItem, *, int_mode: bool) -> int:
     """MAV_MISSION_RESULT of PX4's parse of one uploaded item (with the text "IGN MISSION_ITEM:
     Invalid item" when refused). Frames 5 and 6 count as global only in int mode, i.e. in a
     MISSION_ITEM_INT; terrain and local frames are UNSUPPORTED_FRAME; a command outside the
@@ -162,7 +162,7 @@ def item_result(item: MissionItem, *, int_mode: bool) -> int:
     return mavlink.MAV_MISSION_UNSUPPORTED_FRAME
 
 
-def list_result(item: MissionItem) -> int:
+def list_result(item: WireItem) -> int:
     """The check after a parsed item is written to its list (no text): a fence or rally point
     in the mission, or a polygon vertex whose count rounds below 3, is MAV_MISSION_ERROR."""
     if item.mission_type == MissionType.MISSION and item.command in _NOT_IN_MISSION:
@@ -182,11 +182,11 @@ def _trunc(value: float) -> int:
     return math.trunc(value) if math.isfinite(value) else 0
 
 
-def same_items(a: list[MissionItem], b: list[MissionItem]) -> bool:
+def same_items(a: list[WireItem], b: list[WireItem]) -> bool:
     """Whether two uploads have the same CRC in PX4's sense (frame, command, autocontinue,
     params, x, y, z): an upload identical to the stored list changes nothing, not even the
     current item."""
-    def key(it: MissionItem) -> tuple:
+    def key(it: WireItem) -> tuple:
         return (it.frame, it.command, it.autocontinue, f32(it.param1), f32(it.param2), f32(it.param3),
                 f32(it.param4), it.x, it.y, f32(it.z))
     return len(a) == len(b) and all(_same(key(x), key(y)) for x, y in zip(a, b))
@@ -231,7 +231,7 @@ class FenceArea:
         return self.contains(lat, lon, frame) == self.inclusion
 
 
-def fence_areas(fence: list[MissionItem], frame: LocalFrame) -> list[FenceArea]:
+def fence_areas(fence: list[WireItem], frame: LocalFrame) -> list[FenceArea]:
     """The polygons and circles of a stored fence list, as `Geofence::_updateFence` groups
     them: a polygon is as many items as its first vertex's count; return points and other
     commands are skipped."""
@@ -263,7 +263,7 @@ def usable_areas(areas: list[FenceArea], home: tuple[float, float] | None, frame
     return kept, len(areas) - len(kept)
 
 
-def first_geofence_violation(items: list[MissionItem], areas: list[FenceArea], frame: LocalFrame) -> int | None:
+def first_geofence_violation(items: list[WireItem], areas: list[FenceArea], frame: LocalFrame) -> int | None:
     """The seq of the first mission item with a position that some area does not allow (in
     every inclusion, out of every exclusion); legs between items are not checked."""
     for it in items:
@@ -273,7 +273,7 @@ def first_geofence_violation(items: list[MissionItem], areas: list[FenceArea], f
     return None
 
 
-def mission_problems(items: list[MissionItem], home_en: tuple[float, float], frame: LocalFrame, *,
+def mission_problems(items: list[WireItem], home_en: tuple[float, float], frame: LocalFrame, *,
                      plane: bool, landed: bool, params: dict[str, float]) -> list[str]:
     """Why PX4's navigator finds the mission infeasible, in its words (its console; the
     station only sees "Mission start denied! No valid mission"); empty when it is valid.
@@ -299,7 +299,7 @@ def mission_problems(items: list[MissionItem], home_en: tuple[float, float], fra
     return problems
 
 
-def _landing_problems(items: list[MissionItem], nav: list[MissionItem], frame: LocalFrame,
+def _landing_problems(items: list[WireItem], nav: list[WireItem], frame: LocalFrame,
                       params: dict[str, float]) -> list[str]:
     lands = [it for it in nav if it.command == mavlink.MAV_CMD_NAV_LAND]
     if sum(it.command == mavlink.MAV_CMD_DO_LAND_START for it in items) > 1:

@@ -31,7 +31,8 @@ from enum import Enum
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim.autopilot.mission_protocol import MAVMessage, MissionItem, MissionProtocol, MissionType, ProtocolConfig
+from gcs.autopilots.wire_item import MissionType, WireItem
+from sim.autopilot.mission_protocol import MAVMessage, MissionProtocol, ProtocolConfig
 from sim.autopilot.px4 import (
     LEGACY_FRAME,
     MISSION_RETRY_S,
@@ -70,13 +71,13 @@ class Px4MissionProtocol(MissionProtocol):
         self.int_mode = False
         self.uploaded_current: dict[int, int] = dict.fromkeys(self._stores, -1)
         self.sent_frames: dict[int, list[int]] = {t: [] for t in self._stores}
-        self._sent: dict[int, list[MissionItem]] = {t: [] for t in self._stores}
+        self._sent: dict[int, list[WireItem]] = {t: [] for t in self._stores}
         self._state = _State.IDLE
         self._partner = (0, 0)
         self._mtype = int(MissionType.MISSION)
         self._seq = 0
         self._count = 0
-        self._staged: list[MissionItem] = []
+        self._staged: list[WireItem] = []
         self._staged_current = -1
         self._last_sent_s: float | None = None
         self._last_recv_s: float | None = None
@@ -86,7 +87,7 @@ class Px4MissionProtocol(MissionProtocol):
     def busy(self) -> bool:
         return self._state is not _State.IDLE
 
-    def replace(self, items: list[MissionItem], mission_type: int = MissionType.MISSION) -> None:
+    def replace(self, items: list[WireItem], mission_type: int = MissionType.MISSION) -> None:
         items = [replace(it, seq=i, mission_type=mission_type) for i, it in enumerate(items)]
         self._store(mission_type, items, -1)
 
@@ -256,7 +257,7 @@ class Px4MissionProtocol(MissionProtocol):
 
     # ---- storage ------------------------------------------------------------------------
 
-    def _store(self, mission_type: int, items: list[MissionItem], current: int) -> None:
+    def _store(self, mission_type: int, items: list[WireItem], current: int) -> None:
         self._sent[mission_type] = list(items)
         self.sent_frames[mission_type] = [it.frame for it in items]
         self._stores[mission_type] = [stored(it) for it in items]
@@ -277,13 +278,13 @@ class Px4MissionProtocol(MissionProtocol):
             item.autocontinue, item.param1, item.param2, item.param3, item.param4, x, y, item.z, item.mission_type)
 
 
-def _parsed(msg: MAVMessage) -> MissionItem:
+def _parsed(msg: MAVMessage) -> WireItem:
     """The item as PX4 reads it: MISSION_ITEM's float degrees become degE7 through a double
     (a frame-2 item's x, y are plain numbers)."""
     x, y = msg.x, msg.y
     if msg.get_type() == "MISSION_ITEM":
         scale = 1.0 if msg.frame == mavlink.MAV_FRAME_MISSION else 1e7
         x, y = round(x * scale), round(y * scale)
-    return MissionItem(seq=msg.seq, frame=msg.frame, command=msg.command, current=msg.current,
-                       autocontinue=msg.autocontinue, param1=msg.param1, param2=msg.param2, param3=msg.param3,
-                       param4=msg.param4, x=int(x), y=int(y), z=msg.z, mission_type=msg.mission_type)
+    return WireItem(seq=msg.seq, frame=msg.frame, command=msg.command, current=msg.current,
+                    autocontinue=msg.autocontinue, param1=msg.param1, param2=msg.param2, param3=msg.param3,
+                    param4=msg.param4, x=int(x), y=int(y), z=msg.z, mission_type=msg.mission_type)

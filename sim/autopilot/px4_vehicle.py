@@ -27,10 +27,11 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from gcs.autopilots.wire_item import MissionType, WireItem
 from sim.autopilot import px4, telemetry
 from sim.autopilot.failsafe import FailsafeLevel, failsafe_to_trigger
 from sim.autopilot.guidance import climb_point, hold_or
-from sim.autopilot.mission_protocol import MissionItem, MissionType, ProtocolConfig
+from sim.autopilot.mission_protocol import ProtocolConfig
 from sim.autopilot.modes import Mode, mode_table
 from sim.autopilot.px4_mission import Px4MissionProtocol, px4_texts
 from sim.autopilot.vehicle import MAVMessage, SimVehicle, VehicleConfig, param_name
@@ -75,8 +76,10 @@ class _Rtl:
 
 
 class Px4Vehicle(SimVehicle):
-    """A SimVehicle with the px4 profile (`SimVehicle(..., VehicleConfig(profile="px4"))`)."""
+    """The px4 profile's vehicle (`sim.autopilot.profiles.new_vehicle` makes it for a config with
+    `profile="px4"`)."""
 
+    PROFILE = "px4"
     HANDLERS = {kind: name for kind, name in SimVehicle.HANDLERS.items() if kind != "REQUEST_DATA_STREAM"}
 
     def __init__(self, sysid: int, home: HomePose, config: VehicleConfig | None = None, **kwargs) -> None:
@@ -198,7 +201,7 @@ class Px4Vehicle(SimVehicle):
         """The SIH drain times k (a simulator extra; PX4's own knob is SIM_BAT_DRAIN)."""
         self.airframe.battery.drain_multiplier = k
 
-    def load_mission(self, items: list[MissionItem]) -> None:
+    def load_mission(self, items: list[WireItem]) -> None:
         self.mission.replace(items)
         self._check_new_lists()
         self._navigator_cycle()
@@ -601,7 +604,7 @@ class Px4Vehicle(SimVehicle):
             self.statustext("RTL: land at destination")
         return Goal(None, -1.0, landing=True)
 
-    def _nav_goal(self, item: MissionItem) -> Goal:
+    def _nav_goal(self, item: WireItem) -> Goal:
         """PX4 reports a NAV_LAND reached over its point, before it descends (§4); a mission's
         NAV_RETURN_TO_LAUNCH flies PX4's RTL."""
         cmd = item.command

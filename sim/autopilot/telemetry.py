@@ -211,10 +211,21 @@ def gps_global_origin(v: SimVehicle) -> mavlink.MAVLink_message | None:
                                                      int(v.time_s * 1e6))
 
 
+#: A multicopter's lean against 10 m/s of air speed and its growth with speed (ArduCopter SITL's
+#: quad: `benchmarks/lean_wind.py`): the simulated copter flies in still air, nose first.
+COPTER_LEAN_AT_10_M_S = 0.387
+COPTER_LEAN_EXPONENT = 4.0 / 3.0
+
+
 def attitude(v: SimVehicle) -> mavlink.MAVLink_message:
+    """A plane's bank in its turns and pitch in its climb; a multicopter's lean forward into the
+    air it flies through (never its climb: it climbs level) and sideways into its turns."""
     s = v.airframe.kin
     roll = math.atan(s.speed_m_s * s.turn_rate_rad_s / _GRAVITY_M_S2)
     pitch = math.atan2(s.climb_m_s, max(s.speed_m_s, 1.0))
+    if v.copter:
+        pitch = -math.atan(COPTER_LEAN_AT_10_M_S * (s.speed_m_s / 10.0) ** COPTER_LEAN_EXPONENT)
+        roll = math.atan(math.tan(roll) * math.cos(pitch))
     return mavlink.MAVLink_attitude_message(_time_boot_ms(v), roll, pitch, s.heading_rad, 0.0, 0.0, s.turn_rate_rad_s)
 
 

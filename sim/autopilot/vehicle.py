@@ -14,8 +14,8 @@ milestones after boot and the arming refusals before them, no telemetry streams 
 until asked, MISSION_START (0, 0) only and resuming where the mission was, the copter's GUIDED,
 arm, MISSION_START launch and auto-disarm, the plane's landing sequence, DO_REPOSITION as
 COMMAND_INT only, BATT_CAPACITY and the arming battery checks. The `px4` profile is
-`sim.autopilot.px4_vehicle.Px4Vehicle` (constructing a SimVehicle with that profile gives one), PX4
-v1.15.3 as measured.
+`sim.autopilot.px4_vehicle.Px4Vehicle`, PX4 v1.15.3 as measured; `sim.autopilot.profiles.new_vehicle`
+makes the vehicle of a config's profile.
 """
 
 from __future__ import annotations
@@ -27,13 +27,14 @@ from functools import partial
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.ardupilot_storage import stored_item
+from gcs.autopilots.wire_item import MissionType, WireItem
 from planner.georef import LocalFrame
 from sim.autopilot import telemetry
 from sim.autopilot.ardupilot import BOOT_TIMES, CAPACITY, BootTimes, boot_refusals, ekf_flags
 from sim.autopilot.ardupilot_mission import ArduPilotMissionProtocol
 from sim.autopilot.failsafe import FailsafeLevel, failsafe_level, failsafe_to_trigger
 from sim.autopilot.guidance import NAV_COMMANDS, Guidance
-from sim.autopilot.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
+from sim.autopilot.mission_protocol import MissionProtocol, ProtocolConfig
 from sim.autopilot.modes import Mode, custom_mode_of, mode_from_custom, mode_table
 from sim.autopilot.px4 import BOOT_TIMES as PX4_BOOT_TIMES, Px4BootTimes
 from sim.autopilot.telemetry import reading_message, reading_text
@@ -138,6 +139,10 @@ class VehicleState:
 
 
 class SimVehicle(Guidance):
+    """The `ardupilot` profile's vehicle, and the base of the others (`sim.autopilot.profiles`
+    makes the vehicle a config's profile names)."""
+
+    PROFILE = "ardupilot"
     #: the method answering each message type (looked up on the instance: a profile's own answers)
     HANDLERS: dict[str, str] = {
         "COMMAND_LONG": "_on_command", "COMMAND_INT": "_on_command", "SET_MODE": "_on_set_mode",
@@ -145,14 +150,6 @@ class SimVehicle(Guidance):
         "REQUEST_DATA_STREAM": "_on_request_data_stream", "PARAM_REQUEST_LIST": "_on_param_request_list",
         "PARAM_REQUEST_READ": "_on_param_request_read", "PARAM_SET": "_on_param_set", "TIMESYNC": "_on_timesync",
     }
-
-    def __new__(cls, sysid: int, home: HomePose, config: VehicleConfig | None = None, **kwargs: object) -> SimVehicle:
-        """A px4-profile vehicle is a `sim.autopilot.px4_vehicle.Px4Vehicle`."""
-        if cls is SimVehicle and config is not None and config.profile == "px4":
-            from sim.autopilot.px4_vehicle import Px4Vehicle
-
-            cls = Px4Vehicle
-        return super().__new__(cls)
 
     def __init__(
         self,
@@ -165,9 +162,13 @@ class SimVehicle(Guidance):
         seed: int = 0,
         grid_origin_en: tuple[float, float] | None = None,
     ) -> None:
+        config = config or VehicleConfig(profile=self.PROFILE)
+        if config.profile != self.PROFILE:
+            raise ValueError(f"a {type(self).__name__} flies the {self.PROFILE} profile, not {config.profile}: "
+                             "make vehicles with sim.autopilot.profiles.new_vehicle")
         self.sysid = sysid
         self.home = home
-        self.config = config = config or VehicleConfig()
+        self.config = config
         self.ardupilot = config.profile == "ardupilot"
         self.copter = config.vehicle_type == "copter"
         self.boot = config.boot_times
@@ -239,6 +240,10 @@ class SimVehicle(Guidance):
             "BATT_ARM_MAH": 0.0, "BATT_LOW_VOLT": 10.5 if self.copter else 0.0, "SIM_BATT_VOLTAGE": 12.6,
             "SIM_DRAIN_MULT": 1.0, "SIM_BATT_FAIL": 0.0,
         }
+
+    def started_at_speedup(self, speedup: float) -> None:
+        """The fleet runs this many times faster than real time: ArduPilot SITL changes nothing
+        for it (the px4 profile scales a timeout)."""
 
     # ---- true state and the Python API -------------------------------------------------
 
@@ -364,7 +369,7 @@ class SimVehicle(Guidance):
     def set_mode(self, mode: Mode) -> int:
         return self._set_mode(mode)
 
-    def load_mission(self, items: list[MissionItem]) -> None:
+    def load_mission(self, items: list[WireItem]) -> None:
         self.mission.replace(items)
 
     def statustext(self, text: str, severity: int = mavlink.MAV_SEVERITY_INFO) -> None:

@@ -22,8 +22,8 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from gcs.autopilots.wire_item import WireItem
 from planner.georef import LocalFrame
-from sim.autopilot.mission_protocol import MissionItem
 from tests.sim.mission_client import MissionClient, MissionTransferError
 
 REL = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
@@ -258,13 +258,13 @@ class Station:
 
 
 def _item(seq: int, frame: int, command: int, lat: float = 0.0, lon: float = 0.0, z: float = 0.0,
-          *params: float) -> MissionItem:
+          *params: float) -> WireItem:
     p = list(params) + [0.0] * (4 - len(params))
-    return MissionItem(seq=seq, frame=frame, command=command, x=round(lat * 1e7), y=round(lon * 1e7), z=z,
-                       param1=p[0], param2=p[1], param3=p[2], param4=p[3])
+    return WireItem(seq=seq, frame=frame, command=command, x=round(lat * 1e7), y=round(lon * 1e7), z=z,
+                    param1=p[0], param2=p[1], param3=p[2], param4=p[3])
 
 
-def mission_items(course: Course, frame: LocalFrame, *, ardupilot: bool) -> list[MissionItem]:
+def mission_items(course: Course, frame: LocalFrame, *, ardupilot: bool) -> list[WireItem]:
     """The course as MAVLink items (ArduPilot: a home placeholder at seq 0)."""
     items = [_item(0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT)] if ardupilot else []
     alt = course.alt_m

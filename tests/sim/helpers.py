@@ -13,7 +13,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim import HomePose, MissionItem, SimVehicle, VehicleConfig
+from sim import HomePose, SimVehicle, VehicleConfig, WireItem
 
 HOME = HomePose(-35.363261, 149.165230, 584.0, 0.0)
 # ArduPilot's start-up (GPS fix, home, EKF position) at 5 % of the measured times: a copter is
@@ -107,13 +107,13 @@ def offset(home: HomePose, east_m: float, north_m: float) -> tuple[float, float]
     return lat, lon
 
 
-def waypoint(seq: int, lat: float, lon: float, alt_m: float, **params: float) -> MissionItem:
-    return MissionItem(seq=seq, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, command=mavlink.MAV_CMD_NAV_WAYPOINT,
-                       x=round(lat * 1e7), y=round(lon * 1e7), z=alt_m, **params)
+def waypoint(seq: int, lat: float, lon: float, alt_m: float, **params: float) -> WireItem:
+    return WireItem(seq=seq, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, command=mavlink.MAV_CMD_NAV_WAYPOINT,
+                    x=round(lat * 1e7), y=round(lon * 1e7), z=alt_m, **params)
 
 
-def home_placeholder() -> MissionItem:
-    return MissionItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_WAYPOINT)
+def home_placeholder() -> WireItem:
+    return WireItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL, command=mavlink.MAV_CMD_NAV_WAYPOINT)
 
 
 def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:

@@ -7,11 +7,11 @@ works against any autopilot that follows the MAVLink mission protocol.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim.autopilot.mission_protocol import MissionItem, MissionType
+from gcs.autopilots.wire_item import MissionType, WireItem
 
 
 class MissionTransferError(Exception):
@@ -52,7 +52,7 @@ class MissionClient:
             if msg is not None and msg.get_srcSystem() == self.target[0]:
                 return msg
 
-    def upload(self, items: list[MissionItem], mission_type: int = MissionType.MISSION) -> TransferStats:
+    def upload(self, items: list[WireItem], mission_type: int = MissionType.MISSION) -> TransferStats:
         """Send `items`; returns when the vehicle ACKs, raises MissionTransferError otherwise."""
         mav = self.conn.mav
         start = time.monotonic()
@@ -80,9 +80,8 @@ class MissionClient:
                 raise MissionTransferError("upload", msg.type)
             if not 0 <= msg.seq < len(items):
                 continue
-            item = items[msg.seq]
-            item_msg = MissionItem(**{**_fields(item), "seq": msg.seq, "mission_type": mission_type})
-            out = item_msg.to_msg(self.target)  # MISSION_ITEM_INT, also for ArduPilot's MISSION_REQUEST
+            # MISSION_ITEM_INT, also for ArduPilot's MISSION_REQUEST
+            out = replace(items[msg.seq], seq=msg.seq, mission_type=mission_type).to_msg(self.target)
             last_sends = 0
             is_last = msg.seq == len(items) - 1  # bound now: `msg` is the next message by the time of a re-send
 
@@ -104,7 +103,7 @@ class MissionClient:
                 return msg.count
         return None
 
-    def download(self, mission_type: int = MissionType.MISSION) -> list[MissionItem]:
+    def download(self, mission_type: int = MissionType.MISSION) -> list[WireItem]:
         mav = self.conn.mav
         start = time.monotonic()
         count = None
@@ -121,7 +120,7 @@ class MissionClient:
                     continue
                 raise MissionTransferError("download", msg.type)
             count = msg.count
-        items: list[MissionItem] = []
+        items: list[WireItem] = []
         while len(items) < count:
             if time.monotonic() - start > self.deadline_s:
                 raise MissionTransferError("download", None, f"stuck at item {len(items)}")
@@ -138,10 +137,7 @@ class MissionClient:
                     raise MissionTransferError("download", msg.type)
                 continue
             if msg.seq == len(items) and msg.mission_type == mission_type:
-                items.append(MissionItem.from_msg(msg))
+                items.append(WireItem.from_msg(msg))
         mav.mission_ack_send(*self.target, mavlink.MAV_MISSION_ACCEPTED, mission_type)
         return items
 
-
-def _fields(item: MissionItem) -> dict:
-    return {name: getattr(item, name) for name in item.__dataclass_fields__}

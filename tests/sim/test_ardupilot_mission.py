@@ -10,9 +10,10 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.ardupilot_storage import stored_item
+from gcs.autopilots.wire_item import MissionType, WireItem
 from sim.autopilot.ardupilot import CAPACITY, f32, fence_problems, from_legacy_item, item_result, to_legacy_item
 from sim.autopilot.ardupilot_mission import ArduPilotMissionProtocol
-from sim.autopilot.mission_protocol import MissionItem, MissionType, ProtocolConfig
+from sim.autopilot.mission_protocol import ProtocolConfig
 
 GCS = (255, 190)
 OTHER = (254, 190)
@@ -40,24 +41,24 @@ def count(n, mtype=0, sender=GCS):
     return _from(mavlink.MAVLink_mission_count_message(1, 1, n, mtype), sender)
 
 
-def wp(seq, z=None, mtype=0, **fields) -> MissionItem:
+def wp(seq, z=None, mtype=0, **fields) -> WireItem:
     base = dict(seq=seq, frame=REL, command=mavlink.MAV_CMD_NAV_WAYPOINT, x=LAT + seq, y=LON, z=z if z is not None
                 else 100.0 + seq, mission_type=mtype)
-    return MissionItem(**(base | fields))
+    return WireItem(**(base | fields))
 
 
-def vertex(seq, n=4, **fields) -> MissionItem:
-    return MissionItem(**(dict(seq=seq, frame=mavlink.MAV_FRAME_GLOBAL, command=VERTEX, param1=n, x=LAT + 100 * seq,
-                               y=LON + 100 * (seq % 2), mission_type=FENCE) | fields))
+def vertex(seq, n=4, **fields) -> WireItem:
+    return WireItem(**(dict(seq=seq, frame=mavlink.MAV_FRAME_GLOBAL, command=VERTEX, param1=n, x=LAT + 100 * seq,
+                            y=LON + 100 * (seq % 2), mission_type=FENCE) | fields))
 
 
-def rally(seq, z=60.0, **fields) -> MissionItem:
-    return MissionItem(**(dict(seq=seq, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
-                               command=mavlink.MAV_CMD_NAV_RALLY_POINT, x=LAT, y=LON + seq, z=z,
-                               mission_type=RALLY) | fields))
+def rally(seq, z=60.0, **fields) -> WireItem:
+    return WireItem(**(dict(seq=seq, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                            command=mavlink.MAV_CMD_NAV_RALLY_POINT, x=LAT, y=LON + seq, z=z,
+                            mission_type=RALLY) | fields))
 
 
-def send(p, item: MissionItem, now=0.0, sender=GCS):
+def send(p, item: WireItem, now=0.0, sender=GCS):
     return p.handle(_from(item.to_msg((1, 1)), sender), now)
 
 
@@ -70,7 +71,7 @@ def texts(out) -> list[str]:
     return [m.text for m in out if m.get_type() == "STATUSTEXT"]
 
 
-def upload(p, items: list[MissionItem], now=0.0) -> list:
+def upload(p, items: list[WireItem], now=0.0) -> list:
     """COUNT, then each item as the vehicle asks for it; the vehicle's last answer."""
     out = p.handle(count(len(items), items[0].mission_type if items else 0), now)
     for it in items:
@@ -109,7 +110,7 @@ def test_uploaded_item_0_is_ignored_and_reads_back_as_the_current_home():
 def test_items_are_kept_as_arducopter_stores_them():
     p = protocol()
     upload(p, [wp(0), wp(1, z=12.349, param1=7.5, param2=3.0, param4=math.nan),
-               MissionItem(seq=2, frame=REL, command=mavlink.MAV_CMD_NAV_LAND, x=LAT, y=LON, z=0.0)])
+               WireItem(seq=2, frame=REL, command=mavlink.MAV_CMD_NAV_LAND, x=LAT, y=LON, z=0.0)])
     one, land = p.items()[1:]
     assert (one.frame, one.z, one.param1, one.param2, one.param4) == (3, f32(12.34), 7.0, 0.0, 0.0)
     assert (land.param4, land.autocontinue, land.current) == (1.0, 1, 0)  # NAV_LAND param4 0 reads back 1
@@ -305,12 +306,12 @@ def test_the_fence_is_staged_validated_at_the_end_and_all_or_nothing():
 
 @pytest.mark.parametrize(("items", "problem"), [
     ([vertex(0, n=2), vertex(1, n=2)], "Invalid vertex count (2)"),
-    ([vertex(i, n=5) for i in range(4)] + [MissionItem(seq=4, frame=0, command=CIRCLE, param1=50.0, x=LAT, y=LON,
-                                                       mission_type=FENCE)],
+    ([vertex(i, n=5) for i in range(4)] + [WireItem(seq=4, frame=0, command=CIRCLE, param1=50.0, x=LAT, y=LON,
+                                                    mission_type=FENCE)],
      "Received incorrect type (want=98 got=92)"),
-    ([MissionItem(seq=0, frame=0, command=CIRCLE, param1=0.0, x=LAT, y=LON, mission_type=FENCE)],
+    ([WireItem(seq=0, frame=0, command=CIRCLE, param1=0.0, x=LAT, y=LON, mission_type=FENCE)],
      "Non-positive circle radius"),
-    ([MissionItem(seq=i, frame=0, command=mavlink.MAV_CMD_NAV_FENCE_RETURN_POINT, x=LAT, y=LON, mission_type=FENCE)
+    ([WireItem(seq=i, frame=0, command=mavlink.MAV_CMD_NAV_FENCE_RETURN_POINT, x=LAT, y=LON, mission_type=FENCE)
       for i in range(2)], "Multiple return points"),
     ([vertex(i, x=910000000) for i in range(4)], "Bad lat or lon"),
     ([vertex(i, n=70) for i in range(70)], "Fence exceeds storage size"),
@@ -327,7 +328,7 @@ def test_fence_storage_fits_69_vertices_on_a_copter_and_83_on_a_plane():
 
 
 def test_a_small_fence_replacing_a_polygon_is_wiped_unless_sent_twice_or_after_a_settled_clear():
-    one_circle = [MissionItem(seq=0, frame=0, command=CIRCLE, param1=150.0, x=LAT, y=LON, mission_type=FENCE)]
+    one_circle = [WireItem(seq=0, frame=0, command=CIRCLE, param1=150.0, x=LAT, y=LON, mission_type=FENCE)]
     p = protocol()
     upload(p, [vertex(i) for i in range(4)], 0.0)
     out = upload(p, one_circle, 1.0)

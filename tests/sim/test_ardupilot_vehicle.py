@@ -10,7 +10,7 @@ import math
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim import BatteryConfig, HomePose, MissionItem, Mode, SimVehicle, VehicleConfig
+from sim import BatteryConfig, HomePose, Mode, VehicleConfig, WireItem, new_vehicle
 from sim.autopilot.ardupilot import BOOT_TIMES
 from tests.sim.helpers import SteppedVehicle, distance_m, offset
 
@@ -41,7 +41,7 @@ class Sim(SteppedVehicle):
     def stream(self, msg_id: int, hz: float) -> None:
         assert self.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / hz) == ACCEPTED
 
-    def upload(self, items: list[MissionItem]) -> None:
+    def upload(self, items: list[WireItem]) -> None:
         """The mission protocol as a station runs it: COUNT, then each MISSION_REQUEST answered."""
         out = self.handle(mavlink.MAVLink_mission_count_message(1, 1, len(items), 0))
         while True:
@@ -53,7 +53,7 @@ class Sim(SteppedVehicle):
 
 
 def sim(vehicle_type: str = "copter", **config) -> Sim:
-    return Sim(SimVehicle(1, HOME, VehicleConfig(vehicle_type=vehicle_type, **config)))
+    return Sim(new_vehicle(1, HOME, VehicleConfig(vehicle_type=vehicle_type, **config)))
 
 
 def ready(vehicle_type: str = "copter", **config) -> Sim:
@@ -83,19 +83,19 @@ def hovering() -> Sim:
     return s
 
 
-def item(seq: int, command: int, east: float = 0.0, north: float = 0.0, alt: float = 30.0, **params) -> MissionItem:
+def item(seq: int, command: int, east: float = 0.0, north: float = 0.0, alt: float = 30.0, **params) -> WireItem:
     lat, lon = offset(HOME, east, north)
-    return MissionItem(seq=seq, frame=REL, command=command, x=round(lat * 1e7), y=round(lon * 1e7), z=alt, **params)
+    return WireItem(seq=seq, frame=REL, command=command, x=round(lat * 1e7), y=round(lon * 1e7), z=alt, **params)
 
 
-def copter_mission() -> list[MissionItem]:
+def copter_mission() -> list[WireItem]:
     """flight §2: take-off to 30 m, four waypoints, land at home."""
     wp = mavlink.MAV_CMD_NAV_WAYPOINT
     return [item(0, wp, alt=0.0), item(1, mavlink.MAV_CMD_NAV_TAKEOFF), item(2, wp, 0, 150), item(3, wp, 150, 150),
             item(4, wp, 200, 0), item(5, wp, 100, -100), item(6, mavlink.MAV_CMD_NAV_LAND, alt=0.0)]
 
 
-def plane_mission() -> list[MissionItem]:
+def plane_mission() -> list[WireItem]:
     """flight §3: take-off to 40 m, a square, DO_LAND_START, an approach 600 m west, land at home."""
     wp = mavlink.MAV_CMD_NAV_WAYPOINT
     return [item(0, wp, alt=0.0), item(1, mavlink.MAV_CMD_NAV_TAKEOFF, alt=40.0, param1=15.0),

@@ -14,7 +14,7 @@ from mavsdk.asyncio.plugins.mission_raw import MissionItem as RawItem, MissionRa
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 
 from gcs.autopilots.ardupilot_storage import stored_item
-from sim import MissionItem as SimItem
+from sim import WireItem as SimItem
 from tests.sim.helpers import HOME, distance_m, fast, offset
 
 

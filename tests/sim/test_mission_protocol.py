@@ -6,7 +6,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim.autopilot.mission_protocol import MissionItem, MissionProtocol, MissionType, ProtocolConfig
+from gcs.autopilots.wire_item import MissionType, WireItem
+from sim.autopilot.mission_protocol import MissionProtocol, ProtocolConfig
 
 GCS = (255, 190)
 OTHER = (254, 190)
@@ -23,8 +24,8 @@ def count(n, mtype=0, sender=GCS):
 
 
 def item(seq, mtype=0, frame=REL, sender=GCS, legacy=False):
-    it = MissionItem(seq=seq, frame=frame, command=16, x=-353632610 + seq, y=1491652300, z=10.0 + seq,
-                     mission_type=mtype)
+    it = WireItem(seq=seq, frame=frame, command=16, x=-353632610 + seq, y=1491652300, z=10.0 + seq,
+                  mission_type=mtype)
     return _from(it.to_msg((1, 1), legacy=legacy), sender)
 
 

@@ -13,7 +13,8 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots import px4_storage
-from sim.autopilot.mission_protocol import MissionItem, ProtocolConfig
+from gcs.autopilots.wire_item import WireItem
+from sim.autopilot.mission_protocol import ProtocolConfig
 from sim.autopilot.px4 import CAPACITY, item_result, list_result
 from sim.autopilot.px4_mission import Px4MissionProtocol
 
@@ -40,7 +41,7 @@ class Manager:
     def count(self, n: int, mission_type: int = MISSION, sender=GCS) -> list:
         return self.send(mavlink.MAVLink_mission_count_message(1, 1, n, mission_type), sender)
 
-    def upload(self, items: list[MissionItem], mission_type: int = MISSION) -> tuple[int, list[tuple[str, int]]]:
+    def upload(self, items: list[WireItem], mission_type: int = MISSION) -> tuple[int, list[tuple[str, int]]]:
         requests = []
         out = self.count(len(items), mission_type)
         while True:
@@ -65,9 +66,9 @@ class Manager:
         return out
 
 
-def wp(seq: int, north_m: float = 0.0, z: float = 20.0, **kw) -> MissionItem:
-    return MissionItem(seq=seq, frame=REL, command=mavlink.MAV_CMD_NAV_WAYPOINT, x=472771883 + round(north_m * 9),
-                       y=114039709, z=z, **kw)
+def wp(seq: int, north_m: float = 0.0, z: float = 20.0, **kw) -> WireItem:
+    return WireItem(seq=seq, frame=REL, command=mavlink.MAV_CMD_NAV_WAYPOINT, x=472771883 + round(north_m * 9),
+                    y=114039709, z=z, **kw)
 
 
 def texts(out: list) -> list[str]:
@@ -174,8 +175,8 @@ def test_an_upload_identical_to_the_stored_list_changes_nothing():
 
 def test_a_frame_2_items_x_and_y_come_back_in_float32_and_5_6_need_an_int_message():
     m = Manager()
-    speed = MissionItem(seq=0, frame=mavlink.MAV_FRAME_MISSION, command=mavlink.MAV_CMD_DO_CHANGE_SPEED,
-                        param1=1, param2=5, x=472761189, y=114059634)
+    speed = WireItem(seq=0, frame=mavlink.MAV_FRAME_MISSION, command=mavlink.MAV_CMD_DO_CHANGE_SPEED,
+                     param1=1, param2=5, x=472761189, y=114059634)
     assert m.upload([speed])[0] == 0
     assert (m.download()[0].x, m.download()[0].y) == (472761184, 114059632)
     legacy = replace(wp(0), frame=REL_INT).to_msg((1, 1), legacy=True)
@@ -192,8 +193,8 @@ _FRAMES = (0, 1, 2, 3, 4, 5, 6, 10, 11)
                          [c for c in itertools.product((MISSION, FENCE, RALLY), _COMMANDS, _FRAMES)
                           if not (c[0] != MISSION and c[1] in (20, 178, 189))])
 def test_item_checks_agree_with_the_stations_model_of_px4(mission_type, command, frame):
-    item = MissionItem(seq=0, frame=frame, command=command, param1=4.0, x=472771883, y=114039709, z=20.0,
-                       mission_type=mission_type)
+    item = WireItem(seq=0, frame=frame, command=command, param1=4.0, x=472771883, y=114039709, z=20.0,
+                    mission_type=mission_type)
     result = item_result(item, int_mode=True)
     if result == mavlink.MAV_MISSION_ACCEPTED:
         result = list_result(item)
@@ -204,9 +205,9 @@ def test_item_checks_agree_with_the_stations_model_of_px4(mission_type, command,
 
 
 def test_unknown_commands_and_nan_roi_modes_are_refused_as_px4_parses_them():
-    unknown = MissionItem(seq=0, frame=REL, command=31010)
+    unknown = WireItem(seq=0, frame=REL, command=31010)
     assert item_result(unknown, int_mode=True) == mavlink.MAV_MISSION_UNSUPPORTED
-    roi = MissionItem(seq=0, frame=mavlink.MAV_FRAME_MISSION, command=mavlink.MAV_CMD_DO_SET_ROI, param1=math.nan)
+    roi = WireItem(seq=0, frame=mavlink.MAV_FRAME_MISSION, command=mavlink.MAV_CMD_DO_SET_ROI, param1=math.nan)
     assert item_result(roi, int_mode=True) == mavlink.MAV_MISSION_ACCEPTED  # NaN reads as mode 0, ROI_NONE
     roi = replace(roi, param1=3.0)
     assert item_result(roi, int_mode=True) == mavlink.MAV_MISSION_INVALID_PARAM1

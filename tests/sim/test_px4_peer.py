@@ -10,7 +10,7 @@ import time
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim import MissionItem, VehicleConfig
+from sim import VehicleConfig, WireItem
 from sim.autopilot.px4 import BOOT_TIMES
 from tests.sim.helpers import HOME, distance_m, fast, offset, waypoint
 from tests.sim.mission_client import MissionClient
@@ -23,12 +23,12 @@ def _mode(msg) -> tuple[int, int]:
     return (msg.custom_mode >> 16) & 0xFF, msg.custom_mode >> 24
 
 
-def _mission(alt: float = 10.0) -> list[MissionItem]:
+def _mission(alt: float = 10.0) -> list[WireItem]:
     lat, lon = offset(HOME, 0, 40)
-    take_off = MissionItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, command=mavlink.MAV_CMD_NAV_TAKEOFF,
-                           x=round(HOME.lat_deg * 1e7), y=round(HOME.lon_deg * 1e7), z=alt)
-    land = MissionItem(seq=2, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, command=mavlink.MAV_CMD_NAV_LAND,
-                       x=round(HOME.lat_deg * 1e7), y=round(HOME.lon_deg * 1e7))
+    take_off = WireItem(seq=0, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, command=mavlink.MAV_CMD_NAV_TAKEOFF,
+                        x=round(HOME.lat_deg * 1e7), y=round(HOME.lon_deg * 1e7), z=alt)
+    land = WireItem(seq=2, frame=mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, command=mavlink.MAV_CMD_NAV_LAND,
+                    x=round(HOME.lat_deg * 1e7), y=round(HOME.lon_deg * 1e7))
     return [take_off, waypoint(1, lat, lon, alt), land]
 
 

@@ -7,11 +7,13 @@ from __future__ import annotations
 
 import math
 import struct
+from dataclasses import replace
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sim import HomePose, MissionItem, Mode, SimVehicle, VehicleConfig
+from gcs.autopilots.wire_item import renumber
+from sim import HomePose, MissionType, Mode, VehicleConfig, WireItem, new_vehicle
 from sim.autopilot.px4 import BOOT_TIMES
 from tests.sim.helpers import SteppedVehicle, distance_m, offset
 
@@ -59,7 +61,7 @@ class Sim(SteppedVehicle):
                 out.append(chunks.pop(m.id).rstrip("\t"))
         return out
 
-    def upload(self, items: list[MissionItem], mission_type: int = 0) -> int:
+    def upload(self, items: list[WireItem], mission_type: int = 0) -> int:
         """COUNT, each request answered with MISSION_ITEM_INT; the ACK's result."""
         out = self.handle(mavlink.MAVLink_mission_count_message(1, 1, len(items), mission_type))
         while True:
@@ -78,7 +80,7 @@ class Sim(SteppedVehicle):
 
 
 def sim(**config) -> Sim:
-    return Sim(SimVehicle(1, HOME, VehicleConfig(profile="px4", **config)))
+    return Sim(new_vehicle(1, HOME, VehicleConfig(profile="px4", **config)))
 
 
 def ready(**config) -> Sim:
@@ -89,12 +91,12 @@ def ready(**config) -> Sim:
 
 
 def item(seq: int, command: int, east: float = 0.0, north: float = 0.0, alt: float = 30.0,
-         frame: int = REL, **params) -> MissionItem:
+         frame: int = REL, **params) -> WireItem:
     lat, lon = offset(HOME, east, north)
-    return MissionItem(seq=seq, frame=frame, command=command, x=round(lat * 1e7), y=round(lon * 1e7), z=alt, **params)
+    return WireItem(seq=seq, frame=frame, command=command, x=round(lat * 1e7), y=round(lon * 1e7), z=alt, **params)
 
 
-def mission(*legs: tuple[float, float], alt: float = 30.0) -> list[MissionItem]:
+def mission(*legs: tuple[float, float], alt: float = 30.0) -> list[WireItem]:
     """§4: take-off at home, waypoints (east, north), land at home."""
     wp = mavlink.MAV_CMD_NAV_WAYPOINT
     items = [item(0, mavlink.MAV_CMD_NAV_TAKEOFF, alt=alt)]
@@ -429,8 +431,8 @@ def test_rtl_lands_at_a_nearer_rally_point_uploaded_in_frame_3_or_0(frame):
     s = _away()
     lat, lon = offset(HOME, -60, 120)
     z = 15.0 if frame == REL else HOME.alt_m + 15.0
-    assert s.upload([MissionItem(seq=0, frame=frame, command=mavlink.MAV_CMD_NAV_RALLY_POINT, x=round(lat * 1e7),
-                                 y=round(lon * 1e7), z=z, mission_type=2)], 2) == mavlink.MAV_MISSION_ACCEPTED
+    assert s.upload([WireItem(seq=0, frame=frame, command=mavlink.MAV_CMD_NAV_RALLY_POINT, x=round(lat * 1e7),
+                              y=round(lon * 1e7), z=z, mission_type=2)], 2) == mavlink.MAV_MISSION_ACCEPTED
     assert s.said(s.mode, "RTL")[1][1] == "RTL: start return at 629 m (30 m above destination)"
     s.run(200.0, until=lambda v: not v.armed)
     assert distance_m(*s.here, lat, lon) < 1.0
@@ -439,8 +441,8 @@ def test_rtl_lands_at_a_nearer_rally_point_uploaded_in_frame_3_or_0(frame):
 def test_a_rally_point_in_frame_6_breaks_rtl_it_climbs_without_end():
     s = _away()
     lat, lon = offset(HOME, -60, 120)
-    s.upload([MissionItem(seq=0, frame=REL_INT, command=mavlink.MAV_CMD_NAV_RALLY_POINT, x=round(lat * 1e7),
-                          y=round(lon * 1e7), z=15.0, mission_type=2)], 2)
+    s.upload([WireItem(seq=0, frame=REL_INT, command=mavlink.MAV_CMD_NAV_RALLY_POINT, x=round(lat * 1e7),
+                       y=round(lon * 1e7), z=15.0, mission_type=2)], 2)
     s.run(3.0)
     assert "RTL: unsupported MAV_FRAME" in s.texts()  # said while armed, before any RTL
     where = s.here
@@ -543,7 +545,7 @@ def test_position_setpoints_fly_only_in_offboard_and_their_loss_falls_back_to_a_
     assert alt - s.v.airframe.kin.alt_m == pytest.approx(12.0, abs=0.5)  # §9: 19 to 7 m in 16 s
 
 
-def _square(half: float, inclusion: bool = True, centre=(0.0, 0.0)) -> list[MissionItem]:
+def _square(half: float, inclusion: bool = True, centre=(0.0, 0.0)) -> list[WireItem]:
     cmd = (mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION if inclusion
            else mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION)
     corners = [(-half, -half), (-half, half), (half, half), (half, -half)]
@@ -567,13 +569,9 @@ def test_a_fence_without_home_is_ignored_and_a_waypoint_outside_a_good_one_makes
     result, texts = s.said(s.command, mavlink.MAV_CMD_MISSION_START, 0, 0)
     assert (result, texts) == (DENIED, ["Mission start denied! No valid mission"])
     s.upload(_square(200, centre=(50, 50)) + [
-        MissionItem(**{**vars_of(v), "seq": v.seq + 4}) for v in _square(15, False, (100, 100))], 1)
+        replace(v, seq=v.seq + 4) for v in _square(15, False, (100, 100))], 1)
     s.upload(inside)
     assert s.v.mission_problems() == ["Geofence violation for waypoint 3"]
-
-
-def vars_of(item_: MissionItem) -> dict:
-    return {name: getattr(item_, name) for name in item_.__dataclass_fields__}
 
 
 # ---- texts ------------------------------------------------------------------------------------
@@ -594,14 +592,14 @@ def test_texts_end_with_a_tab_and_longer_ones_come_in_chunks_of_50():
 
 
 def test_a_plane_mission_needs_a_landing_and_a_glide_slope_no_steeper_than_fw_lnd_ang():
-    plane = Sim(SimVehicle(1, HOME, VehicleConfig(profile="px4", vehicle_type="plane")))
+    plane = Sim(new_vehicle(1, HOME, VehicleConfig(profile="px4", vehicle_type="plane")))
     wp, land_start = mavlink.MAV_CMD_NAV_WAYPOINT, mavlink.MAV_CMD_DO_LAND_START
 
-    def landing(approach_m: float, approach_alt: float = 30.0, starts: int = 1) -> list[MissionItem]:
+    def landing(approach_m: float, approach_alt: float = 30.0, starts: int = 1) -> list[WireItem]:
         items = [item(0, mavlink.MAV_CMD_NAV_TAKEOFF), item(1, wp, 0, 800)]
-        items += [MissionItem(seq=0, frame=mavlink.MAV_FRAME_MISSION, command=land_start)] * starts
+        items += [WireItem(seq=0, frame=mavlink.MAV_FRAME_MISSION, command=land_start)] * starts
         items += [item(0, wp, 0, -approach_m, approach_alt), item(0, mavlink.MAV_CMD_NAV_LAND, alt=0.0)]
-        return [replace_seq(it, i) for i, it in enumerate(items)]
+        return renumber(items, MissionType.MISSION)
 
     cases = [
         (landing(500)[:2], ["Mission rejected: Landing waypoint/pattern required."]),
@@ -616,7 +614,3 @@ def test_a_plane_mission_needs_a_landing_and_a_glide_slope_no_steeper_than_fw_ln
     for items, problems in cases:
         plane.v.load_mission(items)
         assert plane.v.mission_problems() == problems
-
-
-def replace_seq(item_: MissionItem, seq: int) -> MissionItem:
-    return MissionItem(**{**vars_of(item_), "seq": seq})

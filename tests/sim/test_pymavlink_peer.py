@@ -10,7 +10,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.ardupilot_storage import stored_item
-from sim import BatteryConfig, LinkFaults, MissionItem
+from sim import BatteryConfig, LinkFaults, WireItem
 from sim.vehicle_link import signing_key_from
 from tests.sim.helpers import HOME, distance_m, fast, home_placeholder, offset, waypoint
 from tests.sim.mission_client import MissionClient, MissionTransferError
@@ -18,12 +18,12 @@ from tests.sim.mission_client import MissionClient, MissionTransferError
 COPTER_GUIDED, COPTER_AUTO, COPTER_RTL, COPTER_LAND = 4, 3, 6, 9
 
 
-def kept(items: list[MissionItem]) -> list[MissionItem]:
+def kept(items: list[WireItem]) -> list[WireItem]:
     """What ArduPilot reads back for `items` as sent (the home item aside)."""
     return [stored_item(it, fixed_wing=False) for it in items]
 
 
-def survey(n: int) -> list[MissionItem]:
+def survey(n: int) -> list[WireItem]:
     """Home placeholder plus n waypoints on a lawnmower pattern."""
     items = [home_placeholder()]
     for i in range(n):
@@ -84,9 +84,9 @@ def test_fence_and_rally_are_kept_apart_from_the_mission(make_fleet, make_gcs):
     gcs = make_gcs(make_fleet())
     gcs.hello()
     client = MissionClient(gcs.conn, 1)
-    fence = [MissionItem(seq=i, frame=5, command=mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
-                         param1=4, x=round(HOME.lat_deg * 1e7) + i, y=round(HOME.lon_deg * 1e7), z=12.5,
-                         mission_type=1) for i in range(4)]
+    fence = [WireItem(seq=i, frame=5, command=mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+                      param1=4, x=round(HOME.lat_deg * 1e7) + i, y=round(HOME.lon_deg * 1e7), z=12.5,
+                      mission_type=1) for i in range(4)]
     client.upload(survey(3))
     client.upload(fence, mission_type=1)
     back = client.download(mission_type=1)
@@ -147,10 +147,10 @@ def _fly_square(make_fleet, make_gcs, **fleet_options):
     gcs.hello()
     corners = [(0, 60), (60, 60), (60, 0)]
     items = [home_placeholder(),
-             MissionItem(seq=1, frame=6, command=mavlink.MAV_CMD_NAV_TAKEOFF, z=15.0)]
+             WireItem(seq=1, frame=6, command=mavlink.MAV_CMD_NAV_TAKEOFF, z=15.0)]
     for i, (e, n) in enumerate(corners):
         items.append(waypoint(i + 2, *offset(HOME, e, n), 15.0, param1=2.0))
-    items.append(MissionItem(seq=5, frame=2, command=mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH))
+    items.append(WireItem(seq=5, frame=2, command=mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH))
     gcs.wait_ready()
     MissionClient(gcs.conn, 1).upload(items)
     assert gcs.set_mode(COPTER_GUIDED) == mavlink.MAV_RESULT_ACCEPTED

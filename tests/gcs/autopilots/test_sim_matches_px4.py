@@ -29,8 +29,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots import Autopilot
 from gcs.autopilots.px4_storage import stored_item
+from gcs.autopilots.wire_item import renumber
 from gcs.plans.plan_folder import load_plan_dir
-from sim import FleetOptions, HomePose, MissionItem, MissionType, SimFleet, VehicleConfig
+from sim import FleetOptions, HomePose, MissionType, SimFleet, VehicleConfig, WireItem
 from tests.peers.px4 import ONE_AT_A_TIME, Px4Sitl
 from tests.peers.site import Airport, Site
 from tests.sim import helpers  # noqa: F401  (MAVLink 2 for pymavlink, before mavutil is used)
@@ -60,10 +61,10 @@ class Transcript:
     """What one vehicle answered: per step a MAV_MISSION_RESULT (or a command result), the
     requests of an upload, read-back lists, MISSION_CURRENT seqs, texts, readiness."""
 
-    sent: dict[str, list[MissionItem]] = field(default_factory=dict)
+    sent: dict[str, list[WireItem]] = field(default_factory=dict)
     results: dict[str, int | None] = field(default_factory=dict)
     requests: dict[str, list[tuple[str, int]]] = field(default_factory=dict)
-    lists: dict[str, list[MissionItem]] = field(default_factory=dict)
+    lists: dict[str, list[WireItem]] = field(default_factory=dict)
     current: dict[str, int | None] = field(default_factory=dict)
     legacy: list[tuple] = field(default_factory=list)
     texts: list[str] = field(default_factory=list)
@@ -72,27 +73,18 @@ class Transcript:
     prearm_fields: tuple[bool, bool, bool] | None = None
 
 
-def _items(wire) -> list[MissionItem]:
-    return [MissionItem(**{f.name: getattr(w, f.name) for f in fields(MissionItem)}) for w in wire]
-
-
-def _numbered(items: list[MissionItem], mission_type: int = MISSION) -> list[MissionItem]:
-    return [MissionItem(**{**{f.name: getattr(it, f.name) for f in fields(MissionItem)}, "seq": i,
-                           "mission_type": mission_type}) for i, it in enumerate(items)]
-
-
 def _at(lat: float, lon: float, frame: int, command: int, dn: float, de: float, z: float, *params: float,
-        **kw) -> MissionItem:
+        **kw) -> WireItem:
     p = list(params) + [0.0] * (4 - len(params))
-    return MissionItem(seq=0, frame=frame, command=command, x=round((lat + dn * 1e-5) * 1e7),
-                       y=round((lon + de * 1e-5) * 1e7), z=z, param1=p[0], param2=p[1], param3=p[2], param4=p[3], **kw)
+    return WireItem(seq=0, frame=frame, command=command, x=round((lat + dn * 1e-5) * 1e7),
+                    y=round((lon + de * 1e-5) * 1e7), z=z, param1=p[0], param2=p[1], param3=p[2], param4=p[3], **kw)
 
 
-def varied(lat: float, lon: float) -> list[MissionItem]:
+def varied(lat: float, lon: float) -> list[WireItem]:
     """Items whose storage loses or changes something: every accepted frame, params dropped,
     wrapped or made whole, float32 altitudes, NaN, autocontinue 0, one flagged current."""
     cmd = mavlink
-    return _numbered([
+    return renumber([
         _at(lat, lon, REL_INT, cmd.MAV_CMD_NAV_TAKEOFF, 0, 0, 30.456, 15.3, 2, 3, -30),
         _at(lat, lon, REL, cmd.MAV_CMD_NAV_WAYPOINT, 20, 0, 12.345, 7.5, 3.7, 2.2, 400),
         _at(lat, lon, ABS, cmd.MAV_CMD_NAV_WAYPOINT, 20, 20, 612.3449, -5, 300, 256, -90),
@@ -104,10 +96,10 @@ def varied(lat: float, lon: float) -> list[MissionItem]:
         _at(lat, lon, REL, cmd.MAV_CMD_NAV_LAND, 0, 0, 0.004, 25.5, 2.9, 7, 720.5),
         _at(lat, lon, ABS_INT, cmd.MAV_CMD_NAV_LAND, 1, 1, 584.0, 0, -1, 0, 370),
         _at(lat, lon, mavlink.MAV_FRAME_MISSION, cmd.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0.0, 1, 2, 3, 4),
-    ])
+    ], MISSION)
 
 
-def refused(lat: float, lon: float) -> dict[str, MissionItem]:
+def refused(lat: float, lon: float) -> dict[str, WireItem]:
     """Item 3 of a 6-item upload, each refused by PX4."""
     cmd = mavlink
     return {
@@ -120,11 +112,11 @@ def refused(lat: float, lon: float) -> dict[str, MissionItem]:
     }
 
 
-def odd_fence(lat: float, lon: float) -> list[MissionItem]:
+def odd_fence(lat: float, lon: float) -> list[WireItem]:
     """Vertex counts rounded, a negative radius, a return point with params, every frame."""
     cmd = mavlink
     inc, exc = cmd.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, cmd.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
-    return _numbered([
+    return renumber([
         _at(lat, lon, REL, cmd.MAV_CMD_NAV_FENCE_RETURN_POINT, 0, 0, 12.5, 1, 2, 3, 4),
         _at(lat, lon, ABS, inc, -50, -50, 0.0, 4.4, 1.1),
         _at(lat, lon, REL_INT, inc, -50, 50, 3.3, 3.6),
@@ -138,12 +130,12 @@ def odd_fence(lat: float, lon: float) -> list[MissionItem]:
     ], FENCE)
 
 
-def odd_rally(lat: float, lon: float) -> list[MissionItem]:
+def odd_rally(lat: float, lon: float) -> list[WireItem]:
     cmd = mavlink.MAV_CMD_NAV_RALLY_POINT
-    return _numbered([_at(lat, lon, REL, cmd, 10, 0, 15.0, 1.5, 2.5, 3.5, 4.5),
-                      _at(lat, lon, ABS, cmd, 0, 10, 600.25, autocontinue=0),
-                      _at(lat, lon, REL_INT, cmd, -10, 0, 33.3),
-                      _at(lat, lon, ABS_INT, cmd, 0, -10, 612.7)], RALLY)
+    return renumber([_at(lat, lon, REL, cmd, 10, 0, 15.0, 1.5, 2.5, 3.5, 4.5),
+                     _at(lat, lon, ABS, cmd, 0, 10, 600.25, autocontinue=0),
+                     _at(lat, lon, REL_INT, cmd, -10, 0, 33.3),
+                     _at(lat, lon, ABS_INT, cmd, 0, -10, 612.7)], RALLY)
 
 
 # ---- the exchange -----------------------------------------------------------------------------
@@ -190,7 +182,7 @@ class Station:
         ack = self.recv(("COMMAND_ACK",), 3.0, lambda m: m.command == command)
         return None if ack is None else ack.result
 
-    def upload(self, items: list[MissionItem], mission_type: int = MISSION) -> tuple[int | None, list[tuple[str, int]]]:
+    def upload(self, items: list[WireItem], mission_type: int = MISSION) -> tuple[int | None, list[tuple[str, int]]]:
         """Stop-and-wait upload answering every request with MISSION_ITEM_INT: the ACK's
         result and the requests as they came."""
         requests: list[tuple[str, int]] = []
@@ -205,9 +197,9 @@ class Station:
             if not requests or requests[-1] != (msg.get_type(), msg.seq):  # PX4 asks again every 0.25 s
                 requests.append((msg.get_type(), msg.seq))
             if 0 <= msg.seq < len(items):
-                self.mav.send(_numbered(items, mission_type)[msg.seq].to_msg(self.target))
+                self.mav.send(renumber(items, mission_type)[msg.seq].to_msg(self.target))
 
-    def download(self, mission_type: int = MISSION) -> list[MissionItem]:
+    def download(self, mission_type: int = MISSION) -> list[WireItem]:
         return self.client.download(mission_type)
 
     def mission_current(self, *, taken_up: bool = False) -> int | None:
@@ -254,9 +246,9 @@ def exercise(st: Station, plan_dir: Path) -> Transcript:
     st.settle(0.3)
     task = load_plan_dir(plan_dir).uavs[1]
     lat, lon = task.airport_lat_lon
-    planned = _numbered(_items(task.mission_wire(Autopilot.PX4)))
+    planned = renumber(task.mission_wire(Autopilot.PX4), MISSION)
 
-    def upload(name: str, items: list[MissionItem], mission_type: int = MISSION, read: bool = True,
+    def upload(name: str, items: list[WireItem], mission_type: int = MISSION, read: bool = True,
                navigator: bool = False) -> None:
         """`navigator`: the navigator runs and takes up a new list some time after it arrived:
         MISSION_CURRENT is awaited until it has, then the list is read back."""
@@ -277,11 +269,11 @@ def exercise(st: Station, plan_dir: Path) -> Transcript:
     for name, bad in refused(lat, lon).items():
         items = planned[:6]
         items[3] = bad
-        upload(name, _numbered(items), read=False)
+        upload(name, renumber(items, MISSION), read=False)
     out.lists["after refusals"] = st.download()
-    upload("fence", _numbered(_items(task.fence_wire()), FENCE), FENCE)
+    upload("fence", renumber(task.fence_wire(), FENCE), FENCE)
     upload("odd fence", odd_fence(lat, lon), FENCE)
-    upload("rally", _numbered(_items(task.rally_wire()), RALLY), RALLY)
+    upload("rally", renumber(task.rally_wire(), RALLY), RALLY)
     upload("odd rally", odd_rally(lat, lon), RALLY)
     for name, mission_type, count in (("mission over capacity", MISSION, 65535),
                                       ("fence over capacity", FENCE, 65), ("rally over capacity", RALLY, 33),
@@ -339,7 +331,7 @@ def differences(sim: Transcript, real: Transcript) -> list[str]:
             problems.append(f"{name}: {len(got)} items read back, PX4 {len(want)}")
             continue
         for g, w in zip(got, want):
-            for f in fields(MissionItem):
+            for f in fields(WireItem):
                 a, b = getattr(g, f.name), getattr(w, f.name)
                 if not _same(a, b):
                     problems.append(f"{name} item {w.seq} (command {w.command}): {f.name} {a!r}, PX4 {b!r}")
@@ -425,6 +417,6 @@ def test_the_stations_model_predicts_what_px4_reads_back(transcripts):
         for s, b in zip(sent, back):
             want = stored_item(s)
             problems += [f"{name} item {s.seq} (command {s.command}): {f.name} {getattr(want, f.name)!r}, "
-                         f"PX4 {getattr(b, f.name)!r}" for f in fields(MissionItem)
+                         f"PX4 {getattr(b, f.name)!r}" for f in fields(WireItem)
                          if f.name != "current" and not _same(getattr(want, f.name), getattr(b, f.name))]
     assert problems == []

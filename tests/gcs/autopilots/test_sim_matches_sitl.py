@@ -21,8 +21,9 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots import Autopilot
+from gcs.autopilots.wire_item import renumber
 from gcs.plans.plan_folder import load_plan_dir
-from sim import FleetOptions, HomePose, MissionItem, MissionType, SimFleet, VehicleConfig
+from sim import FleetOptions, HomePose, MissionType, SimFleet, VehicleConfig, WireItem
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.site import Airport, Site
 from tests.sim import helpers  # noqa: F401  (MAVLink 2 for pymavlink, before mavutil is used)
@@ -43,22 +44,18 @@ class Transcript:
 
     home: tuple[int, int, float]
     results: dict[str, int] = field(default_factory=dict)
-    lists: dict[str, list[MissionItem]] = field(default_factory=dict)
+    lists: dict[str, list[WireItem]] = field(default_factory=dict)
     texts: list[str] = field(default_factory=list)
 
 
-def _items(wire) -> list[MissionItem]:
-    return [MissionItem(**{f.name: getattr(w, f.name) for f in fields(MissionItem)}) for w in wire]
-
-
-def varied(lat: float, lon: float, plane: bool) -> list[MissionItem]:
+def varied(lat: float, lon: float, plane: bool) -> list[WireItem]:
     """Items whose storage loses or changes something: frames with and without _INT, cut
     altitudes, params made whole, NaN where allowed, a location on a command without one."""
     def at(seq, frame, command, dn, de, z, *params, **kw):
-        return MissionItem(seq=seq, frame=frame, command=command, x=round((lat + dn * 1e-5) * 1e7),
-                           y=round((lon + de * 1e-5) * 1e7), z=z, param1=params[0] if params else 0.0,
-                           param2=params[1] if len(params) > 1 else 0.0, param3=params[2] if len(params) > 2 else 0.0,
-                           param4=params[3] if len(params) > 3 else 0.0, **kw)
+        return WireItem(seq=seq, frame=frame, command=command, x=round((lat + dn * 1e-5) * 1e7),
+                        y=round((lon + de * 1e-5) * 1e7), z=z, param1=params[0] if params else 0.0,
+                        param2=params[1] if len(params) > 1 else 0.0, param3=params[2] if len(params) > 2 else 0.0,
+                        param4=params[3] if len(params) > 3 else 0.0, **kw)
 
     items = [
         at(0, ABS, mavlink.MAV_CMD_NAV_WAYPOINT, 55, 55, 999.0, 9, 8, 7, 6),
@@ -77,8 +74,7 @@ def varied(lat: float, lon: float, plane: bool) -> list[MissionItem]:
     if plane:
         items[6:6] = [at(6, REL, mavlink.MAV_CMD_DO_LAND_START, -10, -10, 0.0),
                       at(7, REL, mavlink.MAV_CMD_NAV_WAYPOINT, -10, -30, 40.0)]
-    return [MissionItem(**{**{f.name: getattr(it, f.name) for f in fields(MissionItem)}, "seq": i})
-            for i, it in enumerate(items)]
+    return renumber(items, MissionType.MISSION)
 
 
 def _wait_home(conn, sysid: int, timeout_s: float = 60.0) -> tuple[int, int, float]:
@@ -105,17 +101,17 @@ def exercise(conn, sysid: int, vehicle: str, plan_dir: Path) -> Transcript:
     conn.wait_heartbeat(timeout=30)
     home = _wait_home(conn, sysid)
     task = load_plan_dir(plan_dir).uavs[1]
-    planned = _items(task.mission_wire(Autopilot.ARDUPILOT))
+    planned = task.mission_wire(Autopilot.ARDUPILOT)
     lat, lon = task.airport_lat_lon
     odd = varied(lat, lon, vehicle == "plane")
     refused = odd[:6]
-    refused[3] = MissionItem(seq=3, frame=mavlink.MAV_FRAME_LOCAL_NED, command=mavlink.MAV_CMD_NAV_WAYPOINT,
-                             x=1, y=2, z=3)
+    refused[3] = WireItem(seq=3, frame=mavlink.MAV_FRAME_LOCAL_NED, command=mavlink.MAV_CMD_NAV_WAYPOINT,
+                          x=1, y=2, z=3)
     client = MissionClient(conn, sysid, timeout_s=0.5, deadline_s=60.0)
     out = Transcript(home)
     for name, items, kind in (("planned", planned, MissionType.MISSION), ("varied", odd, MissionType.MISSION),
-                              ("refused", refused, MissionType.MISSION), ("fence", _items(task.fence_wire()), 1),
-                              ("rally", _items(task.rally_wire()), 2)):
+                              ("refused", refused, MissionType.MISSION), ("fence", task.fence_wire(), 1),
+                              ("rally", task.rally_wire(), 2)):
         if name == "refused":
             client.upload(planned)  # a known list for the refused upload to mix with
         try:
@@ -157,7 +153,7 @@ def differences(sim: Transcript, real: Transcript) -> list[str]:
                     if (item.x, item.y) != home[:2] or abs(item.z - home[2]) > 0.011:
                         problems.append(f"{step} home ({t}): {item.x},{item.y},{item.z} is not HOME_POSITION {home}")
                 continue
-            for f in fields(MissionItem):
+            for f in fields(WireItem):
                 a, b = getattr(g, f.name), getattr(w, f.name)
                 if not _same(a, b):
                     problems.append(f"{step} item {g.seq} (command {w.command}): {f.name} {a!r}, SITL {b!r}")

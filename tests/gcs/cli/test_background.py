@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-import gcs.recording.background
+import gcs.recording.plan_rules
 from gcs.background import Background
 from gcs.recording.background import BackgroundPlanRecorder
 from gcs.recording.plan import PlanRecorder, read_recording
@@ -193,7 +193,7 @@ def columns(path: Path) -> dict[str, str]:
 
 
 def check_the_recording_made_in_the_helper_equals_the_one_made_here(tmp_path: Path, cells_per_map: str) -> None:
-    gcs.recording.background.MAP_CELLS_EVERY_STEP = int(cells_per_map)
+    gcs.recording.plan_rules.MAP_CELLS_EVERY_STEP = int(cells_per_map)
     scenario = paper_scenario(2, range_steps=50)
 
     def record(make):
@@ -214,7 +214,7 @@ def check_the_recording_made_in_the_helper_equals_the_one_made_here(tmp_path: Pa
     assert columns(here) == columns(there)
 
 
-@pytest.mark.parametrize("cells_per_map", [gcs.recording.background.MAP_CELLS_EVERY_STEP, 1000])
+@pytest.mark.parametrize("cells_per_map", [gcs.recording.plan_rules.MAP_CELLS_EVERY_STEP, 1000])
 def test_the_recording_made_in_the_helper_equals_the_one_made_here(tmp_path, cells_per_map):
     """With maps every step and (on the 50 x 50 paper grid, 1000 cells a map) every 3rd step:
     the helper's recording holds the same rows, the last step's maps included."""

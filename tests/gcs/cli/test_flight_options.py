@@ -30,7 +30,7 @@ def test_flight_flags_default_to_fly_options(command, flags):
 def test_fly_without_flags_flies_with_the_default_options():
     args = command_parser("fly").parse_args(["--plan", "somewhere"])
     plan = FleetPlan.__new__(FleetPlan)
-    plan.uavs = {1: None}
+    plan.uavs, plan.raw = {1: None}, {}  # a plan made without --vehicles
     built, defaults = options_from(args, plan), FlyOptions()
     assert {f.name: getattr(built, f.name) for f in fields(FlyOptions)} == \
         {f.name: getattr(defaults, f.name) for f in fields(FlyOptions)}
