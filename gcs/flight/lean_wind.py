@@ -19,8 +19,8 @@ __all__ = ["LEAN_EXPONENT", "LeanWind", "MAX_ACCELERATION_M_S2", "MIN_SAMPLES", 
 #: p of the module docstring
 LEAN_EXPONENT = 4.0 / 3.0
 
-#: Samples (ATTITUDE at 4 Hz: 5 s) before the wind is said, and the last ones it is the mean of (30 s)
-MIN_SAMPLES = 20
+#: Samples (ATTITUDE at 4 Hz: 2 s) before the wind is said, and the last ones it is the mean of (30 s)
+MIN_SAMPLES = 8
 WINDOW = 120
 
 #: Samples accelerating harder than this are left out (the acceleration is read from velocities

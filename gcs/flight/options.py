@@ -21,7 +21,9 @@ class FlyOptions:
     a UAV without one gets its autopilot's stock profile (`gcs.plans.vehicle_file.stock_profile`).
     `confirm_s`: vehicle seconds the return trigger must hold before it is acted on.
     `fit_charge`: a vehicle whose charge cannot pay for its plan flies a range cut to its charge
-    instead of being kept on the ground. `vehicles_file`: the vehicles.json the profiles this
+    instead of being kept on the ground. `wind_m_s`: (east, north) m/s the air moves towards, as
+    the crew measured it at launch: the check before arming and the trigger price the plan in it
+    until the vehicle's own wind reading replaces it. `vehicles_file`: the vehicles.json the profiles this
     flight learns are merged into. `landed_away_m[airframe]`: farther than this from its airport a
     vehicle has landed away."""
 
@@ -29,6 +31,7 @@ class FlyOptions:
     profiles: dict[int, EnergyProfile] = field(default_factory=dict)
     confirm_s: float = 3.0
     fit_charge: bool = False
+    wind_m_s: tuple[float, float] | None = None
     vehicles_file: str | None = None
     landed_away_m: dict[str, float] = field(default_factory=lambda: dict(LANDED_AWAY_M))
     link_timeout_s: float = 3.0

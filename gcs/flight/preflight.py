@@ -176,30 +176,40 @@ def charge_covers_plan(vehicle: VehicleFlight) -> bool:
     """Before arming: does the charge the vehicle reports now pay for its plan (launch, the
     mission path, the landing) and leave the reserve, at its profile's prices? When it does
     not, the vehicle stays on the ground (FAILED, naming both figures), or with `fit_charge`
-    flies a range cut to what its charge pays for (its `operator_range`). A charge not reported
+    flies a range cut to what its charge pays for (its `operator_range`), never one shorter than
+    its shortest way out and home. A metre is priced in the wind known. A charge not reported
     yet is not checked."""
     st, fuel, options = vehicle.status, vehicle.energy.fuel, vehicle.options
     path_m = float(vehicle.plan.raw_uav(vehicle.uid).get("length_m", vehicle.track.length_m))
-    charge = vehicle.energy.plan_charge(path_m)
+    track = vehicle.track
+    charge = vehicle.energy.plan_charge(path_m, track)
     if charge is None:
         vehicle.say("warning: no battery report yet; its charge is not checked against its plan")
         return True
-    have, need = charge.have_mah, charge.need_mah
+    have, need, per_m = charge.have_mah, charge.need_mah, charge.mah_per_m
     pct = f"{st.battery_pct:.0f}%" if st.battery_pct is not None else "charge"
+    wind = "" if fuel.wind_m_s is None else " in the wind"
     if charge.enough:
-        vehicle.say(f"charge {pct} ({have:.0f} of {fuel.capacity_mah:.0f} mAh) pays for its {path_m:.0f} m plan: "
-                    f"{need:.0f} mAh with the {options.reserve_pct:g}% reserve")
+        vehicle.say(f"charge {pct} ({have:.0f} of {fuel.capacity_mah:.0f} mAh) pays for its {path_m:.0f} m plan"
+                    f"{wind}: {need:.0f} mAh with the {options.reserve_pct:g}% reserve")
         return True
     covers_m = charge.covers_m
-    what = (f"charge {pct} = {have:.0f} mAh pays for {covers_m:.0f} m of its plan's {path_m:.0f} m (the plan needs "
-            f"{need:.0f} mAh with the {options.reserve_pct:g}% reserve of a {fuel.capacity_mah:.0f} mAh pack)")
+    what = (f"charge {pct} = {have:.0f} mAh pays for {covers_m:.0f} m of its plan's {path_m:.0f} m{wind} (the plan "
+            f"needs {need:.0f} mAh with the {options.reserve_pct:g}% reserve of a {fuel.capacity_mah:.0f} mAh "
+            f"pack)")
     if not options.fit_charge:
         vehicle.set_stage(Stage.FAILED, f"not armed: {what}; charge it, or fly a range cut to its charge "
                                         "(--fit-charge)")
         return False
-    overhead = max(0.0, path_m - vehicle.track.length_m)
-    if covers_m - overhead <= 0:
-        vehicle.set_stage(Stage.FAILED, f"not armed: {what}, not even the way out and back")
+    overhead = max(0.0, path_m - track.length_m)
+    shortest_m = shortest_mah = 0.0  # its shortest way: out to its first pose and home from there
+    if len(vehicle.task.trajectory) > 1:
+        home = fuel.way_cost(track.home_legs(1))
+        shortest_m = track.flown_m(1) + home.metres
+        shortest_mah = track.flown_m(1) * per_m + home.mah
+    if (covers_m - overhead) * per_m < shortest_mah:
+        vehicle.set_stage(Stage.FAILED, f"not armed: {what}, less than its shortest way out and home "
+                                        f"({shortest_m:.0f} m{wind})")
         return False
     vehicle.operator_range = covers_m - overhead
     vehicle.say(f"{what}: flying a range cut to {covers_m - overhead:.0f} m along its plan (--fit-charge)")

@@ -64,12 +64,14 @@ class EnergyAccount:
 @dataclass(frozen=True, slots=True)
 class PlanCharge:
     """Before launch: the charge reported (`have_mah`) against what the plan needs (`need_mah`:
-    the launch, the mission path, the landing and the reserve, at the profile's prices), and the
-    metres of cruise the charge above the reserve and those ends pays for (`covers_m`)."""
+    the launch, the mission path, the landing and the reserve, at the profile's prices, a metre
+    at `mah_per_m`), and the metres of the plan the charge above the reserve and those ends pays
+    for (`covers_m`)."""
 
     have_mah: float
     need_mah: float
     covers_m: float
+    mah_per_m: float  # a metre of the plan, in the wind known
 
     @property
     def enough(self) -> bool:
@@ -99,11 +101,12 @@ class VehicleEnergy:
     """One vehicle's energy (see the module docstring); `status` is its telemetry, read here."""
 
     def __init__(self, task: UavTask, status: VehicleStatus, profile: EnergyProfile, *, reserve_pct: float,
-                 confirm_s: float = 3.0) -> None:
+                 confirm_s: float = 3.0, wind_m_s: tuple[float, float] | None = None) -> None:
         self.task = task
         self.status = status
         self.profile = profile
-        self.fuel = FuelGauge(profile)
+        self.crew_wind = wind_m_s  # the wind the crew measured at launch (`gcs fly --wind`)
+        self.fuel = self._gauge(profile)
         self.reserve_pct = reserve_pct
         self.confirm_s = confirm_s
         self.phase = FlightPhase.GROUND
@@ -134,10 +137,16 @@ class VehicleEnergy:
         capacity already read from the autopilot)."""
         capacity = self.fuel.capacity_mah if self.fuel.capacity_mah != self.profile.capacity_mah else None
         self.profile = profile
-        self.fuel = FuelGauge(profile)
+        self.fuel = self._gauge(profile)
         self.lean_wind = LeanWind(profile.lean_tan_at_10_m_s) if profile.lean_tan_at_10_m_s else None
         if capacity is not None:
             self.fuel.set_capacity(capacity)
+
+    def _gauge(self, profile: EnergyProfile) -> FuelGauge:
+        gauge = FuelGauge(profile)
+        if self.crew_wind is not None:
+            gauge.set_wind(*self.crew_wind)
+        return gauge
 
     # ---- telemetry ---------------------------------------------------------------------------
 
@@ -172,7 +181,7 @@ class VehicleEnergy:
             return
         lean.sample(thrust_lean(msg.roll, msg.pitch, msg.yaw), self._velocity, self._acceleration)
         wind = lean.wind_m_s
-        if wind is None or lean.samples % 10:
+        if wind is None or lean.samples % 4:
             return
         self.fuel.set_wind(*wind)
         said = self._wind_said
@@ -278,17 +287,18 @@ class VehicleEnergy:
         profile = self.profile
         return (profile.loiter_mah_per_s * self.hold_s + profile.landing_cost_mah(self.landing_altitude_m)) * scale
 
-    def plan_charge(self, path_m: float) -> PlanCharge | None:
-        """What the charge reported now pays for against a plan of `path_m` metres; None while no
-        charge has been reported."""
+    def plan_charge(self, path_m: float, track: PlanTrack) -> PlanCharge | None:
+        """What the charge reported now pays for against a plan of `path_m` metres along `track`,
+        a metre priced along its legs in the wind known; None while no charge has been reported."""
         fuel, profile = self.fuel, self.profile
         have = fuel.remaining_mah
         if have is None:
             return None
         reserve = fuel.reserve_mah(self.reserve_pct)
         ends = profile.launch_cost_mah(self.task.altitude_m) + profile.landing_cost_mah(self.landing_altitude_m)
-        return PlanCharge(have, ends + fuel.rate_mah_per_m * path_m + reserve,
-                          fuel.cruise_m_for(have - reserve - ends))
+        along = fuel.way_cost(track.legs())
+        per_m = along.mah / along.metres if along.metres > 0 else fuel.rate_mah_per_m  # the wind known included
+        return PlanCharge(have, ends + per_m * path_m + reserve, max(0.0, have - reserve - ends) / per_m, per_m)
 
     def must_return(self, now_s: float) -> bool:
         """Whether the last evaluation, confirmed (`gcs.flight.return_trigger.confirmed`), sends

@@ -43,6 +43,10 @@ class PlanTrack:
     def length_m(self) -> float:
         return float(self.along_m[-1])
 
+    def legs(self) -> Legs:
+        """The trajectory's legs, pose to pose, in metres."""
+        return [(float(e), float(n)) for e, n in np.diff(self.track_m, axis=0)]
+
     def look_ahead(self, index: int, lat_deg: float, lon_deg: float, steps: int) -> tuple[list[Legs], list[Legs]]:
         """For each of the next `steps` search poses after pose `index`: the legs from this position
         to it, and the planned way home from it; empty while the next pose is not a search pose

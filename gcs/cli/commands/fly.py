@@ -13,6 +13,7 @@ journal it left in DIR, `gcs.flight.journal`; the reattachment, `gcs.flight.resu
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -56,6 +57,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fit-charge", action="store_true",
                    help="a vehicle whose charge cannot pay for its plan flies a range cut to its charge instead of "
                         "staying on the ground")
+    p.add_argument("--wind", metavar="M_S@FROM_DEG", type=wind_arg,
+                   help="the wind at the launch site (e.g. 8@250: 8 m/s from 250 degrees): the check before arming "
+                        "and the return trigger price each way in it until a vehicle reads its own")
     p.add_argument("--return-after", metavar="UAV:SECONDS", action="append", default=[],
                    help="order UAV home after SECONDS (real time), as the operator's 'r UAV' would")
     p.add_argument("--stdin-orders", action="store_true",
@@ -79,6 +83,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_output_arguments(p, "the flight", "flight.rrd in the plan folder")
     add_area_arguments(p)
     p.set_defaults(func=run)
+
+
+def wind_arg(text: str) -> tuple[float, float]:
+    """`SPEED@FROM_DEG` as (east, north) m/s the air moves towards."""
+    try:
+        speed, source = (float(part) for part in text.split("@"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected SPEED@FROM_DEG, e.g. 8@250") from None
+    if not (math.isfinite(speed) and math.isfinite(source) and 0 <= speed < 60):
+        raise argparse.ArgumentTypeError(f"{text!r}: a wind speed in [0, 60) m/s from a direction in degrees")
+    rad = math.radians(source)
+    return -speed * math.sin(rad), -speed * math.cos(rad)
 
 
 def _pairs(values: list[str], what: str, kind=float) -> dict[int, float]:
@@ -121,7 +137,7 @@ def options_from(args: argparse.Namespace, plan: FleetPlan) -> FlyOptions:
         raise UserError("--reserve-pct must be in [0, 100)")
     vehicles = args.vehicles or planned_vehicles_file(plan)
     return FlyOptions(reserve_pct=args.reserve_pct, profiles=profiles_from(vehicles, plan),
-                      vehicles_file=vehicles, fit_charge=args.fit_charge,
+                      vehicles_file=vehicles, fit_charge=args.fit_charge, wind_m_s=args.wind,
                       link_timeout_s=args.link_timeout, lost_giveup_s=args.lost_giveup, return_after_s=returns,
                       fence=not args.no_fence, check_home=not args.allow_home_offset,
                       ready_timeout_s=args.ready_timeout, arm_timeout_s=args.arm_timeout)
