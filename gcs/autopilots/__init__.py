@@ -83,9 +83,9 @@ class Autopilot(str, Enum):
         (where it comes from) or PX4's WIND_COV (its velocity), and ATTITUDE, from which a
         multicopter's lean shows a wind its autopilot does not estimate (`gcs.flight.lean_wind`)."""
         if self is Autopilot.ARDUPILOT:
-            return {mavlink.MAVLINK_MSG_ID_WIND: 1.0, mavlink.MAVLINK_MSG_ID_ATTITUDE: 4.0}
+            return {mavlink.MAVLINK_MSG_ID_WIND: 1.0, mavlink.MAVLINK_MSG_ID_ATTITUDE: 2.0}
         if self is Autopilot.PX4:
-            return {mavlink.MAVLINK_MSG_ID_WIND_COV: 1.0, mavlink.MAVLINK_MSG_ID_ATTITUDE: 4.0}
+            return {mavlink.MAVLINK_MSG_ID_WIND_COV: 1.0, mavlink.MAVLINK_MSG_ID_ATTITUDE: 2.0}
         return {}
 
     def capacity_param(self) -> str | None:

@@ -135,6 +135,11 @@ class FuelGauge:
             self.wind_m_s = (float(east_m_s), float(north_m_s))
             self._fit = None
 
+    def clear_wind(self) -> None:
+        """Still air after all (a vehicle's own reading replacing an earlier one)."""
+        self.wind_m_s = None
+        self._fit = None
+
     def factor(self, east: float, north: float) -> float:
         """What the wind known does to a metre flown in the direction (east, north)."""
         return 1.0 if self.wind_m_s is None else wind_factor(self.profile, east, north, self.wind_m_s)

@@ -14,14 +14,19 @@ from __future__ import annotations
 import math
 from collections import deque
 
-__all__ = ["LEAN_EXPONENT", "LeanWind", "MAX_ACCELERATION_M_S2", "MIN_SAMPLES", "WINDOW", "thrust_lean"]
+__all__ = ["CALM_M_S", "LEAN_EXPONENT", "LeanWind", "MAX_ACCELERATION_M_S2", "MIN_SAMPLES", "WINDOW", "thrust_lean"]
 
 #: p of the module docstring
 LEAN_EXPONENT = 4.0 / 3.0
 
-#: Samples (ATTITUDE at 4 Hz: 2 s) before the wind is said, and the last ones it is the mean of (30 s)
-MIN_SAMPLES = 8
-WINDOW = 120
+#: Samples (ATTITUDE at 2 Hz: 3 s) before the wind is said, and the last ones it is the mean of (30 s)
+MIN_SAMPLES = 6
+WINDOW = 60
+
+#: A wind read as slower than this is taken for still air: in level flight the lean law, measured
+#: hovering, reads ArduCopter SITL's still air as up to 1.9 m/s (the drag of a quad flying nose
+#: first is not quite the drag of a quad holding in a wind)
+CALM_M_S = 2.5
 
 #: Samples accelerating harder than this are left out (the acceleration is read from velocities
 #: a quarter of a second apart: a turn's or a stop's is too coarse to take out of the lean)
@@ -74,9 +79,10 @@ class LeanWind:
 
     @property
     def wind_m_s(self) -> tuple[float, float] | None:
-        """(east, north) m/s the air moves towards, the mean of the last samples; None before
-        MIN_SAMPLES."""
+        """(east, north) m/s the air moves towards, the mean of the last samples, (0, 0) under
+        CALM_M_S; None before MIN_SAMPLES."""
         if self.samples < MIN_SAMPLES:
             return None
         n = len(self._winds)
-        return sum(w[0] for w in self._winds) / n, sum(w[1] for w in self._winds) / n
+        east, north = sum(w[0] for w in self._winds) / n, sum(w[1] for w in self._winds) / n
+        return (east, north) if math.hypot(east, north) >= CALM_M_S else (0.0, 0.0)

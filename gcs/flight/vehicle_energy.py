@@ -181,7 +181,11 @@ class VehicleEnergy:
             return
         lean.sample(thrust_lean(msg.roll, msg.pitch, msg.yaw), self._velocity, self._acceleration)
         wind = lean.wind_m_s
-        if wind is None or lean.samples % 4:
+        if wind is None or lean.samples % 2:
+            return
+        if wind == (0.0, 0.0):
+            if self.fuel.wind_m_s is not None and self.crew_wind is None:
+                self.fuel.clear_wind()
             return
         self.fuel.set_wind(*wind)
         said = self._wind_said

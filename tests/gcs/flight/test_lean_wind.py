@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from gcs.flight.lean_wind import GRAVITY_M_S2, LEAN_EXPONENT, MIN_SAMPLES, LeanWind, thrust_lean
+from gcs.flight.lean_wind import CALM_M_S, GRAVITY_M_S2, LEAN_EXPONENT, MIN_SAMPLES, LeanWind, thrust_lean
 from sim.autopilot.telemetry import COPTER_LEAN_AT_10_M_S, COPTER_LEAN_EXPONENT
 
 L10 = 0.387  # ArduCopter SITL's quad (benchmarks/lean_wind.py)
@@ -74,3 +74,12 @@ def test_the_simulated_copter_leans_as_the_profile_reads_and_shows_no_wind():
         pitch = -math.atan(COPTER_LEAN_AT_10_M_S * (speed / 10.0) ** COPTER_LEAN_EXPONENT)
         wind.sample(thrust_lean(0.0, pitch, math.radians(30.0)), (speed * 0.5, speed * math.sqrt(0.75)), (0.0, 0.0))
     assert math.hypot(*wind.wind_m_s) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_light_wind_reads_as_still_air():
+    """Below CALM_M_S the lean law's own error in level flight (up to 1.9 m/s on SITL) could be
+    all there is: still air."""
+    wind = LeanWind(L10)
+    for _ in range(MIN_SAMPLES):
+        wind.sample(lean_for(-(CALM_M_S - 0.5), 0.0), (0.0, 0.0), (0.0, 0.0))
+    assert wind.wind_m_s == (0.0, 0.0)
