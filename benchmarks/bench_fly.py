@@ -63,11 +63,17 @@ def bench_upload(plan: FleetPlan, runs: int, loss: float) -> tuple[list[float], 
             start = time.perf_counter()
             controller = asyncio.run(upload_plan(plan, fleet.connection_strings(), opts, out=lambda line: None))
             times.append(time.perf_counter() - start)
-            assert len(controller.upload_reports) == len(plan.uavs), "an upload failed"
-            transfers += [sum(r.elapsed_s for r in reports.values()) for reports in controller.upload_reports.values()]
+            uploads = [v.upload_reports for v in controller.vehicles.values() if v.upload_reports]
+            assert len(uploads) == len(plan.uavs), "an upload failed"
+            transfers += [sum(r.elapsed_s for r in reports.values()) for reports in uploads]
         finally:
             fleet.stop()
     return times, transfers
+
+
+def _return_latencies(controller: FlightController) -> list[float]:
+    """Seconds from each return's decision to its leg flying, for the vehicles sent home so far."""
+    return [v.return_latency_s for v in controller.vehicles.values() if v.return_latency_s is not None]
 
 
 async def _loop(plan: FleetPlan, connections: list[str], seconds: float) -> FlightController:
@@ -82,7 +88,7 @@ async def _loop(plan: FleetPlan, connections: list[str], seconds: float) -> Flig
         for uid in plan.uavs:
             controller.order_return(uid)
         end = time.monotonic() + 30
-        while len(controller.return_latency_s) < len(plan.uavs) and time.monotonic() < end:
+        while len(_return_latencies(controller)) < len(plan.uavs) and time.monotonic() < end:
             await asyncio.sleep(0.05)
         controller.interrupt()
         await runner
@@ -121,10 +127,10 @@ def main() -> None:
     for n in (int(c) for c in args.counts.split(",") if c):
         controller, _ = bench_loop(plan, n, args.seconds)
         ticks = controller.loop_latency_s
-        ret = list(controller.return_latency_s.values()) or [float("nan")]
+        ret = _return_latencies(controller) or [float("nan")]
         print(f"{n:>8} {len(ticks):>6} {pct(ticks, .5) * 1e3:>11.3f} {pct(ticks, .95) * 1e3:>11.3f} "
               f"{max(ticks) * 1e3:>11.3f} {statistics.median(ticks) / n * 1e6:>14.1f} "
-              f"{statistics.median(ret) * 1e3:>13.1f} {max(ret) * 1e3:>13.1f} {len(controller.return_latency_s):>8}")
+              f"{statistics.median(ret) * 1e3:>13.1f} {max(ret) * 1e3:>13.1f} {len(_return_latencies(controller)):>8}")
 
 
 if __name__ == "__main__":

@@ -107,7 +107,7 @@ class FlightFeed:
                     self.c.order_return(uid, "mqtt")
                     self._ordered.add(uid)  # the controller acts on its next tick
             return None
-        results = await asyncio.gather(*(self.c.rtl(uid) for uid in active), return_exceptions=True)
+        results = await asyncio.gather(*(self.c.vehicles[uid].rtl() for uid in active), return_exceptions=True)
         for uid in active:
             status[uid].return_reason = status[uid].return_reason or "mqtt abort"
         failed = [str(uid) for uid, ok in zip(active, results) if ok is not True]

@@ -89,7 +89,7 @@ def render_summary(controller: FlightController) -> str:
             e1, n1 = plan.local_m(st.lat_deg, st.lon_deg)
             away = f"{math.hypot(e1 - e0, n1 - n0):.1f}"
         batt = st.battery_at_landing if st.battery_at_landing is not None else st.battery_pct
-        account = controller.vehicles[uid].energy_account()
+        account = controller.vehicles[uid].energy.energy_account()
         used = f"{account.used_mah:>8.0f} {account.predicted_mah:>5.0f} {account.error:>+4.0%}" if account \
             else f"{'-':>8} {'-':>9}"
         rows.append(f"{uid:>3} {task.name[:12]:<12} {st.stage.value:<11} {away:>14} {_num(batt, '.0f'):>6} "

@@ -74,7 +74,7 @@ async def upload_plan(plan: FleetPlan, connections: Sequence[str], options: FlyO
                       signing: SigningKey | None = None) -> FlightController:
     """Send every UAV's mission (and geofence and rally point unless `options.fence` is off) to
     its vehicle and verify it by reading it back, without flying (`gcs upload`); the
-    controller's `upload_reports` say what each vehicle holds."""
+    vehicles' `upload_reports` say what each one holds."""
     async with open_links(connections, signing=signing) as links:
         controller = FlightController(plan, links, options, out)
         await controller.upload_all()
@@ -100,7 +100,8 @@ def fly_plan(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, *
     controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=stdin_orders, online=online,
                                        recorder=recorder, bus=bus, signing=signing,
                                        watchers=[journal, sortie, *watchers], display=display))
-    _, learned = save_learned(folder, controller.vehicles, options.vehicles_file)
+    _, learned = save_learned(folder, {uid: v.energy for uid, v in controller.vehicles.items()},
+                              options.vehicles_file)
     return FlightOutcome(controller, sortie, rrd, learned)
 
 

@@ -373,7 +373,7 @@ class FlightJournal:
         elif isinstance(event, ReadingReceived):
             d = event.detection
             self.write("reading", event.uav_id, index=d.index, lat=d.lat_deg, lon=d.lon_deg, hit=int(d.hit),
-                       time_s=d.time_s, comp=c.reading_component.get(event.uav_id))
+                       time_s=d.time_s, comp=c.vehicles[event.uav_id].reading_component)
 
     def sample(self, controller: FlightController) -> None:
         """Track points, new battery samples and operator ranges since the last pass; a sync
@@ -391,7 +391,7 @@ class FlightJournal:
                 if boot_s > newest:
                     self.write("battery", uid, time_boot_s=boot_s, pct=pct, steps=steps)
                     self._battery[uid] = newest = boot_s
-            range_m = controller.operator_range.get(uid)
+            range_m = controller.vehicles[uid].operator_range
             if range_m is not None and self._range.get(uid) != range_m:
                 self._range[uid] = range_m
                 self.write("range", uid, range_m=round(range_m, 3))

@@ -94,16 +94,17 @@ class OnlineFlight:
     # ---- commands ----------------------------------------------------------------------
 
     async def _take_off(self, uid: int) -> bool:
-        c, st, task = self.c, self.c.status[uid], self.plan.uavs[uid]
-        if not await c.prepare(uid, mission=False):
+        c, vehicle, task = self.c, self.c.vehicles[uid], self.plan.uavs[uid]
+        st, commands = vehicle.status, vehicle.commands
+        if not await vehicle.prepare(mission=False):
             return False
-        c.set_stage(uid, Stage.ARMING)
+        vehicle.set_stage(Stage.ARMING)
         try:
-            await c.set_mode(uid, "GUIDED")
+            await commands.set_mode("GUIDED")
             end = time.monotonic() + c.options.arm_timeout_s
             while True:
                 try:
-                    await c.command(uid, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+                    await commands.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
                     break
                 except CommandError as exc:
                     if time.monotonic() > end:
@@ -111,22 +112,21 @@ class OnlineFlight:
                     c.say(uid, f"arming refused ({st.last_text or exc}); retrying")
                     await asyncio.sleep(1.0)
             _, takeoff_alt = st.autopilot.command_altitude(task.altitude_m, st.home[2] if st.home else 0.0)
-            await c.command(uid, mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, takeoff_alt)
+            await commands.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, takeoff_alt)
         except LinkError as exc:
-            c.set_stage(uid, Stage.FAILED, f"take-off: {exc}")
+            vehicle.set_stage(Stage.FAILED, f"take-off: {exc}")
             return False
         if not await c.wait_until(lambda: st.rel_alt_m >= task.altitude_m - 1.0, 120.0):
-            c.set_stage(uid, Stage.FAILED, "did not reach its altitude")
+            vehicle.set_stage(Stage.FAILED, "did not reach its altitude")
             return False
-        c.set_stage(uid, Stage.SEARCH, "online search")
+        vehicle.set_stage(Stage.SEARCH, "online search")
         self.targets[uid] = self.plan.cell_lat_lon(*task.airport_cell)  # step 0: over the airport cell
         self.expected[uid] = (task.airport_cell, 0)  # read on the way up, or on reaching its centre
         return True
 
     def _steer(self, uid: int) -> None:
         """(Re-)send the current target; cheap, so it is repeated until the vehicle arrives."""
-        c, st = self.c, self.c.status[uid]
-        link = c.link_of.get(uid)
+        st, link = self.c.status[uid], self.c.vehicles[uid].link
         if link is None or uid not in self.targets:
             return
         lat, lon = self.targets[uid]
@@ -150,17 +150,18 @@ class OnlineFlight:
         return math.hypot(e1 - e0, n1 - n0) <= (within_m or self.arrive_m)
 
     async def _land(self, uid: int) -> None:
-        c = self.c
+        c, vehicle = self.c, self.c.vehicles[uid]
         self.targets[uid] = self.plan.uavs[uid].airport_lat_lon
         end = time.monotonic() + self.step_timeout_s
         while not self._arrived(uid, LANDING_ACCURACY_M) and time.monotonic() < end:
             self._steer(uid)
             await asyncio.sleep(self.c.options.tick_s)
         try:
-            await c.command(uid, mavlink.MAV_CMD_NAV_LAND, 0, 0, 0, math.nan, *self.plan.uavs[uid].airport_lat_lon, 0)
+            await vehicle.commands.command(mavlink.MAV_CMD_NAV_LAND, 0, 0, 0, math.nan,
+                                           *self.plan.uavs[uid].airport_lat_lon, 0)
         except LinkError as exc:
             c.say(uid, f"LAND not acknowledged ({exc}); commanding RTL")
-            await c.rtl(uid)
+            await vehicle.rtl()
         self.targets.pop(uid, None)
 
     # ---- the loop ----------------------------------------------------------------------
@@ -176,15 +177,16 @@ class OnlineFlight:
                 continue
             if u.range_units != self._range_set.get(uid, u.range_units):
                 self._range_cap[uid] = u.range_units  # changed by someone else
-            if uid in self.c.operator_range:
-                self._range_cap[uid] = int(self.c.operator_range[uid] / unit_m)
-            cap = self._range_cap.setdefault(uid, u.range_units)
             vehicle = self.c.vehicles[uid]
-            fuel = vehicle.fuel
+            if vehicle.operator_range is not None:
+                self._range_cap[uid] = int(vehicle.operator_range / unit_m)
+            cap = self._range_cap.setdefault(uid, u.range_units)
+            energy = vehicle.energy
+            fuel = energy.fuel
             want = cap
             if fuel.remaining_mah is not None:
-                left_m = fuel.cruise_m_for(fuel.remaining_mah - fuel.reserve_mah(vehicle.reserve_pct)
-                                           - vehicle.landing_mah())
+                left_m = fuel.cruise_m_for(fuel.remaining_mah - fuel.reserve_mah(energy.reserve_pct)
+                                           - energy.landing_mah())
                 st.range_left = left_m
                 want = min(cap, max(self.plan.move_costs.cheapest, u.flown + int(left_m / unit_m)))
             if want != u.range_units:
@@ -271,7 +273,7 @@ class OnlineFlight:
                 if st.stage in FINAL_STAGES:
                     continue  # never took off (failed, or ordered home on the ground)
                 st.return_reason = st.return_reason or {"range_cut": "battery"}.get(ev.reason.value, ev.reason.value)
-                c.set_stage(ev.uav_id, Stage.RETURN, f"going home ({ev.reason.value})")
+                c.vehicles[ev.uav_id].set_stage(Stage.RETURN, f"going home ({ev.reason.value})")
             for uid in list(flying):
                 x, y, _, stage = record.poses[uid]
                 if uid not in self.targets or self.plan.cell_of(*self.targets[uid]) != (x, y):
@@ -282,16 +284,16 @@ class OnlineFlight:
                     flying.discard(uid)
                     at_airport.add(uid)
             c.loop_latency_s.append(time.monotonic() - start)
-            for uid in self.plan.uavs:
-                c.update_stage(uid, time.monotonic())
+            for vehicle in c.vehicles.values():
+                vehicle.update_stage(time.monotonic())
         if c.interrupted:
             await c.bring_everyone_home()
             return
         await asyncio.gather(*landing_tasks)
         end = time.monotonic() + 300.0
         while not c.finished(time.monotonic()) and time.monotonic() < end and not c.interrupted:
-            for uid in self.plan.uavs:
-                c.update_stage(uid, time.monotonic())
+            for vehicle in c.vehicles.values():
+                vehicle.update_stage(time.monotonic())
             await asyncio.sleep(c.options.tick_s)
         if c.interrupted:
             await c.bring_everyone_home()

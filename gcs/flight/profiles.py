@@ -18,7 +18,7 @@ from pathlib import Path
 
 from gcs.atomic import write_json_atomic
 from gcs.flight.fuel import FlightPhase
-from gcs.flight.vehicle_flight import VehicleFlight
+from gcs.flight.vehicle_energy import VehicleEnergy
 from gcs.plans.vehicle_file import VEHICLES_FILE, VehicleRecord, merge_vehicles, vehicle_key, vehicles_to_dict
 from planner.energy import EnergyProfile
 
@@ -34,7 +34,7 @@ def _scaled(observed_mah: float, predicted_mah: float) -> float | None:
     return None
 
 
-def learned_profile(vehicle: VehicleFlight) -> EnergyProfile | None:
+def learned_profile(vehicle: VehicleEnergy) -> EnergyProfile | None:
     """The vehicle's profile as this flight leaves it; None when it never flew on a known charge."""
     prior = vehicle.launch_profile
     fuel = vehicle.fuel
@@ -53,7 +53,7 @@ def learned_profile(vehicle: VehicleFlight) -> EnergyProfile | None:
     return replace(prior, **changes)
 
 
-def learned_records(vehicles: dict[int, VehicleFlight], before: dict[str, VehicleRecord] | None = None
+def learned_records(vehicles: dict[int, VehicleEnergy], before: dict[str, VehicleRecord] | None = None
                     ) -> dict[str, VehicleRecord]:
     """A record per vehicle that flew: keyed by its board's unique id, or its system id where it
     sends none or shares it with another vehicle of the flight (simulators often do); `before`
@@ -73,7 +73,7 @@ def learned_records(vehicles: dict[int, VehicleFlight], before: dict[str, Vehicl
     return out
 
 
-def save_learned(folder: Path, vehicles: dict[int, VehicleFlight], merge_into: str | None) -> tuple[Path | None, str]:
+def save_learned(folder: Path, vehicles: dict[int, VehicleEnergy], merge_into: str | None) -> tuple[Path | None, str]:
     """Write the flight's records to `folder`/vehicles.json and merge them into `merge_into`;
     the file written (None when no vehicle flew) and a line for the operator (a file that could
     not be merged is said, not raised: the flight is over and its own record stands)."""

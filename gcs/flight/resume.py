@@ -175,10 +175,11 @@ class Resumption:
             st.airborne_seen = v.airborne_seen
             if v.stage in FINAL_STAGES:
                 st.stage, st.note = v.stage, "before the station's restart"
+            vehicle = c.vehicles[uid]
             if v.reading_component is not None:
-                c.reading_component[uid] = v.reading_component
+                vehicle.reading_component = v.reading_component
             if v.operator_range is not None:
-                c.operator_range[uid] = v.operator_range
+                vehicle.operator_range = v.operator_range
 
     def _record(self, uid: int) -> VehicleRecord:
         return self.state.vehicles.get(uid) or VehicleRecord(uid)
@@ -202,30 +203,31 @@ class Resumption:
     # ---- one vehicle ---------------------------------------------------------------------
 
     async def _reattach(self, c: FlightController, uid: int) -> None:
-        st, record = c.status[uid], self._record(uid)
-        c.claim(uid)
+        vehicle, record = c.vehicles[uid], self._record(uid)
+        st = vehicle.status
+        vehicle.claim()
         try:
             if not await c.wait_until(lambda: st.autopilot is not None, c.options.connect_timeout_s):
                 links = ", ".join(link.name for link in c.links)
-                c.mark_lost(uid, f"did not answer after the restart: no HEARTBEAT from system id {uid} within "
+                vehicle.mark_lost(f"did not answer after the restart: no HEARTBEAT from system id {uid} within "
                                  f"{c.options.connect_timeout_s:g} s on {links}; it flies on by itself, its "
                                  "autopilot's failsafes are the backstop", time.monotonic(), before=Stage.CONNECTING)
                 await c.wait_until(lambda: st.stage is not Stage.LOST, math.inf)
-            await c.request_streams(uid)
+            await vehicle.commands.request_streams()
             await self._look(c, uid)
             on_board = await self._on_board(c, uid, record) if st.armed or st.airborne else None
             found = Found(st.armed, st.airborne, st.mode_name, on_board)
             decision = self.decisions[uid] = decide(record, found)
             await self._act(c, uid, record, decision)
         except LinkError as exc:
-            c.set_stage(uid, Stage.LOST if st.airborne_seen else Stage.FAILED, f"reattaching: {exc}")
+            vehicle.set_stage(Stage.LOST if st.airborne_seen else Stage.FAILED, f"reattaching: {exc}")
         finally:
-            c.release(uid)
+            vehicle.release()
 
     async def _look(self, c: FlightController, uid: int) -> None:
         """Wait (up to `look_timeout_s`) until the vehicle has sent each message the decision
         reads, the ones it refuses to stream excepted."""
-        link, st = c.link_of[uid], c.status[uid]
+        link, st = c.vehicles[uid].link, c.status[uid]
         wanted = {kind for kind, msg_id in LOOK_FOR.items() if msg_id not in st.unsupported_streams}
         end = time.monotonic() + self.look_timeout_s
         async with link.listen(uid, wanted) as queue:
@@ -246,7 +248,7 @@ class Resumption:
         st, task = c.status[uid], self.plan.uavs[uid]
         autopilot = st.autopilot or Autopilot.GENERIC
         try:
-            got = await download(c.link_of[uid], uid, MissionType.MISSION, timeout_s=c.options.transfer_timeout_s)
+            got = await download(c.vehicles[uid].link, uid, MissionType.MISSION, timeout_s=c.options.transfer_timeout_s)
         except (MissionTransferError, LinkError) as exc:
             c.say(uid, f"its mission could not be read back ({exc}); going by the journal")
             return None
@@ -263,7 +265,8 @@ class Resumption:
         return "other"
 
     async def _act(self, c: FlightController, uid: int, record: VehicleRecord, decision: Decision) -> None:
-        st = c.status[uid]
+        vehicle = c.vehicles[uid]
+        st = vehicle.status
         battery = f", battery {st.battery_pct:.0f}%" if st.battery_pct is not None else ""
         found = f"{decision.why} (mode {st.mode_name}, mission item {st.mission_seq}{battery})"
         if st.time_boot_s and st.battery_samples and st.time_boot_s < st.battery_samples[-1][0]:
@@ -275,16 +278,16 @@ class Resumption:
             st.stage = record.flying_stage if record.flying_stage is not Stage.CONNECTING else Stage.SEARCH
             c.emit(Reattached(uid, st.stage, found))
             st.battery_at_landing = st.battery_pct
-            c.set_stage(uid, Stage.LANDED, "while the station was away" if action is Action.LANDED
+            vehicle.set_stage(Stage.LANDED, "while the station was away" if action is Action.LANDED
                         else "kept on the ground: return ordered before take-off")
             return
         if action in (Action.LAUNCH, Action.RELAUNCH):
             c.emit(Reattached(uid, Stage.CONNECTING, found))
-            if action is Action.RELAUNCH and not await c.disarm(uid):
-                c.set_stage(uid, Stage.FAILED, "armed on the ground and would not disarm: check it")
+            if action is Action.RELAUNCH and not await vehicle.commands.disarm():
+                vehicle.set_stage(Stage.FAILED, "armed on the ground and would not disarm: check it")
                 return
-            c.release(uid)
-            await c.prepare_and_launch(uid)
+            vehicle.release()
+            await vehicle.prepare_and_launch()
             return
         st.airborne_seen = st.airborne_seen or st.airborne
         if decision.stage is Stage.SEARCH and st.has_position:
@@ -295,7 +298,7 @@ class Resumption:
         st.stage = decision.stage
         c.emit(Reattached(uid, decision.stage, found))
         if action is Action.SEND_HOME:
-            c.release(uid)
+            vehicle.release()
             await c.send_home(uid, decision.return_reason or "resume")
 
     # ---- readings taken while the station was away ------------------------------------------
@@ -305,21 +308,17 @@ class Resumption:
         never arrived (below its highest index, and after it, one by one, until none comes)."""
         end = time.monotonic() + self.catch_up_s
         await asyncio.gather(*(self._catch_up(c, uid, end) for uid in self.decisions
-                               if uid in c.link_of and c.status[uid].stage is not Stage.LOST))
+                               if c.vehicles[uid].link is not None and c.status[uid].stage is not Stage.LOST))
 
     async def _catch_up(self, c: FlightController, uid: int, end: float) -> None:
         st = c.status[uid]
         if not st.detection_indices:
             return  # a vehicle that never sent a reading has no sensor
         before = len(st.detection_indices)
-        link = c.link_of[uid]
-        component = c.reading_component.get(uid, mavlink.MAV_COMP_ID_AUTOPILOT1)
+        vehicle = c.vehicles[uid]
         while time.monotonic() < end:
             wanted = st.lost_detections[:50] + [max(st.detection_indices) + 1]
-            for index in wanted:
-                link.send(mavlink.MAVLink_command_long_message(
-                    uid, component, mavlink.MAV_CMD_REQUEST_MESSAGE, 0, mavlink.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED,
-                    index, 0, 0, 0, 0, 0))
+            vehicle.commands.request_readings(wanted, vehicle.reading_from)
             count = len(st.detection_indices)
             await c.wait_until(lambda wanted=wanted: all(i in st.detection_indices for i in wanted), 1.0)
             if len(st.detection_indices) == count:

@@ -8,7 +8,7 @@ the vehicle meets, the landing (and a plane's landing circuit), and still leaves
 otherwise return now. What a metre costs is the fuel gauge's (`gcs.flight.fuel.FuelGauge`):
 learned in level flight from the vehicle's profile, never from its launch; the landing costs the
 profile's figure, scaled up as far as cruise turned out dearer than the profile says
-(`gcs.flight.vehicle_flight.VehicleFlight.landing_mah`).
+(`gcs.flight.vehicle_energy.VehicleEnergy.landing_mah`).
 
 `confirmed` is when a "return" is acted on: once the check has said so for `confirm_s` seconds of
 the vehicle's own time (ArduPilot waits BATT_LOW_TIMER, 10 s, before its own battery failsafe, so

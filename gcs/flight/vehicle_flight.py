@@ -1,264 +1,397 @@
-"""One vehicle's flight as the station follows it: its telemetry (`VehicleStatus`), its fuel
-gauge and the phase of flight its battery is read in, the fuel-based return trigger's state, and
-the account of its energy when it is down (`EnergyAccount`).
+"""One vehicle's flight (`VehicleFlight`): a small state machine that takes one UAV of the plan
+from the ground, through its search, back down, and owns all the station keeps of it: telemetry
+(`status`), energy model and return trigger (`energy`), plan in metres (`track`), link and
+commands (`commands`), the operator's orders and range, and its timers. The fleet controller
+(`gcs.flight.controller`) routes messages and orders to it, ticks it and publishes its events.
 
-The trigger itself is pure (`gcs.flight.return_trigger`); this object keeps what it needs
-between ticks."""
+Its stages (`Stage`, the values the journal, bus and recordings carry), in the order flown:
+
+    preparing   CONNECTING -> PREPARING -> UPLOADING     `prepare` (checks in `gcs.flight.preflight`)
+    launching   ARMING                                    `launch`
+    searching   SEARCH                                    `watch`: the return trigger, every tick
+    returning   RETURN (its planned way home), RTL (the autopilot's)   `send_home`, `rtl`
+    landed      LANDED, LANDED_AWAY                       `update_stage`, from its telemetry
+
+FAILED can end any stage before the end. LOST is an overlay: any stage before the end may go
+silent, and the vehicle comes back to the stage it was lost in (`update_stage`), or goes on from
+it where the task commanding it takes it meanwhile. Every change goes through `set_stage`, which
+refuses one `TRANSITIONS` does not list (`StageError`); only a resumed flight's reattachment sets
+the stage it finds (`gcs.flight.resume`), outside the table."""
 
 from __future__ import annotations
 
+import asyncio
 import math
-from dataclasses import dataclass
+import time
+from typing import TYPE_CHECKING
 
-from gcs.flight.fuel import FlightPhase, FuelGauge
-from gcs.flight.lean_wind import LeanWind, thrust_lean
-from gcs.flight.return_trigger import FuelDecision, confirmed, fuel_decision
-from gcs.links import mavlink
-from gcs.plans.plan_folder import FleetPlan, UavTask
-from gcs.telemetry.status import Stage, VehicleStatus
-from planner.energy import EnergyProfile
+from gcs.autopilots import Autopilot
+from gcs.autopilots.mission_transfer import MissionTransferError
+from gcs.flight import preflight
+from gcs.flight.events import MissionUploaded, ModeChanged, ReadingReceived, StageChanged, TookOff
+from gcs.flight.options import FlyOptions
+from gcs.flight.vehicle_commands import REFUSED_FOR_NOW, VehicleCommands
+from gcs.flight.vehicle_energy import VehicleEnergy
+from gcs.flight.vehicle_track import PlanTrack, distance_m
+from gcs.links import CommandError, LinkError, MavLink, mavlink
+from gcs.plans.plan_folder import FleetPlan
+from gcs.plans.vehicle_file import stock_profile
+from gcs.telemetry.status import FINAL_STAGES, Stage, VehicleStatus
 
-__all__ = ["EnergyAccount", "VehicleFlight", "wind_from_message"]
+if TYPE_CHECKING:
+    from gcs.flight.controller import FlightController
 
-Legs = list[tuple[float, float]]
+__all__ = ["FROM_ANY_STAGE", "TRANSITIONS", "StageError", "VehicleFlight", "may_become"]
 
-MAVMessage = mavlink.MAVLink_message
-
-#: Vehicle seconds a return is expected to hold the vehicle while its way home is sent, until a
-#: return of the flight has shown how long (`gcs.flight.controller`: the longest seen).
-HOLD_S = 3.0
-
-#: A vehicle's launch is over once it is within this share of its mission altitude (the fuel gauge
-#: waits a few seconds more before it samples cruise); on its way home, a vehicle descending faster
-#: than LEVEL_CLIMB_M_S below that is landing.
-LEVEL_SHARE = 0.9
-LEVEL_CLIMB_M_S = 0.7
-
-#: A wind read from a lean is said again when it moves this far (m/s, as a vector).
-WIND_SAID_CHANGE_M_S = 2.0
-
-
-@dataclass(frozen=True, slots=True)
-class EnergyAccount:
-    """A landed vehicle's energy: what its profile predicted at launch for the flight it flew
-    (`predicted_mah`), what it used from launch to touch-down (`used_mah`), the cruise metres
-    flown, and the battery it landed with."""
-
-    predicted_mah: float
-    used_mah: float
-    cruise_m: float
-    landed_pct: float | None
-
-    @property
-    def error(self) -> float:
-        """(used - predicted) / used."""
-        return (self.used_mah - self.predicted_mah) / self.used_mah if self.used_mah > 0 else 0.0
+S = Stage
+#: The stages each stage may go on to (`FROM_ANY_STAGE` besides). LANDED before take-off: kept on
+#: the ground by a return order. RTL before the search: found in the air when the flight stops (a
+#: resumed flight's reattachment). RTL -> RETURN: the online planner taking it home.
+TRANSITIONS: dict[Stage, frozenset[Stage]] = {
+    S.CONNECTING: frozenset({S.PREPARING, S.LANDED, S.RTL}),
+    S.PREPARING: frozenset({S.UPLOADING, S.ARMING, S.LANDED, S.RTL}),
+    S.UPLOADING: frozenset({S.ARMING, S.LANDED, S.RTL}),
+    S.ARMING: frozenset({S.SEARCH, S.RETURN, S.RTL, S.LANDED}),
+    S.SEARCH: frozenset({S.RETURN, S.RTL, S.LANDED, S.LANDED_AWAY}),
+    S.RETURN: frozenset({S.RTL, S.LANDED, S.LANDED_AWAY}),
+    S.RTL: frozenset({S.RETURN, S.LANDED, S.LANDED_AWAY}),
+    S.LANDED: frozenset(), S.LANDED_AWAY: frozenset(),
+    S.FAILED: frozenset({S.RTL}),  # failed in the air: sent home when the flight stops
+    S.LOST: frozenset(set(S) - FINAL_STAGES - {S.LOST} | {S.FAILED}),  # narrowed by `may_become`
+}
+#: Reached from every stage before the end: a failure, and a link gone quiet.
+FROM_ANY_STAGE = frozenset({S.FAILED, S.LOST})
 
 
-def _step_m(a: tuple[float, float], b: tuple[float, float]) -> tuple[float, float]:
-    """(east, north) metres from lat/lon `a` to `b`, two telemetry samples apart (equirectangular:
-    exact to millimetres over such a step, and a thousand times cheaper than a projection)."""
-    k = math.pi / 180.0 * 6_371_008.8
-    return (b[1] - a[1]) * k * math.cos(math.radians(0.5 * (a[0] + b[0]))), (b[0] - a[0]) * k
+def may_become(before: Stage, after: Stage, lost_in: Stage | None = None) -> bool:
+    """Whether a vehicle in `before` may go to `after`; a LOST one (lost in `lost_in`) only back to
+    that stage or on to where that stage may go."""
+    if before is S.LOST:
+        return lost_in is not None and (after is lost_in or may_become(lost_in, after))
+    return after in TRANSITIONS[before] or (before not in FINAL_STAGES and after in FROM_ANY_STAGE)
 
 
-def wind_from_message(msg: MAVMessage) -> tuple[float, float] | None:
-    """(east, north) m/s the air moves towards, from ArduPilot's WIND (direction it comes from,
-    degrees) or PX4's WIND_COV (velocity, NED); None for other messages or unknown values."""
-    kind = msg.get_type()
-    if kind == "WIND":
-        rad = math.radians(msg.direction)
-        return -msg.speed * math.sin(rad), -msg.speed * math.cos(rad)
-    if kind == "WIND_COV" and math.isfinite(msg.wind_x) and math.isfinite(msg.wind_y):
-        return float(msg.wind_y), float(msg.wind_x)
-    return None
+class StageError(RuntimeError):
+    """A stage change `TRANSITIONS` does not list: a bug in the flight code."""
 
 
 class VehicleFlight:
-    """One vehicle of the flight (see the module docstring)."""
+    """UAV `uid` of `plan`, flown with `options`; `station` (the fleet controller) publishes its
+    events and lines (see the module docstring)."""
 
-    def __init__(self, plan: FleetPlan, task: UavTask, profile: EnergyProfile, *, reserve_pct: float,
-                 confirm_s: float = 3.0, wind_m_s: tuple[float, float] | None = None) -> None:
-        self.plan = plan
-        self.task = task
-        self.status = VehicleStatus(task.uav_id)
-        self.profile = profile
-        self.crew_wind = wind_m_s  # the wind the crew measured at launch (`gcs fly --wind`)
-        self.fuel = self._gauge(profile)
-        self.reserve_pct = reserve_pct
-        self.confirm_s = confirm_s
-        self.phase = FlightPhase.GROUND
-        self.levelled = False
-        self.trigger_since: float | None = None
-        self.decision: FuelDecision | None = None
-        self._last_m: tuple[float, float] | None = None  # lat, lon of the last position
-        self._last_s: float | None = None
-        self.holding = False  # held in the air by the station (while its way home is uploaded)
-        self.hover_s = 0.0    # vehicle seconds held so
-        self.hold_s = HOLD_S  # vehicle seconds a return's hold is expected to take
-        self.launch_profile: EnergyProfile | None = None
-        self.autopilot = "generic"
-        self.home_legs: dict[int, Legs] = {}
-        self.wind_reported = False  # the autopilot estimates a wind: its lean is not read
-        self.lean_wind = LeanWind(profile.lean_tan_at_10_m_s) if profile.lean_tan_at_10_m_s else None
-        self.notes: list[str] = []  # lines for the operator, taken by the controller
-        self._velocity: tuple[float, float] | None = None      # east, north m/s over the ground
-        self._acceleration: tuple[float, float] = (0.0, 0.0)  # and its change per second
-        self._climb_m_s = 0.0
-        self._wind_said: tuple[float, float] | None = None
+    def __init__(self, plan: FleetPlan, uid: int, options: FlyOptions, station: FlightController) -> None:
+        self.plan, self.uid, self.options, self.station = plan, uid, options, station
+        self.task = task = plan.uavs[uid]
+        self.track = PlanTrack(plan, uid)
+        profile = options.profiles.get(uid) or stock_profile("ardupilot", task.vehicle.value)
+        self.status = VehicleStatus(uid)
+        self.energy = VehicleEnergy(task, self.status, profile, reserve_pct=options.reserve_pct,
+                                    confirm_s=options.confirm_s, wind_m_s=options.wind_m_s)
+        self.commands = VehicleCommands(uid, self.status, self.say, command_timeout_s=options.command_timeout_s)
+        self.reading_component: int | None = None  # where its readings came from (`reading_from`)
+        self.operator_range: float | None = None   # metres along its plan from take-off, set by the operator
+        self.orders: list[tuple[int, str]] = []    # return orders not yet carried out: (sequence, reason)
+        self.return_after_s = options.return_after_s.get(uid)  # flight seconds: ordered home then
+        self.busy = self.stay_on_ground = False  # commanded by a task (`claim`); ordered home before take-off
+        self.lost_since: float | None = None  # when its link went quiet, and the stage it was in
+        self.stage_before_loss: Stage | None = None
+        self.upload_reports: dict | None = None  # the verified uploads, by kind ("mission", "fence", "rally")
+        self.return_latency_s: float | None = None  # from its return's decision to its leg flying
 
     @property
-    def uid(self) -> int:
-        return self.task.uav_id
+    def link(self) -> MavLink | None:  # the link it was first heard on
+        return self.commands.link
 
-    def set_profile(self, profile: EnergyProfile) -> None:
-        """Price the flight with `profile` (before launch: the gauge starts afresh, keeping the
-        capacity already read from the autopilot)."""
-        capacity = self.fuel.capacity_mah if self.fuel.capacity_mah != self.profile.capacity_mah else None
-        self.profile = profile
-        self.fuel = self._gauge(profile)
-        self.lean_wind = LeanWind(profile.lean_tan_at_10_m_s) if profile.lean_tan_at_10_m_s else None
-        if capacity is not None:
-            self.fuel.set_capacity(capacity)
+    def say(self, text: str) -> None:
+        self.station.say(self.uid, text)
 
-    def _gauge(self, profile: EnergyProfile) -> FuelGauge:
-        gauge = FuelGauge(profile)
-        if self.crew_wind is not None:
-            gauge.set_wind(*self.crew_wind)
-        return gauge
+    # ---- the stages ----------------------------------------------------------------------
 
-    # ---- telemetry ---------------------------------------------------------------------------
+    def set_stage(self, stage: Stage, note: str = "") -> None:
+        """Move to `stage` (`note` kept even if the stage stays), said and published when it changes;
+        `StageError` when `TRANSITIONS` does not allow it."""
+        st, before = self.status, self.status.stage
+        if before is not stage and not may_become(before, stage, self.stage_before_loss):
+            raise StageError(f"UAV {self.uid}: {before.value} -> {stage.value} is not a stage change of a flight")
+        if note:
+            st.note = note
+        if before is not stage:
+            st.stage = stage
+            self.say(f"{stage.value}{' - ' + note if note else ''}")
+            self.station.emit(StageChanged(self.uid, before, stage, note))
 
-    def on_message(self, msg: MAVMessage) -> None:
-        """After `status.update(msg)`: the fuel gauge's share of the message."""
-        kind = msg.get_type()
-        if kind == "GLOBAL_POSITION_INT":
-            self._on_position(msg)
-        elif kind == "BATTERY_STATUS" and getattr(msg, "id", 0) == 0:
-            # PX4 SIH measures no current (-1) and reports 0 consumed: only its percentage counts
-            measured = msg.current_battery >= 0 or msg.current_consumed > 0
-            consumed = float(msg.current_consumed) if measured and msg.current_consumed >= 0 else None
-            remaining = float(msg.battery_remaining) if msg.battery_remaining >= 0 else None
-            if self.phase is not FlightPhase.GROUND and self.launch_profile is None:
-                self.launch_profile = self.fuel.profile
-            self.fuel.battery(self.status.time_boot_s, self.phase, consumed, remaining)
-        elif kind == "ATTITUDE":
-            self._on_attitude(msg)
-        else:
-            wind = wind_from_message(msg)
-            if wind is not None and (wind[0] or wind[1]):
-                self.wind_reported = True
-                self.fuel.set_wind(*wind)
+    def mark_lost(self, note: str, now: float, before: Stage | None = None) -> None:
+        """LOST from `now` (monotonic): heard again, it gets `before` back (by default the stage
+        it has now); past `lost_giveup_s` the flight stops waiting for it."""
+        self.stage_before_loss = before if before is not None else self.status.stage
+        self.lost_since = now
+        self.set_stage(Stage.LOST, note)
 
-    def _on_attitude(self, msg: MAVMessage) -> None:
-        """A multicopter's lean in level flight or a hover (not climbing or descending, where its
-        autopilot lets it drift): the wind its autopilot may not report (`gcs.flight.lean_wind`),
-        given to the fuel gauge and said when it first shows and when it changes."""
-        lean, st = self.lean_wind, self.status
-        if lean is None or self.wind_reported or not st.airborne or st.rel_alt_m < 3.0 or self._velocity is None \
-                or abs(self._climb_m_s) > LEVEL_CLIMB_M_S:
-            return
-        lean.sample(thrust_lean(msg.roll, msg.pitch, msg.yaw), self._velocity, self._acceleration)
-        wind = lean.wind_m_s
-        if wind is None or lean.samples % 2:
-            return
-        if wind == (0.0, 0.0):
-            if self.fuel.wind_m_s is not None and self.crew_wind is None:
-                self.fuel.clear_wind()
-            return
-        self.fuel.set_wind(*wind)
-        said = self._wind_said
-        if said is None or math.hypot(wind[0] - said[0], wind[1] - said[1]) > WIND_SAID_CHANGE_M_S:
-            self._wind_said = wind
-            source = math.degrees(math.atan2(-wind[0], -wind[1])) % 360.0
-            self.notes.append(f"wind {math.hypot(*wind):.1f} m/s from {source:03.0f} deg, read from its lean "
-                              f"(its way home is priced by the ground speed it can make into it)")
+    def update_stage(self, now: float) -> None:
+        """The stage the telemetry implies: LOST after `link_timeout_s` of silence and back when
+        heard, LANDED once down after flying, RTL when the autopilot turned home by itself."""
+        st, timeout_s = self.status, self.options.link_timeout_s
+        if st.last_heard_s is not None and st.stage not in FINAL_STAGES:
+            silent = now - st.last_heard_s > timeout_s
+            if silent and st.stage is not Stage.LOST:
+                self.mark_lost(f"no telemetry for {timeout_s:g} s; the others carry on", now)
+            elif not silent and st.stage is Stage.LOST:
+                self.lost_since = None
+                self.set_stage(self.stage_before_loss or Stage.SEARCH, "link back")
+                self.stage_before_loss = None
+        if st.stage in (Stage.SEARCH, Stage.RETURN, Stage.RTL) and st.airborne_seen and not st.airborne \
+                and (not st.armed or st.landed_state == mavlink.MAV_LANDED_STATE_ON_GROUND):
+            self._touched_down()
+        elif st.stage is Stage.SEARCH and st.mode_name in ("RTL", "LAND") and not self.busy:
+            st.return_reason = "autopilot"
+            self.set_stage(Stage.RTL, f"autopilot switched to {st.mode_name} ({st.last_text or 'no reason given'})")
 
-    def _on_position(self, msg: MAVMessage) -> None:
+    def done(self, now: float) -> bool:
+        """Landed, failed, or lost for `lost_giveup_s`: the flight no longer waits for it."""
+        lost_s = now - (self.lost_since or now) if self.status.stage is Stage.LOST else -math.inf
+        return self.status.stage in FINAL_STAGES or lost_s >= self.options.lost_giveup_s
+
+    # ---- telemetry -----------------------------------------------------------------------
+
+    def on_message(self, link: MavLink, msg) -> None:
+        """Telemetry from its autopilot; readings (CAMERA_IMAGE_CAPTURED) from any component (`gcs detector`)."""
         st = self.status
-        if not st.has_position:
-            return
-        velocity = (msg.vy / 100.0, msg.vx / 100.0)
-        if self._velocity is not None and self._last_s is not None and st.time_boot_s > self._last_s:
-            dt = st.time_boot_s - self._last_s
-            self._acceleration = ((velocity[0] - self._velocity[0]) / dt, (velocity[1] - self._velocity[1]) / dt)
-        self._velocity = velocity
-        self._climb_m_s = -msg.vz / 100.0
-        self.phase = self._phase(-msg.vz / 100.0)
-        here = (st.lat_deg, st.lon_deg)
-        if self._last_m is not None and self.phase is not FlightPhase.GROUND:
-            east, north = _step_m(self._last_m, here)
-            self.fuel.moved(st.time_boot_s, east, north, self.phase)
-            if self.holding and self._last_s is not None:
-                self.hover_s += max(0.0, st.time_boot_s - self._last_s)
-        self._last_s = st.time_boot_s
-        self._last_m = here
+        component = msg.get_srcComponent()
+        if component != mavlink.MAV_COMP_ID_AUTOPILOT1:
+            if msg.get_type() != "CAMERA_IMAGE_CAPTURED":
+                return
+            self.reading_component = component
+        if self.commands.link is None:
+            self.commands.link = link
+        readings, airborne, mode = len(st.detections), st.airborne_seen, st.mode_name
+        st.update(msg, time.monotonic())
+        self.energy.on_message(msg)
+        while self.energy.notes:
+            self.say(self.energy.notes.pop(0))
+        if st.airborne_seen and not airborne:
+            self.station.emit(TookOff(self.uid, st.rel_alt_m, st.mode_name))
+        if st.mode_name != mode:
+            self.station.emit(ModeChanged(self.uid, mode, st.mode_name))
+        for detection in st.detections[readings:]:
+            self.station.emit(ReadingReceived(self.uid, detection))
 
-    def _phase(self, climb_m_s: float) -> FlightPhase:
-        st = self.status
-        if not st.airborne:
-            return FlightPhase.GROUND if not self.levelled else FlightPhase.LANDING
-        altitude = self.task.altitude_m
-        if not self.levelled:
-            if st.rel_alt_m >= LEVEL_SHARE * altitude:  # as the profile's launch is measured: up to its altitude
-                self.levelled = True
-            else:
-                return FlightPhase.LAUNCH
-        descending = climb_m_s < -LEVEL_CLIMB_M_S and st.rel_alt_m < LEVEL_SHARE * altitude
-        if st.landed_state == mavlink.MAV_LANDED_STATE_LANDING or st.mode_name == "LAND" \
-                or (st.stage in (Stage.RETURN, Stage.RTL) and descending):
-            return FlightPhase.LANDING
-        return FlightPhase.CRUISE
-
-    # ---- the trigger ---------------------------------------------------------------------------
-
-    def evaluate(self, steps_ahead: list[Legs], home_legs: list[Legs], circuit_legs: Legs,
-                 ordered_left_m: float | None = None) -> FuelDecision | None:
-        """The return trigger's check now (`gcs.flight.return_trigger.fuel_decision`), kept as
-        `decision`; the status shows its range left and margin in metres."""
-        self.decision = fuel_decision(self.fuel, reserve_pct=self.reserve_pct, landing_mah=self.landing_mah(),
-                                      steps_ahead=steps_ahead, home_legs=home_legs, circuit_legs=circuit_legs,
-                                      ordered_left_m=ordered_left_m)
-        st = self.status
-        st.range_left = math.inf if self.decision is None else self.decision.range_left_m
-        st.margin = math.inf if self.decision is None else self.decision.margin_m
-        return self.decision
+    def ask_for_lost_readings(self) -> None:
+        """Ask again for (at most five of) the readings lost on the link."""
+        if self.link is not None and self.status.stage is not Stage.LOST:
+            self.commands.request_readings(self.status.lost_detections[:5], self.reading_from)
 
     @property
-    def landing_altitude_m(self) -> float:
-        """Where the landing starts: a plane's approach altitude (it flies down to it along its
-        way to the approach point), else the mission altitude."""
-        approach = self.task.approach
-        return min(approach.alt_m, self.task.altitude_m) if approach is not None else self.task.altitude_m
+    def reading_from(self) -> int:  # the component its readings come from: the autopilot until another sent one
+        return self.reading_component if self.reading_component is not None else mavlink.MAV_COMP_ID_AUTOPILOT1
 
-    def landing_mah(self) -> float:
-        """What coming home costs beyond its way: the hold while the station sends the way home
-        (`hold_s` of vehicle time) and the landing, at the profile's prices scaled up as far as
-        cruise costs more than the profile says (a pack that drains faster in cruise drains
-        faster in a hover and on the way down too), never down."""
-        scale = max(1.0, self.fuel.rate_mah_per_m / self.profile.cruise_mah_per_m)
-        profile = self.profile
-        return (profile.loiter_mah_per_s * self.hold_s + profile.landing_cost_mah(self.landing_altitude_m)) * scale
+    # ---- orders --------------------------------------------------------------------------
 
-    def must_return(self, now_s: float) -> bool:
-        """Whether the last evaluation, confirmed (`gcs.flight.return_trigger.confirmed`), sends
-        the vehicle home now."""
-        go, self.trigger_since = confirmed(self.decision, self.trigger_since, now_s, confirm_s=self.confirm_s,
-                                           capacity_mah=self.fuel.capacity_mah)
-        return go
+    def claim(self) -> None:
+        """A task commands it (an upload, a return, a reattachment): until `release`, `watch`
+        skips it, and an RTL or LAND is not taken for the autopilot's own return."""
+        self.busy = True
 
-    # ---- the end -------------------------------------------------------------------------------
+    def release(self) -> None:
+        self.busy = False
 
-    def energy_account(self) -> EnergyAccount | None:
-        """Predicted (by the profile at launch) against used, for what was flown (the cruise metres,
-        the seconds it held in the air, the launch to its altitude, the landing from where it
-        starts); None when the
-        vehicle never launched or its charge was never read."""
-        fuel, profile = self.fuel, self.launch_profile
-        if profile is None or fuel.used_mah is None or fuel.used_at_launch is None:
+    def set_range(self, range_m: float) -> None:
+        """The operator's range T_i (metres along its plan from take-off): it searches only while the
+        way home still fits in it (as in the planner, eq. 23)."""
+        if not (math.isfinite(range_m) and range_m > 0):
+            raise ValueError(f"range must be a positive number of metres, not {range_m:g}")
+        self.operator_range = float(range_m)
+        self.say(f"range set to {range_m:.0f} m ({self.track.flown_m(self.status.track_index):.0f} m flown)")
+
+    def return_due(self, elapsed_s: float) -> bool:
+        """Its planned return time (`return_after_s`) has come: True once."""
+        if self.return_after_s is None or elapsed_s < self.return_after_s:
+            return False
+        self.return_after_s = None
+        return True
+
+    def ordered_home(self) -> bool:
+        return self.station.interrupted or self.stay_on_ground or bool(self.orders)
+
+    # ---- preparing and launching ---------------------------------------------------------
+
+    async def prepare(self, mission: bool = True) -> bool:
+        """Connect, make ready, upload its mission unless not `mission` (`preflight.prepare`); False when FAILED."""
+        return await preflight.prepare(self, mission)
+
+    async def launch(self) -> bool:
+        """Arm and start the mission as the autopilot wants it (`Autopilot.arm_mode`,
+        `start_after_arming`; ArduPlane takes off by itself once armed in AUTO), once its charge
+        pays for its plan. Arming is retried while the autopilot refuses, as real ones do a while
+        after boot, each new reason shown; one armed but not started is disarmed again."""
+        st, arm_timeout_s = self.status, self.options.arm_timeout_s
+        autopilot = st.autopilot or Autopilot.GENERIC
+        if not preflight.charge_covers_plan(self):
+            return False
+        self.set_stage(Stage.ARMING)
+        mode = autopilot.arm_mode(st.fixed_wing)
+        if mode is not None:
+            try:
+                await self.commands.set_mode(mode)
+            except CommandError as exc:
+                self.set_stage(Stage.FAILED, f"cannot switch to {mode} to arm: {exc}{self._said()}")
+                return False
+        end = time.monotonic() + arm_timeout_s
+        reasons: list[str] = []
+        while True:
+            if self.ordered_home():
+                self.set_stage(Stage.LANDED, "kept on the ground: return ordered before take-off")
+                return False
+            try:
+                await self.commands.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+                break
+            except CommandError as exc:
+                reason = st.last_text or str(exc)
+                if exc.result not in REFUSED_FOR_NOW or time.monotonic() > end:
+                    self.set_stage(Stage.FAILED, f"cannot arm: {exc}{self._said()}; left on the ground")
+                    return False
+                if reason not in reasons:
+                    reasons.append(reason)
+                    self.say(f"arming refused: {reason} (retrying for up to {arm_timeout_s:g} s)")
+                await asyncio.sleep(1.0)
+        if self.ordered_home():
+            await self.keep_on_ground()
+            return False
+        if autopilot.start_after_arming(st.fixed_wing):
+            try:
+                await self.commands.start_mission()
+            except CommandError as exc:
+                disarmed = await self.commands.disarm()
+                self.set_stage(Stage.FAILED, f"cannot start the mission: {exc}{self._said()}; "
+                                             + ("disarmed again" if disarmed else "COULD NOT DISARM: check it"))
+                return False
+        self.set_stage(Stage.SEARCH, "mission started")
+        return True
+
+    async def prepare_and_launch(self) -> None:
+        """`prepare`, then (unless `options.fly` is off) `launch`, claimed meanwhile; FAILED when
+        the link fails."""
+        self.claim()
+        try:
+            if await self.prepare() and self.options.fly:
+                await self.launch()
+        except LinkError as exc:
+            self.set_stage(Stage.FAILED, str(exc))
+        finally:
+            self.release()
+
+    async def keep_on_ground(self) -> bool:
+        """Ordered home after its mission started, before it left the ground: disarmed there.
+        False when it would not disarm (lifting off: it comes home like any other)."""
+        if not await self.commands.disarm():
+            return False
+        self.set_stage(Stage.LANDED, "kept on the ground: return ordered before take-off")
+        return True
+
+    def _said(self) -> str:  # the autopilot's last words
+        return f" (autopilot: {self.status.last_text})" if self.status.last_text else ""
+
+    # ---- searching: the return trigger -----------------------------------------------------
+
+    def watch(self) -> str | None:
+        """One tick of its search, unless a task commands it: the pose it has reached, then the
+        return trigger (`VehicleEnergy.check_along`, against the operator's range too); the
+        reason to send it home now ("battery", "range"), said, else None."""
+        st = self.status
+        if self.busy:
             return None
-        altitude = self.task.altitude_m
-        predicted = (profile.launch_cost_mah(altitude) + profile.cruise_cost_mah(fuel.phase_m[FlightPhase.CRUISE])
-                     + profile.loiter_mah_per_s * self.hover_s + profile.landing_cost_mah(self.landing_altitude_m))
-        return EnergyAccount(predicted, fuel.used_mah - fuel.used_at_launch, fuel.phase_m[FlightPhase.CRUISE],
-                             self.status.battery_pct)
+        if st.has_position:
+            st.track_index = self.track.advance(st.track_index, st.lat_deg, st.lon_deg)
+            st.steps_flown = float(st.track_index)
+        flown_m = self.track.flown_m(st.track_index)  # metres of the plan behind it
+        ordered = None if self.operator_range is None else max(0.0, self.operator_range - flown_m)
+        if not self.energy.check_along(self.track, self.options.lookahead_steps, ordered):
+            return None
+        self.say(self.energy.why_home(self.operator_range))
+        decision = self.energy.decision
+        return "range" if decision is not None and decision.by_order else "battery"
+
+    # ---- returning -------------------------------------------------------------------------
+
+    async def send_home(self, reason: str) -> float | None:
+        """Fly the planned return leg to its airport and land: hold (ArduPilot swaps items of a
+        mission flown in AUTO as they arrive), upload and verify the leg and the landing, point
+        the mission at its first item (MISSION_START alone resumes the old one) and start it;
+        the autopilot's RTL, said, when any of that fails. The vehicle seconds the hold took."""
+        st, uid = self.status, self.uid
+        if st.stage in FINAL_STAGES or st.stage in (Stage.RETURN, Stage.RTL):
+            return None
+        st.return_reason = reason
+        if not st.airborne_seen:
+            self.stay_on_ground = True
+            if st.stage is not Stage.SEARCH:
+                return None  # not launched yet: launch() sees it and keeps it on the ground
+            if await self.keep_on_ground():
+                return None  # started, still on the ground: disarmed there; else it is lifting off
+        self.set_stage(Stage.RETURN, f"going home ({reason})")
+        self.claim()
+        started = time.monotonic()
+        try:
+            leg = self.track.return_leg(st.track_index)
+            autopilot = st.autopilot or Autopilot.GENERIC
+            self.energy.holding = True
+            held_from = st.time_boot_s
+            await self.commands.replace_mission(lambda: self.task.return_wire(autopilot, leg),
+                                                self.options.transfer_timeout_s,
+                                                lambda: self.station.emit(MissionUploaded(uid, "return", tuple(leg))))
+            self.energy.holding = False
+            self.return_latency_s = time.monotonic() - started
+            self.say(f"return leg of {len(leg)} waypoints uploaded and started")
+            return st.time_boot_s - held_from  # what a return's hold takes, in the vehicles' time
+        except (LinkError, MissionTransferError, ValueError, KeyError) as exc:
+            self.say(f"the planned return could not be flown ({exc}); commanding the autopilot's RTL, which "
+                     "flies straight home and ignores the planned path")
+            await self.rtl()
+            return None
+        finally:
+            self.energy.holding = False
+            self.release()
+
+    async def rtl(self) -> bool:
+        try:
+            await self.commands.command(mavlink.MAV_CMD_NAV_RETURN_TO_LAUNCH, retries=5)
+        except LinkError as exc:
+            self.say(f"RTL not acknowledged: {exc}")
+            return False
+        self.set_stage(Stage.RTL, "autopilot RTL")
+        return True
+
+    # ---- the end ---------------------------------------------------------------------------
+
+    def _touched_down(self) -> None:
+        """Down after flying: LANDED at its airport, or LANDED_AWAY (saying where, for the crew)
+        past `landed_away_m` from it; then its energy account."""
+        st, task = self.status, self.task
+        st.battery_at_landing = st.battery_pct
+        battery = f"battery {st.battery_pct:.0f}%" if st.battery_pct is not None else "battery unknown"
+        if st.has_position:
+            away = distance_m(self.plan, (st.lat_deg, st.lon_deg), task.airport_lat_lon)
+            st.landed_from_airport_m = away
+            if away > self.options.landed_away_m.get(task.vehicle.value, 25.0):
+                self.set_stage(Stage.LANDED_AWAY,
+                               f"LANDED AWAY at {st.lat_deg:.6f}, {st.lon_deg:.6f}, {away:.0f} m from its airport "
+                               f"{task.name!r} ({battery}): fetch it")
+            else:
+                self.set_stage(Stage.LANDED, f"{battery}, {away:.1f} m from its airport")
+        else:
+            self.set_stage(Stage.LANDED, battery)
+        account = self.energy.energy_account()
+        if account is not None:
+            self.say(account.line())
+
+    async def secure(self, rtl_airborne: bool) -> None:
+        """Disarm it when armed on the ground; with `rtl_airborne`, RTL when in the air and not going home."""
+        st = self.status
+        if self.link is None or st.stage is Stage.LOST:
+            return
+        if st.armed and not st.airborne and st.stage is not Stage.SEARCH:
+            ok = await self.commands.disarm()
+            self.say("on the ground, disarmed" if ok else "ARMED ON THE GROUND: disarm did not confirm, check it")
+        elif rtl_airborne and st.airborne and st.stage not in (Stage.RETURN, Stage.RTL, Stage.LANDED):
+            if not await self.rtl():
+                self.say("in the air and did not confirm RTL: check it yourself")
+

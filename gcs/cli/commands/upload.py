@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
             fleet.stop()
     ok = 0
     for uid, st in sorted(controller.status.items()):
-        reports = controller.upload_reports.get(uid)
+        reports = controller.vehicles[uid].upload_reports
         if reports:
             ok += 1
             parts = [f"{kind} {r.items} items ({r.resends} re-sends)" for kind, r in reports.items()]

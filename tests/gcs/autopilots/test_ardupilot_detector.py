@@ -101,7 +101,7 @@ def test_readings_reach_the_station_through_ardupilot_and_a_lost_one_is_recovere
                 served = asyncio.create_task(serve(camera, detector))
                 status = controller.status[1]
                 try:
-                    assert await controller.prepare(1, mission=False), status.note  # streams, GPS, EKF, home
+                    assert await controller.vehicles[1].prepare(mission=False), status.note  # streams, GPS, EKF, home
                     await _arm_and_take_off(station, ALT_M)
                     await _until(lambda: status.rel_alt_m > ALT_M - 1.0, 60.0, "the take-off")
                     end_en = plan.local_m(lat1, lon1)
@@ -122,7 +122,7 @@ def test_readings_reach_the_station_through_ardupilot_and_a_lost_one_is_recovere
 
     status, controller, lost, from_camera = asyncio.run(main())
     assert lost, "reading 1 was never sent"
-    assert controller.reading_component[1] == CAMERA_COMPONENT_ID
+    assert controller.vehicles[1].reading_component == CAMERA_COMPONENT_ID
     arrived = [d.index for d in status.detections]
     assert arrived.index(1) > arrived.index(2)  # recovered after the next one came
     got = sorted(status.detections, key=lambda d: d.index)
@@ -164,7 +164,7 @@ def test_online_search_on_ardupilot_with_the_detector_updates_the_belief_map(tmp
     assert detector.returncode == 0, out
     status = controller.status[1]
     assert status.stage is Stage.LANDED, status.note
-    assert controller.reading_component[1] == CAMERA_COMPONENT_ID
+    assert controller.vehicles[1].reading_component == CAMERA_COMPONENT_ID
     readings = {d.index: d for d in status.detections}
     assert len(readings) >= 5 and sorted(readings) == list(range(len(readings)))
     assert int(search.map.visits.sum()) == len(readings)  # every reading folded into the map

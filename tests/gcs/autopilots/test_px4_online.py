@@ -67,7 +67,7 @@ def test_online_search_on_a_mixed_fleet_with_detectors_folds_both_vehicles_readi
         status = controller.status[uid]
         assert status.stage is Stage.LANDED, f"UAV {uid}: {status.stage} {status.note}"
         assert metres(plan, (status.lat_deg, status.lon_deg), plan.uavs[uid].airport_lat_lon) < 3.0
-        assert controller.reading_component[uid] == CAMERA_COMPONENT_ID
+        assert controller.vehicles[uid].reading_component == CAMERA_COMPONENT_ID
         readings = {d.index: d for d in status.detections}
         assert len(readings) >= 4 and sorted(readings) == list(range(len(readings))), f"UAV {uid}: {sorted(readings)}"
         visits: dict = {}

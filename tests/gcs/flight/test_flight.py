@@ -150,13 +150,13 @@ def test_upload_under_20_percent_packet_loss_still_verifies(plan):
         fleet.stop()
     resends = 0
     for uid, task in plan.uavs.items():
-        report = controller.upload_reports[uid]["mission"]
+        report = controller.vehicles[uid].upload_reports["mission"]
         resends += report.resends
         wanted = task.mission_wire(controller.status[uid].autopilot)
         got = stored[uid]
         assert len(got) == len(wanted)
         assert [(g.command, g.x, g.y) for g in got[1:]] == [(w.command, w.x, w.y) for w in wanted[1:]]
-        assert controller.upload_reports[uid]["fence"].items == len(task.fence_wire())
+        assert controller.vehicles[uid].upload_reports["fence"].items == len(task.fence_wire())
     assert resends > 0  # the loss really hit the transfers
 
 
@@ -255,19 +255,20 @@ def test_fly_area_with_operator_orders_on_stdin(tmp_path):
 def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch):
     """A bug in the GCS loop mid-flight: every vehicle in the air is commanded RTL before the
     command ends with one error (FlightAborted), never left flying unwatched."""
-    from gcs.flight.controller import FlightAborted, FlightController
+    from gcs.flight.controller import FlightAborted
     from gcs.flight.fly import fly_async
+    from gcs.flight.vehicle_flight import VehicleFlight
     from sim import Mode
     from sim.plan_fleet import fleet_for_plan
 
-    real = FlightController.evaluate
+    real = VehicleFlight.watch
 
-    def evaluate(self, uid):
-        if self.status[uid].stage is Stage.SEARCH and self.status[uid].track_index >= 3:
+    def watch(self):
+        if self.status.stage is Stage.SEARCH and self.status.track_index >= 3:
             raise ZeroDivisionError("injected bug")
-        return real(self, uid)
+        return real(self)
 
-    monkeypatch.setattr(FlightController, "evaluate", evaluate)
+    monkeypatch.setattr(VehicleFlight, "watch", watch)
     fleet = fleet_for_plan(plan, speedup=20.0).start()
     try:
         with pytest.raises(FlightAborted, match="injected bug.*commanded RTL"):

@@ -74,26 +74,29 @@ def test_the_controllers_public_surface_for_the_modules_beside_it(plan):
     assert controller.take_orders() == []
 
     now = time.monotonic()
-    controller.set_stage(3, Stage.SEARCH, "flying")
-    controller.mark_lost(3, "no telemetry", now)
+    three, four = controller.vehicles[3], controller.vehicles[4]
+    for stage in (Stage.PREPARING, Stage.UPLOADING, Stage.ARMING, Stage.SEARCH):
+        three.set_stage(stage, "flying" if stage is Stage.SEARCH else "")
+    three.mark_lost("no telemetry", now)
     assert controller.status[3].stage is Stage.LOST and not controller.finished(now + 1.0)
     controller.status[3].last_heard_s = now + 1.0
-    controller.update_stage(3, now + 1.0)  # heard again: back to the stage it was lost in
+    three.update_stage(now + 1.0)  # heard again: back to the stage it was lost in
     assert controller.status[3].stage is Stage.SEARCH and controller.status[3].note == "link back"
-    controller.mark_lost(4, "did not answer", now, before=Stage.CONNECTING)
+    four.mark_lost("did not answer", now, before=Stage.CONNECTING)
     controller.status[4].last_heard_s = now + 1.0
-    controller.update_stage(4, now + 1.0)
+    four.update_stage(now + 1.0)
     assert controller.status[4].stage is Stage.CONNECTING
-    assert [(e.uav_id, e.after) for e in stages] == [(3, Stage.SEARCH), (3, Stage.LOST), (3, Stage.SEARCH),
+    assert [(e.uav_id, e.after) for e in stages] == [(3, Stage.PREPARING), (3, Stage.UPLOADING), (3, Stage.ARMING),
+                                                     (3, Stage.SEARCH), (3, Stage.LOST), (3, Stage.SEARCH),
                                                      (4, Stage.LOST), (4, Stage.CONNECTING)]
 
     controller.status[1].stage = Stage.SEARCH
     controller.status[1].mode_name = "RTL"
-    controller.claim(1)  # commanded by another task: its RTL is not the autopilot's own return
-    controller.update_stage(1, now)
+    controller.vehicles[1].claim()  # commanded by another task: its RTL is not the autopilot's own return
+    controller.vehicles[1].update_stage(now)
     assert controller.status[1].stage is Stage.SEARCH
-    controller.release(1)
-    controller.update_stage(1, now)
+    controller.vehicles[1].release()
+    controller.vehicles[1].update_stage(now)
     assert controller.status[1].stage is Stage.RTL and controller.status[1].return_reason == "autopilot"
 
     assert asyncio.run(controller.wait_until(lambda: True, 0.0))

@@ -1,0 +1,217 @@
+"""What one vehicle's flight does before it flies (`prepare`): connect, then check and set what
+it needs (ready to fly: `wait_ready`; its home at the plan's airport: `home_matches`; its battery
+and energy profile: `battery_setup`; the parameters its autopilot needs:
+`set_params_before_arming`), and upload its mission; just before arming, a charge that pays for
+its plan (`charge_covers_plan`). Each says what it finds, and a check that
+fails leaves the vehicle FAILED with a note naming why."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from gcs.autopilots import Autopilot
+from gcs.autopilots.mission_transfer import MissionTransferError, MissionType, upload_verified
+from gcs.flight.events import MissionUploaded
+from gcs.flight.vehicle_track import distance_m
+from gcs.links import CommandError, mavlink
+from gcs.plans.vehicle_file import stock_profile
+from gcs.telemetry.status import Stage
+
+if TYPE_CHECKING:
+    from gcs.flight.vehicle_flight import VehicleFlight
+
+__all__ = ["battery_setup", "charge_covers_plan", "home_matches", "prepare", "set_params_before_arming", "wait_ready",
+           "wait_until"]
+
+
+async def prepare(vehicle: VehicleFlight, mission: bool = True) -> bool:
+    """Connect, ask for the telemetry, wait until the vehicle is ready to fly (GPS fix, the
+    estimator's position, a home), check its home is the plan's airport, upload and verify
+    (unless `mission` is False). False (and stage FAILED with a clear note) when anything
+    cannot be done."""
+    opts, st, task, uid = vehicle.options, vehicle.status, vehicle.task, vehicle.uid
+    vehicle.set_stage(Stage.CONNECTING)
+    if not await wait_until(lambda: st.autopilot is not None, opts.connect_timeout_s):
+        links = ", ".join(link.name for link in vehicle.station.links)
+        vehicle.set_stage(Stage.FAILED, f"no HEARTBEAT from system id {uid} within {opts.connect_timeout_s:g} s "
+                                        f"on {links}")
+        return False
+    link = vehicle.link
+    if link.signing is None and uid in link.signing_systems:
+        vehicle.set_stage(Stage.FAILED, f"vehicle {uid} signs its MAVLink messages and will refuse ours: give the "
+                                        "station its key (--signing-key or --signing-passphrase)")
+        return False
+    vehicle.set_stage(Stage.PREPARING, f"{st.autopilot.value} autopilot")
+    await vehicle.commands.request_streams()
+    if not await wait_ready(vehicle) or not home_matches(vehicle):
+        return False
+    await battery_setup(vehicle)
+    await set_params_before_arming(vehicle)
+    if not mission:
+        return True
+    vehicle.set_stage(Stage.UPLOADING)
+    autopilot = st.autopilot
+    try:
+        items = task.mission_wire(autopilot)
+    except ValueError as exc:
+        vehicle.set_stage(Stage.FAILED, f"mission not uploaded: {exc}")
+        return False
+    try:
+        report = await upload_verified(link, uid, items, autopilot, timeout_s=opts.transfer_timeout_s,
+                                       fixed_wing=st.fixed_wing)
+    except MissionTransferError as exc:
+        vehicle.set_stage(Stage.FAILED, f"mission {exc}")
+        return False
+    vehicle.upload_reports = reports = {"mission": report}
+    vehicle.station.emit(MissionUploaded(uid, "search"))
+    extra = []
+    for kind, items in ((MissionType.FENCE, task.fence_wire()), (MissionType.RALLY, task.rally_wire())):
+        if not opts.fence or not items:
+            continue
+        try:
+            reports[kind.name.lower()] = await upload_verified(link, uid, items, autopilot, kind,
+                                                               timeout_s=opts.transfer_timeout_s)
+            extra.append(f"{len(items)} {kind.name.lower()}")
+        except MissionTransferError as exc:
+            vehicle.say(f"warning: {exc}; flying without it")
+    vehicle.say(f"mission verified: {report.items} items{' + ' + ', '.join(extra) if extra else ''} in "
+                f"{report.elapsed_s:.2f} s ({report.resends} re-sends"
+                f"{', legacy MISSION_REQUEST used' if report.legacy_requests else ''})")
+    return True
+
+
+async def wait_until(predicate: Callable[[], bool], timeout_s: float) -> bool:
+    """Poll `predicate` (every 20 ms) until it holds: True; False after `timeout_s`."""
+    end = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > end:
+            return False
+        await asyncio.sleep(0.02)
+    return True
+
+
+async def wait_ready(vehicle: VehicleFlight) -> bool:
+    """Until `VehicleStatus.waiting_for` is empty, showing what is missing (and the autopilot's
+    own words) whenever that changes; FAILED after `ready_timeout_s`."""
+    st, timeout_s = vehicle.status, vehicle.options.ready_timeout_s
+    end = time.monotonic() + timeout_s
+    shown: tuple = ()
+    while missing := st.waiting_for():
+        now = (tuple(missing), st.last_text)
+        if now != shown:
+            shown = now
+            said = f" - autopilot: {st.last_text}" if st.last_text else ""
+            vehicle.set_stage(Stage.PREPARING, f"waiting for {', '.join(missing)}{said}")
+            vehicle.say(f"waiting for {', '.join(missing)}{said}")
+        if time.monotonic() > end:
+            autopilot = f" ({st.last_text})" if st.last_text else ""
+            vehicle.set_stage(Stage.FAILED, f"not ready after {timeout_s:g} s: no {', '.join(missing)}{autopilot}")
+            return False
+        await asyncio.sleep(0.05)
+    vehicle.say("ready: " + ", ".join(part for part in (
+        f"GPS fix {st.gps_fix_type}" + (f" ({st.satellites} satellites)" if st.satellites else "")
+        if st.gps_fix_type is not None else "", "EKF position" if st.ekf_position_ok else "",
+        "home set" if st.home else "") if part))
+    return True
+
+
+def home_matches(vehicle: VehicleFlight) -> bool:
+    """The vehicle's home (HOME_POSITION, else its position) must be the plan's airport, within
+    a cell; refused, naming both, unless the operator allowed the offset (`check_home`)."""
+    st, task, plan, uid = vehicle.status, vehicle.task, vehicle.plan, vehicle.uid
+    here = st.home[:2] if st.home else (st.lat_deg, st.lon_deg)
+    away = distance_m(plan, here, task.airport_lat_lon)
+    if away <= plan.cell_size_m:
+        return True
+    what = (f"vehicle {uid}'s home {here[0]:.7f}, {here[1]:.7f} is {away:.0f} m from UAV {uid}'s airport "
+            f"{task.name!r} at {task.airport_lat_lon[0]:.7f}, {task.airport_lat_lon[1]:.7f} (more than a cell, "
+            f"{plan.cell_size_m:g} m)")
+    if not vehicle.options.check_home:
+        vehicle.say(f"warning: {what}; flying anyway (--allow-home-offset)")
+        return True
+    vehicle.set_stage(Stage.FAILED, f"{what}: is system id {uid} the right vehicle? (--allow-home-offset flies anyway)")
+    return False
+
+
+async def battery_setup(vehicle: VehicleFlight) -> None:
+    """Before the flight: the vehicle's stock profile for its autopilot and airframe (unless
+    one was given), the pack capacity its autopilot counts with, and its board's unique id
+    (AUTOPILOT_VERSION, the key of its learned profile)."""
+    st, energy = vehicle.status, vehicle.energy
+    autopilot = (st.autopilot or Autopilot.GENERIC).value
+    airframe = "plane" if st.fixed_wing else "copter"
+    energy.autopilot = autopilot
+    if vehicle.uid not in vehicle.options.profiles:
+        energy.set_profile(stock_profile(autopilot, airframe))
+    name = (st.autopilot or Autopilot.GENERIC).capacity_param()
+    if name is not None:
+        capacity = await vehicle.commands.get_param(name)
+        if capacity is not None and capacity > 0:
+            energy.fuel.set_capacity(capacity)
+    try:
+        await vehicle.commands.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+                                       retries=2)
+    except CommandError:
+        pass  # keyed by its system id
+
+
+async def set_params_before_arming(vehicle: VehicleFlight) -> None:
+    """The parameters its autopilot needs changed for this flight (`param_changes_before_arming`);
+    one not confirmed is said, not fatal."""
+    st = vehicle.status
+    assert st.autopilot is not None
+    for name, value in st.autopilot.param_changes_before_arming(st.fixed_wing,
+                                                                vehicle.task.approach is not None).items():
+        if await vehicle.commands.set_param(name, value):
+            vehicle.say(f"{name} set to {value:g}: RTL lands on the runway through the mission's landing sequence"
+                        if name == "RTL_AUTOLAND" else f"{name} set to {value:g}")
+        else:
+            vehicle.say(f"warning: {name} not confirmed; the autopilot may refuse to arm")
+
+
+def charge_covers_plan(vehicle: VehicleFlight) -> bool:
+    """Before arming: does the charge the vehicle reports now pay for its plan (launch, the
+    mission path, the landing) and leave the reserve, at its profile's prices? When it does
+    not, the vehicle stays on the ground (FAILED, naming both figures), or with `fit_charge`
+    flies a range cut to what its charge pays for (its `operator_range`), never one shorter than
+    its shortest way out and home. A metre is priced in the wind known. A charge not reported
+    yet is not checked."""
+    st, fuel, options = vehicle.status, vehicle.energy.fuel, vehicle.options
+    path_m = float(vehicle.plan.raw_uav(vehicle.uid).get("length_m", vehicle.track.length_m))
+    track = vehicle.track
+    charge = vehicle.energy.plan_charge(path_m, track)
+    if charge is None:
+        vehicle.say("warning: no battery report yet; its charge is not checked against its plan")
+        return True
+    have, need, per_m = charge.have_mah, charge.need_mah, charge.mah_per_m
+    pct = f"{st.battery_pct:.0f}%" if st.battery_pct is not None else "charge"
+    wind = "" if fuel.wind_m_s is None else " in the wind"
+    if charge.enough:
+        vehicle.say(f"charge {pct} ({have:.0f} of {fuel.capacity_mah:.0f} mAh) pays for its {path_m:.0f} m plan"
+                    f"{wind}: {need:.0f} mAh with the {options.reserve_pct:g}% reserve")
+        return True
+    covers_m = charge.covers_m
+    what = (f"charge {pct} = {have:.0f} mAh pays for {covers_m:.0f} m of its plan's {path_m:.0f} m{wind} (the plan "
+            f"needs {need:.0f} mAh with the {options.reserve_pct:g}% reserve of a {fuel.capacity_mah:.0f} mAh "
+            f"pack)")
+    if not options.fit_charge:
+        vehicle.set_stage(Stage.FAILED, f"not armed: {what}; charge it, or fly a range cut to its charge "
+                                        "(--fit-charge)")
+        return False
+    overhead = max(0.0, path_m - track.length_m)
+    shortest_m = shortest_mah = 0.0  # its shortest way: out to its first pose and home from there
+    if len(vehicle.task.trajectory) > 1:
+        home = fuel.way_cost(track.home_legs(1))
+        shortest_m = track.flown_m(1) + home.metres
+        shortest_mah = track.flown_m(1) * per_m + home.mah
+    if (covers_m - overhead) * per_m < shortest_mah:
+        vehicle.set_stage(Stage.FAILED, f"not armed: {what}, less than its shortest way out and home "
+                                        f"({shortest_m:.0f} m{wind})")
+        return False
+    vehicle.operator_range = covers_m - overhead
+    vehicle.say(f"{what}: flying a range cut to {covers_m - overhead:.0f} m along its plan (--fit-charge)")
+    return True
+

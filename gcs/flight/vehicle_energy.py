@@ -1,0 +1,328 @@
+"""One vehicle's energy as the station follows it (`VehicleEnergy`): its fuel gauge and the
+phase of flight its battery is read in, the fuel-based return trigger's state, what coming home
+costs beyond the way, the charge its plan needs before launch (`PlanCharge`), and the account of
+its energy when it is down (`EnergyAccount`). Each vehicle's flight
+(`gcs.flight.vehicle_flight.VehicleFlight`) owns one.
+
+The trigger itself is pure (`gcs.flight.return_trigger`); this object keeps what it needs
+between ticks."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from gcs.flight.fuel import FlightPhase, FuelGauge
+from gcs.flight.lean_wind import LeanWind, thrust_lean
+from gcs.flight.return_trigger import FuelDecision, confirmed, fuel_decision
+from gcs.flight.vehicle_track import Legs, PlanTrack
+from gcs.links import mavlink
+from gcs.plans.plan_folder import UavTask
+from gcs.telemetry.status import Stage, VehicleStatus
+from planner.energy import EnergyProfile
+
+__all__ = ["EnergyAccount", "PlanCharge", "VehicleEnergy", "wind_from_message"]
+
+MAVMessage = mavlink.MAVLink_message
+
+#: Vehicle seconds a return is expected to hold the vehicle while its way home is sent, until a
+#: return of the flight has shown how long (`gcs.flight.controller`: the longest seen).
+HOLD_S = 3.0
+
+#: A vehicle's launch is over once it is within this share of its mission altitude (the fuel gauge
+#: waits a few seconds more before it samples cruise); on its way home, a vehicle descending faster
+#: than LEVEL_CLIMB_M_S below that is landing.
+LEVEL_SHARE = 0.9
+LEVEL_CLIMB_M_S = 0.7
+
+#: A wind read from a lean is said again when it moves this far (m/s, as a vector).
+WIND_SAID_CHANGE_M_S = 2.0
+
+
+@dataclass(frozen=True, slots=True)
+class EnergyAccount:
+    """A landed vehicle's energy: what its profile predicted at launch for the flight it flew
+    (`predicted_mah`), what it used from launch to touch-down (`used_mah`), the cruise metres
+    flown, and the battery it landed with."""
+
+    predicted_mah: float
+    used_mah: float
+    cruise_m: float
+    landed_pct: float | None
+
+    @property
+    def error(self) -> float:
+        """(used - predicted) / used."""
+        return (self.used_mah - self.predicted_mah) / self.used_mah if self.used_mah > 0 else 0.0
+
+    def line(self) -> str:
+        """The account, for the operator."""
+        return (f"energy: used {self.used_mah:.0f} mAh from launch to touch-down; its profile predicted "
+                f"{self.predicted_mah:.0f} mAh for the {self.cruise_m:.0f} m it cruised ({self.error:+.1%})")
+
+
+@dataclass(frozen=True, slots=True)
+class PlanCharge:
+    """Before launch: the charge reported (`have_mah`) against what the plan needs (`need_mah`:
+    the launch, the mission path, the landing and the reserve, at the profile's prices, a metre
+    at `mah_per_m`), and the metres of the plan the charge above the reserve and those ends pays
+    for (`covers_m`)."""
+
+    have_mah: float
+    need_mah: float
+    covers_m: float
+    mah_per_m: float  # a metre of the plan, in the wind known
+
+    @property
+    def enough(self) -> bool:
+        return self.have_mah >= self.need_mah
+
+
+def _step_m(a: tuple[float, float], b: tuple[float, float]) -> tuple[float, float]:
+    """(east, north) metres from lat/lon `a` to `b`, two telemetry samples apart (equirectangular:
+    exact to millimetres over such a step, and a thousand times cheaper than a projection)."""
+    k = math.pi / 180.0 * 6_371_008.8
+    return (b[1] - a[1]) * k * math.cos(math.radians(0.5 * (a[0] + b[0]))), (b[0] - a[0]) * k
+
+
+def wind_from_message(msg: MAVMessage) -> tuple[float, float] | None:
+    """(east, north) m/s the air moves towards, from ArduPilot's WIND (direction it comes from,
+    degrees) or PX4's WIND_COV (velocity, NED); None for other messages or unknown values."""
+    kind = msg.get_type()
+    if kind == "WIND":
+        rad = math.radians(msg.direction)
+        return -msg.speed * math.sin(rad), -msg.speed * math.cos(rad)
+    if kind == "WIND_COV" and math.isfinite(msg.wind_x) and math.isfinite(msg.wind_y):
+        return float(msg.wind_y), float(msg.wind_x)
+    return None
+
+
+class VehicleEnergy:
+    """One vehicle's energy (see the module docstring); `status` is its telemetry, read here."""
+
+    def __init__(self, task: UavTask, status: VehicleStatus, profile: EnergyProfile, *, reserve_pct: float,
+                 confirm_s: float = 3.0, wind_m_s: tuple[float, float] | None = None) -> None:
+        self.task = task
+        self.status = status
+        self.profile = profile
+        self.crew_wind = wind_m_s  # the wind the crew measured at launch (`gcs fly --wind`)
+        self.fuel = self._gauge(profile)
+        self.reserve_pct = reserve_pct
+        self.confirm_s = confirm_s
+        self.phase = FlightPhase.GROUND
+        self.levelled = False
+        self.trigger_since: float | None = None
+        self.decision: FuelDecision | None = None
+        self._last_m: tuple[float, float] | None = None  # lat, lon of the last position
+        self._last_s: float | None = None
+        self.holding = False  # held in the air by the station (while its way home is uploaded)
+        self.hover_s = 0.0    # vehicle seconds held so
+        self.hold_s = HOLD_S  # vehicle seconds a return's hold is expected to take
+        self.launch_profile: EnergyProfile | None = None
+        self.autopilot = "generic"
+        self.wind_reported = False  # the autopilot estimates a wind: its lean is not read
+        self.lean_wind = LeanWind(profile.lean_tan_at_10_m_s) if profile.lean_tan_at_10_m_s else None
+        self.notes: list[str] = []  # lines for the operator, taken by the vehicle's flight
+        self._velocity: tuple[float, float] | None = None      # east, north m/s over the ground
+        self._acceleration: tuple[float, float] = (0.0, 0.0)  # and its change per second
+        self._climb_m_s = 0.0
+        self._wind_said: tuple[float, float] | None = None
+
+    @property
+    def uid(self) -> int:
+        return self.task.uav_id
+
+    def set_profile(self, profile: EnergyProfile) -> None:
+        """Price the flight with `profile` (before launch: the gauge starts afresh, keeping the
+        capacity already read from the autopilot)."""
+        capacity = self.fuel.capacity_mah if self.fuel.capacity_mah != self.profile.capacity_mah else None
+        self.profile = profile
+        self.fuel = self._gauge(profile)
+        self.lean_wind = LeanWind(profile.lean_tan_at_10_m_s) if profile.lean_tan_at_10_m_s else None
+        if capacity is not None:
+            self.fuel.set_capacity(capacity)
+
+    def _gauge(self, profile: EnergyProfile) -> FuelGauge:
+        gauge = FuelGauge(profile)
+        if self.crew_wind is not None:
+            gauge.set_wind(*self.crew_wind)
+        return gauge
+
+    # ---- telemetry ---------------------------------------------------------------------------
+
+    def on_message(self, msg: MAVMessage) -> None:
+        """After `status.update(msg)`: the fuel gauge's share of the message."""
+        kind = msg.get_type()
+        if kind == "GLOBAL_POSITION_INT":
+            self._on_position(msg)
+        elif kind == "BATTERY_STATUS" and getattr(msg, "id", 0) == 0:
+            # PX4 SIH measures no current (-1) and reports 0 consumed: only its percentage counts
+            measured = msg.current_battery >= 0 or msg.current_consumed > 0
+            consumed = float(msg.current_consumed) if measured and msg.current_consumed >= 0 else None
+            remaining = float(msg.battery_remaining) if msg.battery_remaining >= 0 else None
+            if self.phase is not FlightPhase.GROUND and self.launch_profile is None:
+                self.launch_profile = self.fuel.profile
+            self.fuel.battery(self.status.time_boot_s, self.phase, consumed, remaining)
+        elif kind == "ATTITUDE":
+            self._on_attitude(msg)
+        else:
+            wind = wind_from_message(msg)
+            if wind is not None and (wind[0] or wind[1]):
+                self.wind_reported = True
+                self.fuel.set_wind(*wind)
+
+    def _on_attitude(self, msg: MAVMessage) -> None:
+        """A multicopter's lean in level flight or a hover (not climbing or descending, where its
+        autopilot lets it drift): the wind its autopilot may not report (`gcs.flight.lean_wind`),
+        given to the fuel gauge and said when it first shows and when it changes."""
+        lean, st = self.lean_wind, self.status
+        if lean is None or self.wind_reported or not st.airborne or st.rel_alt_m < 3.0 or self._velocity is None \
+                or abs(self._climb_m_s) > LEVEL_CLIMB_M_S:
+            return
+        lean.sample(thrust_lean(msg.roll, msg.pitch, msg.yaw), self._velocity, self._acceleration)
+        wind = lean.wind_m_s
+        if wind is None or lean.samples % 2:
+            return
+        if wind == (0.0, 0.0):
+            if self.fuel.wind_m_s is not None and self.crew_wind is None:
+                self.fuel.clear_wind()
+            return
+        self.fuel.set_wind(*wind)
+        said = self._wind_said
+        if said is None or math.hypot(wind[0] - said[0], wind[1] - said[1]) > WIND_SAID_CHANGE_M_S:
+            self._wind_said = wind
+            source = math.degrees(math.atan2(-wind[0], -wind[1])) % 360.0
+            self.notes.append(f"wind {math.hypot(*wind):.1f} m/s from {source:03.0f} deg, read from its lean "
+                              f"(its way home is priced by the ground speed it can make into it)")
+
+    def _on_position(self, msg: MAVMessage) -> None:
+        st = self.status
+        if not st.has_position:
+            return
+        velocity = (msg.vy / 100.0, msg.vx / 100.0)
+        if self._velocity is not None and self._last_s is not None and st.time_boot_s > self._last_s:
+            dt = st.time_boot_s - self._last_s
+            self._acceleration = ((velocity[0] - self._velocity[0]) / dt, (velocity[1] - self._velocity[1]) / dt)
+        self._velocity = velocity
+        self._climb_m_s = -msg.vz / 100.0
+        self.phase = self._phase(-msg.vz / 100.0)
+        here = (st.lat_deg, st.lon_deg)
+        if self._last_m is not None and self.phase is not FlightPhase.GROUND:
+            east, north = _step_m(self._last_m, here)
+            self.fuel.moved(st.time_boot_s, east, north, self.phase)
+            if self.holding and self._last_s is not None:
+                self.hover_s += max(0.0, st.time_boot_s - self._last_s)
+        self._last_s = st.time_boot_s
+        self._last_m = here
+
+    def _phase(self, climb_m_s: float) -> FlightPhase:
+        st = self.status
+        if not st.airborne:
+            return FlightPhase.GROUND if not self.levelled else FlightPhase.LANDING
+        altitude = self.task.altitude_m
+        if not self.levelled:
+            if st.rel_alt_m >= LEVEL_SHARE * altitude:  # as the profile's launch is measured: up to its altitude
+                self.levelled = True
+            else:
+                return FlightPhase.LAUNCH
+        descending = climb_m_s < -LEVEL_CLIMB_M_S and st.rel_alt_m < LEVEL_SHARE * altitude
+        if st.landed_state == mavlink.MAV_LANDED_STATE_LANDING or st.mode_name == "LAND" \
+                or (st.stage in (Stage.RETURN, Stage.RTL) and descending):
+            return FlightPhase.LANDING
+        return FlightPhase.CRUISE
+
+    # ---- the trigger ---------------------------------------------------------------------------
+
+    def check_along(self, track: PlanTrack, lookahead_steps: int, ordered_left_m: float | None) -> bool:
+        """The return trigger's check for the vehicle on `track`: the next `lookahead_steps` poses
+        of its plan, the way home from each, the landing circuit (`evaluate`); True when it must
+        turn home now (searching, airborne, and confirmed: `must_return`)."""
+        st = self.status
+        steps_ahead, home = track.look_ahead(st.track_index, st.lat_deg, st.lon_deg, lookahead_steps) \
+            if st.has_position else ([], [])
+        if not steps_ahead:
+            self.decision = None
+            st.margin = math.inf  # the plan's own return (or its end): already the lowest-cost way home
+            return False
+        self.evaluate(steps_ahead, home, track.circuit_legs(), ordered_left_m)
+        return st.airborne_seen and st.stage is Stage.SEARCH and self.must_return(st.time_boot_s)
+
+    def why_home(self, operator_range_m: float | None) -> str:
+        """The last evaluation's reason to return, in the operator's terms."""
+        st, decision, fuel = self.status, self.decision, self.fuel
+        assert decision is not None
+        if decision.by_order:
+            ordered = decision.ordered
+            assert ordered is not None and operator_range_m is not None
+            return (f"the ordered range of {operator_range_m:.0f} m leaves {ordered.range_left:.0f} m, "
+                    f"the way home needs {ordered.cost:.0f} m: returning")
+        remaining = fuel.remaining_mah or 0.0
+        pct = f"{st.battery_pct:.0f}%" if st.battery_pct is not None else f"{remaining:.0f} mAh"
+        return (f"battery {pct} ({remaining:.0f} mAh) pays for {decision.range_left_m:.0f} m above the "
+                f"{self.reserve_pct:g}% reserve and the landing; the way home is {decision.home_m:.0f} m "
+                f"({decision.home_mah:.0f} mAh with the landing, at {fuel.rate_mah_per_m:.2f} mAh/m in the wind): "
+                "returning")
+
+    def evaluate(self, steps_ahead: list[Legs], home_legs: list[Legs], circuit_legs: Legs,
+                 ordered_left_m: float | None = None) -> FuelDecision | None:
+        """The return trigger's check now (`gcs.flight.return_trigger.fuel_decision`), kept as
+        `decision`; the status shows its range left and margin in metres."""
+        self.decision = fuel_decision(self.fuel, reserve_pct=self.reserve_pct, landing_mah=self.landing_mah(),
+                                      steps_ahead=steps_ahead, home_legs=home_legs, circuit_legs=circuit_legs,
+                                      ordered_left_m=ordered_left_m)
+        st = self.status
+        st.range_left = math.inf if self.decision is None else self.decision.range_left_m
+        st.margin = math.inf if self.decision is None else self.decision.margin_m
+        return self.decision
+
+    @property
+    def landing_altitude_m(self) -> float:
+        """Where the landing starts: a plane's approach altitude (it flies down to it along its
+        way to the approach point), else the mission altitude."""
+        approach = self.task.approach
+        return min(approach.alt_m, self.task.altitude_m) if approach is not None else self.task.altitude_m
+
+    def landing_mah(self) -> float:
+        """What coming home costs beyond its way: the hold while the station sends the way home
+        (`hold_s` of vehicle time) and the landing, at the profile's prices scaled up as far as
+        cruise costs more than the profile says (a pack that drains faster in cruise drains
+        faster in a hover and on the way down too), never down."""
+        scale = max(1.0, self.fuel.rate_mah_per_m / self.profile.cruise_mah_per_m)
+        profile = self.profile
+        return (profile.loiter_mah_per_s * self.hold_s + profile.landing_cost_mah(self.landing_altitude_m)) * scale
+
+    def plan_charge(self, path_m: float, track: PlanTrack) -> PlanCharge | None:
+        """What the charge reported now pays for against a plan of `path_m` metres along `track`,
+        a metre priced along its legs in the wind known; None while no charge has been reported."""
+        fuel, profile = self.fuel, self.profile
+        have = fuel.remaining_mah
+        if have is None:
+            return None
+        reserve = fuel.reserve_mah(self.reserve_pct)
+        ends = profile.launch_cost_mah(self.task.altitude_m) + profile.landing_cost_mah(self.landing_altitude_m)
+        along = fuel.way_cost(track.legs())
+        per_m = along.mah / along.metres if along.metres > 0 else fuel.rate_mah_per_m  # the wind known included
+        return PlanCharge(have, ends + per_m * path_m + reserve, max(0.0, have - reserve - ends) / per_m, per_m)
+
+    def must_return(self, now_s: float) -> bool:
+        """Whether the last evaluation, confirmed (`gcs.flight.return_trigger.confirmed`), sends
+        the vehicle home now."""
+        go, self.trigger_since = confirmed(self.decision, self.trigger_since, now_s, confirm_s=self.confirm_s,
+                                           capacity_mah=self.fuel.capacity_mah)
+        return go
+
+    # ---- the end -------------------------------------------------------------------------------
+
+    def energy_account(self) -> EnergyAccount | None:
+        """Predicted (by the profile at launch) against used, for what was flown (the cruise metres,
+        the seconds it held in the air, the launch to its altitude, the landing from where it
+        starts); None when the
+        vehicle never launched or its charge was never read."""
+        fuel, profile = self.fuel, self.launch_profile
+        if profile is None or fuel.used_mah is None or fuel.used_at_launch is None:
+            return None
+        altitude = self.task.altitude_m
+        predicted = (profile.launch_cost_mah(altitude) + profile.cruise_cost_mah(fuel.phase_m[FlightPhase.CRUISE])
+                     + profile.loiter_mah_per_s * self.hover_s + profile.landing_cost_mah(self.landing_altitude_m))
+        return EnergyAccount(predicted, fuel.used_mah - fuel.used_at_launch, fuel.phase_m[FlightPhase.CRUISE],
+                             self.status.battery_pct)
