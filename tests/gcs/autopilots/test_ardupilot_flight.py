@@ -137,7 +137,7 @@ def test_a_fast_draining_battery_brings_its_copter_home_first_and_the_other_sear
                      r"home is \d+ m", done.stdout), done.stdout[-3000:]
     at_landing = {int(m.group(1)): int(m.group(2))
                   for m in re.finditer(r"UAV (\d): landed - battery (\d+)%", done.stdout)}
-    assert at_landing[2] >= 25, done.stdout[-3000:]  # the 30 % reserve, give or take the whole percent ArduPilot reports
+    assert at_landing[2] >= 25, done.stdout[-3000:]  # the 30 % reserve, give or take ArduPilot's whole percent
     landed = assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=3.0, tolerance_m=3.0)
     assert set(landed) == {1, 2}
     by_uav: dict[int, list] = {1: [], 2: []}
