@@ -24,16 +24,18 @@ from dataclasses import dataclass
 from gcs.flight.fuel import FuelGauge, LegCost
 from planner.range_check import ReturnCheck, check_return
 
-__all__ = ["FuelDecision", "HOME_MARGIN", "SEVERE_SHARE", "check_return", "confirmed", "fuel_decision"]
+__all__ = ["FuelDecision", "HOME_MARGIN", "SEVERE_SHARE", "THIRSTY_SHARE", "check_return", "confirmed", "fuel_decision"]
 
 #: A return is acted on at once when the charge falls short by more than this share of the pack.
 SEVERE_SHARE = 0.02
 
-#: The way home and the landing are priced this much dearer than their estimate: the one estimate
-#: that must not come out short. A copter's way home is a chain of short legs whose stops cost
-#: more than the cruise average learned by then (ArduCopter SITL, 30 m cells: its way home cost
-#: 21 % more than priced, so it touched down at 23 % of a 30 % reserve; benchmarks/fly_autopilots.py).
+#: Once a vehicle's cruise has cost more than THIRSTY_SHARE of its profile's, its way home and
+#: landing are priced HOME_MARGIN dearer than estimated: its profile is known wrong, and what the
+#: gauge has learned by then lags (ArduCopter SITL drawing 1.3x its profile on 30 m cells: its way
+#: home cost 21 % more than priced, and it touched down at 23 % of a 30 % reserve). A vehicle flying
+#: as profiled is priced as planned, so it flies its plan to its planned return.
 HOME_MARGIN = 0.1
+THIRSTY_SHARE = 1.05
 
 Legs = list[tuple[float, float]]
 
@@ -75,12 +77,13 @@ def fuel_decision(gauge: FuelGauge, *, reserve_pct: float, landing_mah: float, s
         return None
     reserve = gauge.reserve_mah(reserve_pct)
     circuit = gauge.way_cost(circuit_legs)
-    landing_mah *= 1.0 + HOME_MARGIN
+    margin = HOME_MARGIN if gauge.rate_mah_per_m > THIRSTY_SHARE * gauge.profile.cruise_mah_per_m else 0.0
+    landing_mah *= 1.0 + margin
     left_m = gauge.cruise_m_for(remaining - reserve - landing_mah)
     worst: FuelDecision | None = None
     for ahead, home in zip(steps_ahead, home_legs):
         step, way = gauge.way_cost(ahead), gauge.way_cost(home)
-        way = LegCost(way.metres, way.mah * (1.0 + HOME_MARGIN))
+        way = LegCost(way.metres, way.mah * (1.0 + margin))
         check = check_return(remaining, way.mah + circuit.mah, landing_mah, reserve, step.mah)
         ordered = None if ordered_left_m is None else check_return(ordered_left_m, way.metres, step=step.metres)
         margin_m = math.copysign(gauge.cruise_m_for(abs(check.margin)), check.margin)

@@ -19,8 +19,10 @@ from tests.peers.ardupilot import require_ardupilot
 from tests.peers.px4 import ONE_AT_A_TIME, Px4Sitl, require_px4
 from tests.peers.site import FIELD_COPTERS, FIELD_PLANES
 
-#: each flies a fleet of three to its end (several minutes of vehicle time)
-pytestmark = [pytest.mark.autopilot, pytest.mark.timeout(900)]
+#: each flies a fleet of three to its end (several minutes of vehicle time); one fleet at a time,
+#: in the PX4 tests' worker: three SITLs beside another test's on the 2-core CI machine lose
+#: mission items and acknowledgements
+pytestmark = [pytest.mark.autopilot, pytest.mark.timeout(900), ONE_AT_A_TIME]
 
 #: PX4 SIH's stock battery halves in the first 30 s armed and stays there (docs/energy.md): no
 #: pack a flight can be priced by. Our PX4 vehicles drain from full to empty in 20 minutes armed.
@@ -46,7 +48,7 @@ def judge(flight) -> None:
 @pytest.mark.parametrize("fleet, site, extra", [
     pytest.param(COPTERS, FIELD_COPTERS, (), id="3 ArduCopter, one small pack"),
     pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), id="3 ArduPlane"),
-    pytest.param(MIXED, FIELD_COPTERS, (), id="ArduCopter and 2 PX4", marks=ONE_AT_A_TIME),
+    pytest.param(MIXED, FIELD_COPTERS, (), id="ArduCopter and 2 PX4"),
 ])
 @pytest.mark.parametrize("wind", [False, True], ids=["still air", "8 m/s wind"])
 def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra, wind):
@@ -54,7 +56,10 @@ def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra
     if any(v.autopilot == "px4" for v in fleet):
         require_px4()
     speedup = Px4Sitl.speedup if any(v.autopilot == "px4" for v in fleet) else 10.0  # PX4 keeps up to 5
-    crew = ("--wind", f"{WIND['SIM_WIND_SPD']:g}@{WIND['SIM_WIND_DIR']:g}") if wind else ()  # measured at launch
+    # the crew's wind, measured at launch; not with PX4 in the fleet: SIH v1.15.3 has no wind, and
+    # its vehicles would be priced in air they never meet
+    px4 = any(v.autopilot == "px4" for v in fleet)
+    crew = ("--wind", f"{WIND['SIM_WIND_SPD']:g}@{WIND['SIM_WIND_DIR']:g}") if wind and not px4 else ()
     flight = fly_fleet(tmp_path, site, fleet, "--fit-charge", *crew, plan_args=extra, wind=wind, speedup=speedup)
     if wind:  # the issue's bound in wind: nobody below reserve - 5; one whose charge cannot pay in it stays down
         for v in flight.verdicts.values():
@@ -68,7 +73,10 @@ def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra
         judge(flight)
         errors = flight.energy_errors()
         assert set(errors) == set(flight.verdicts), flight.stdout[-4000:]
-        assert all(abs(e) <= 5.0 for e in errors.values()), f"{errors}\n{flight.stdout[-6000:]}"
+        # the prediction is held to 5 % where the autopilot measures its current; PX4 SIH reports
+        # only a percentage that rises with thrust (docs/energy.md): its "used" is no measurement
+        measured = {i + 1 for i, v in enumerate(fleet) if v.autopilot != "px4"}
+        assert all(abs(errors[u]) <= 5.0 for u in measured), f"{errors}\n{flight.stdout[-6000:]}"
 
 
 def test_a_learned_profile_plans_a_flight_that_spends_the_battery(tmp_path):

@@ -12,7 +12,7 @@ from hypothesis import given, strategies as st
 
 from gcs.flight.fuel import MIN_SHARE, PRIOR_WEIGHT_M, SETTLE_S, SHOWN_AFTER_M, FlightPhase, FuelGauge
 from gcs.flight.orders import OperatorOrder, parse_order
-from gcs.flight.return_trigger import HOME_MARGIN, SEVERE_SHARE, check_return, confirmed, fuel_decision
+from gcs.flight.return_trigger import HOME_MARGIN, SEVERE_SHARE, THIRSTY_SHARE, check_return, confirmed, fuel_decision
 from planner.energy import MAX_WIND_FACTOR, Airframe, EnergyProfile
 
 COPTER = EnergyProfile(airframe=Airframe.COPTER, capacity_mah=3000.0, cruise_speed_m_s=10.0, cruise_mah_per_m=1.0,
@@ -185,15 +185,14 @@ def test_the_decision_by_hand():
     gauge = FuelGauge(COPTER)
     assert _decision(gauge) is None  # no charge read yet
     gauge.battery(0.0, FlightPhase.CRUISE, 1800.0, None)  # 1200 mAh left of 3000, reserve 900, landing 110
-    d = _decision(gauge)  # the way home (1000 m at 1 mAh/m) and the landing priced HOME_MARGIN dearer
-    home, landing = 1000 * (1 + HOME_MARGIN), 110 * (1 + HOME_MARGIN)
-    assert d.fuel.cost == pytest.approx(30 + home + landing + 900)
-    assert d.fuel.margin == pytest.approx(1200 - (30 + home + landing + 900)) and d.must_return and not d.by_order
-    assert d.range_left_m == pytest.approx(1200 - 900 - landing)
-    assert d.home_m == 1000.0 and d.home_mah == pytest.approx(home + landing)
-    assert d.margin_m == pytest.approx(d.fuel.margin)
+    d = _decision(gauge)
+    assert d.fuel.cost == pytest.approx(30 + 1000 + 110 + 900)
+    assert d.fuel.margin == pytest.approx(1200 - 2040) and d.must_return and not d.by_order
+    assert d.range_left_m == pytest.approx(1200 - 900 - 110)
+    assert d.home_m == 1000.0 and d.home_mah == pytest.approx(1110.0)
+    assert d.margin_m == pytest.approx(-840.0)
     ok = _decision(gauge, home_m=100.0)
-    assert not ok.must_return and ok.margin_m == pytest.approx(1200 - 30 - 100 * (1 + HOME_MARGIN) - landing - 900)
+    assert not ok.must_return and ok.margin_m == pytest.approx(1200 - 30 - 100 - 110 - 900)
 
 
 def test_an_operator_range_binds_when_it_is_shorter():
@@ -217,7 +216,7 @@ def test_a_plane_pays_its_landing_circuit():
 def test_a_return_is_confirmed_after_the_wait_or_at_once_when_severe():
     gauge = FuelGauge(COPTER)
     gauge.battery(0.0, FlightPhase.CRUISE, 2000.0, None)  # 1000 left
-    slight = _decision(gauge, home_m=5.0)  # short by 56.5 mAh: under 2 % of 3000
+    slight = _decision(gauge, home_m=15.0)  # short by 55 mAh: under 2 % of 3000
     assert slight.must_return and slight.fuel.margin > -SEVERE_SHARE * 3000
     go, since = confirmed(slight, None, 10.0, confirm_s=3.0, capacity_mah=3000.0)
     assert not go and since == 10.0
@@ -289,3 +288,18 @@ def test_operator_orders_are_read(line, order):
 def test_bad_operator_orders_say_why(line, reason):
     with pytest.raises(ValueError, match=reason):
         parse_order(line)
+
+
+def test_a_vehicle_draining_faster_than_its_profile_has_its_way_home_priced_with_a_margin():
+    """As profiled, the way home is priced as planned; once cruise has cost more than
+    THIRSTY_SHARE of the profile's, HOME_MARGIN dearer (the profile is known wrong)."""
+    gauge = FuelGauge(COPTER)  # 1 mAh/m
+    gauge.battery(0.0, FlightPhase.CRUISE, 1800.0, None)
+    assert _decision(gauge).home_mah == pytest.approx(1000.0 + 110.0)
+    thirsty = FuelGauge(COPTER)
+    thirsty.battery(0.0, FlightPhase.GROUND, 0.0, None)
+    cruise(thirsty, 60, mah_per_m=1.6)
+    assert thirsty.rate_mah_per_m > THIRSTY_SHARE * COPTER.cruise_mah_per_m
+    d = _decision(thirsty)
+    way = thirsty.way_cost([(-1000.0, 0.0)]).mah
+    assert way > 1000.0 and d.home_mah == pytest.approx((way + 110.0) * (1 + HOME_MARGIN), rel=1e-6)

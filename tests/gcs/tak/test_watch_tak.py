@@ -39,7 +39,8 @@ def test_a_second_station_puts_the_fleet_on_the_bus_on_tak(tak_server, square_pl
                 GCS, "watch", "--mqtt", broker.url, "--fleet", "watchtak", "--duration-s", "12", "--tak", tak_url,
                 "--tak-every-s", "0.5", "--tak-stale-s", "3", "--plan", str(square_plan_dir),
                 stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-            await client.wait_for(lambda: client.of("gcs.watchtak.uav.4"), 20)
+            # three updates of every UAV before UAV 4 lands (a loaded machine may be slow to relay them)
+            await client.wait_for(lambda: all(len(client.of(f"gcs.watchtak.uav.{u}")) >= 3 for u in (1, 2, 3, 4)), 30)
             sample = fleet.last_sample[2]
             fleet.raise_event(2, "detection", text="positive reading", lat_deg=sample.lat_deg,
                               lon_deg=sample.lon_deg, image_index=5, cell=[3, 4])
