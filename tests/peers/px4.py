@@ -30,8 +30,9 @@ from tests.peers.process import InstanceClaim, SitlProcess, claim, exclusive, lo
 
 #: PX4 SITL in lockstep takes most of a core at speed-up 5 and loses answers (mission items,
 #: command acknowledgements) when several run at once on the 2-core CI machine: the tests that
-#: start one run in one process (an xdist group), one after the other
-ONE_AT_A_TIME = pytest.mark.xdist_group("px4")
+#: start one run in one process, one after the other, with every other real-autopilot test
+#: (tests/conftest.py's SITL group)
+ONE_AT_A_TIME = pytest.mark.xdist_group("sitl")
 
 #: PX4's simulated battery drains 100 % over SIM_BAT_DRAIN seconds of armed vehicle time (its
 #: default, 60 s, then stops at SIM_BAT_MIN_PCT 50 %); an hour keeps it well above the reserve

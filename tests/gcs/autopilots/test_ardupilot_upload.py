@@ -17,9 +17,10 @@ from gcs.autopilots import Autopilot
 from gcs.autopilots.mission_transfer import MissionTransferError, WireItem, download, upload_verified
 from gcs.links import MavLink, SigningKey, mavlink
 from tests.peers.ardupilot import ArduPilotSitl
+from tests.peers.px4 import ONE_AT_A_TIME
 from tests.peers.site import COPTERS, PLANE, Site
 
-pytestmark = pytest.mark.autopilot
+pytestmark = [pytest.mark.autopilot, ONE_AT_A_TIME]  # one real autopilot test at a time (tests/peers/px4.py)
 
 SITE = Site(COPTERS.airports[:1])
 SITES = {"copter": SITE, "plane": PLANE}
@@ -55,8 +56,7 @@ def shared_sitl() -> Iterator[Callable[[str], ArduPilotSitl]]:
         sitl.stop()
 
 
-@pytest.mark.parametrize("vehicle", [pytest.param(v, marks=pytest.mark.xdist_group(f"ardupilot_upload_{v}"))
-                                     for v in ("copter", "plane")])
+@pytest.mark.parametrize("vehicle", ["copter", "plane"])  # one worker runs every SITL test: the shared SITLs hold
 @pytest.mark.parametrize("transport", ["udp", "tcp"])
 def test_planned_mission_uploads_and_reads_back(plans, shared_sitl, vehicle, transport):
     sitl = shared_sitl(vehicle)

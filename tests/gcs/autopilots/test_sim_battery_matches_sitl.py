@@ -18,10 +18,10 @@ from pymavlink import mavutil
 from sim import BatteryConfig, FleetOptions, HomePose, SimFleet, VehicleConfig
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.energy import Course, Phase, Station, analyse, copter_course, fly, plane_course
-from tests.peers.px4 import Px4Sitl
+from tests.peers.px4 import ONE_AT_A_TIME, Px4Sitl
 from tests.peers.site import CENTRE, GROUND_AMSL_M
 
-pytestmark = pytest.mark.autopilot
+pytestmark = [pytest.mark.autopilot, ONE_AT_A_TIME]  # one real autopilot test at a time (tests/peers/px4.py)
 
 SPEEDUP, PX4_SPEEDUP = 10.0, 5.0
 COPTER = copter_course(alt_m=30.0, leg_m=300.0, speeds=(5, 10), hover_s=10.0, turns=False)
