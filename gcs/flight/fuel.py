@@ -111,6 +111,7 @@ class FuelGauge:
         self.cruise_m = 0.0          # ground metres of sampled cruise
         self.phase_mah: dict[FlightPhase, float] = dict.fromkeys(FlightPhase, 0.0)
         self.phase_m: dict[FlightPhase, float] = dict.fromkeys(FlightPhase, 0.0)
+        self.cruise_priced_m = 0.0   # cruise metres, each weighed by the wind known as it was flown
         self.used_at_launch: float | None = None
         self._stretches: list[tuple[np.ndarray, float]] = []  # (`_terms` of a sampled stretch, its mAh)
         self._fit: np.ndarray | None = None
@@ -153,6 +154,8 @@ class FuelGauge:
             self._level_since = None
         metres = math.hypot(east_m, north_m)
         self.phase_m[phase] += metres
+        if phase is FlightPhase.CRUISE and metres > 0:
+            self.cruise_priced_m += metres * self.factor(east_m, north_m)
         if phase is not self._last_phase and self._last_phase is not None:
             self._pure = False
         self._last_phase = phase
@@ -226,12 +229,17 @@ class FuelGauge:
         return self._fit_lift if self.fit is not None else 0.0
 
     @property
+    def still_air_mah_per_m(self) -> float:
+        """Charge per metre of level cruise in still air: the fit's a, lifted as `rate_mah_per_m` is."""
+        return max(float(self.fit[0]) + self._lift, 1e-9)
+
+    @property
     def rate_mah_per_m(self) -> float:
-        """Charge per metre of cruise, averaged over directions: the fit's, never under what
-        level flight has shown (a pack draining faster than its profile says is priced as it
-        drains, not pulled back towards the profile)."""
+        """Charge per metre of cruise in the wind known, averaged over directions: the fit's, never
+        under what level flight has shown (a pack draining faster than its profile says is priced
+        as it drains, not pulled back towards the profile)."""
         if self.wind_m_s is None:
-            return max(float(self.fit[0]) + self._lift, 1e-9)
+            return self.still_air_mah_per_m
         fit, lift = self.fit, self._lift
         return max(float(np.mean([self._along(fit, e, n, lift) for e, n in _COMPASS])), 1e-9)
 

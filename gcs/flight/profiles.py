@@ -3,8 +3,10 @@
 into the file given with `--vehicles` (`save_learned`).
 
 Each part of the profile moves to what the flight showed where it showed enough of it: the cost
-of a cruise metre is the fuel gauge's estimate at touch-down (the profile's figure weighed against
-the level flight sampled, `gcs.flight.fuel`), the launch and the landing are scaled to the charge
+of a cruise metre is what the whole cruise cost where the autopilot counts the charge it consumed
+(`whole_cruise_mah_per_m`), else the fuel gauge's still-air estimate at touch-down (the profile's figure
+weighed against the level flight sampled, `gcs.flight.fuel`: a percentage read off the voltage
+is still recovering from the climb in the first seconds of cruise), the launch and the landing are scaled to the charge
 they took (their split between a fixed cost and a cost per metre of climb or descent kept), and
 the capacity is the one the autopilot counts with. The hover and the wind response stay the
 profile's until a flight measures them."""
@@ -22,7 +24,8 @@ from gcs.flight.vehicle_energy import VehicleEnergy
 from gcs.plans.vehicle_file import VEHICLES_FILE, VehicleRecord, merge_vehicles, vehicle_key, vehicles_to_dict
 from planner.energy import EnergyProfile
 
-__all__ = ["MIN_CRUISE_M", "VEHICLES_FILE", "learned_profile", "learned_records", "save_learned"]
+__all__ = ["MIN_CRUISE_M", "VEHICLES_FILE", "learned_profile", "learned_records", "save_learned",
+           "whole_cruise_mah_per_m"]
 
 #: Metres of sampled cruise below which a flight does not move the cruise figure.
 MIN_CRUISE_M = 100.0
@@ -34,6 +37,19 @@ def _scaled(observed_mah: float, predicted_mah: float) -> float | None:
     return None
 
 
+def whole_cruise_mah_per_m(vehicle: VehicleEnergy) -> float | None:
+    """What a still-air metre of its whole cruise cost, turns, stops and speed-ups included: the
+    charge counted in cruise, less the hovers while the station sent a way home (at the profile's
+    price), over the cruise metres weighed by the wind known as they were flown. None under
+    MIN_CRUISE_M of cruise. This, not the level flight the fuel gauge samples, is what a plan's
+    metre costs: a copter's learned gauge alone priced its next flight 0.6-5.5 % under what it drew."""
+    fuel, prior = vehicle.fuel, vehicle.launch_profile
+    if prior is None or fuel.phase_m[FlightPhase.CRUISE] < MIN_CRUISE_M or fuel.cruise_priced_m <= 0:
+        return None
+    spent = fuel.phase_mah[FlightPhase.CRUISE] - prior.loiter_mah_per_s * vehicle.hover_s
+    return spent / fuel.cruise_priced_m if spent > 0 else None
+
+
 def learned_profile(vehicle: VehicleEnergy) -> EnergyProfile | None:
     """The vehicle's profile as this flight leaves it; None when it never flew on a known charge."""
     prior = vehicle.launch_profile
@@ -42,8 +58,11 @@ def learned_profile(vehicle: VehicleEnergy) -> EnergyProfile | None:
         return None
     altitude = vehicle.task.altitude_m
     changes: dict[str, float] = {"capacity_mah": fuel.capacity_mah}
-    if fuel.cruise_m >= MIN_CRUISE_M:
-        changes["cruise_mah_per_m"] = fuel.rate_mah_per_m
+    cruise = whole_cruise_mah_per_m(vehicle) if fuel.measures_current else None
+    if cruise is not None:
+        changes["cruise_mah_per_m"] = cruise
+    elif fuel.cruise_m >= MIN_CRUISE_M:
+        changes["cruise_mah_per_m"] = fuel.still_air_mah_per_m
     launch = _scaled(fuel.phase_mah[FlightPhase.LAUNCH], prior.launch_cost_mah(altitude))
     if launch is not None:
         changes.update(launch_mah=prior.launch_mah * launch, climb_mah_per_m=prior.climb_mah_per_m * launch)

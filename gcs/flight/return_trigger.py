@@ -77,7 +77,7 @@ def fuel_decision(gauge: FuelGauge, *, reserve_pct: float, landing_mah: float, s
         return None
     reserve = gauge.reserve_mah(reserve_pct)
     circuit = gauge.way_cost(circuit_legs)
-    margin = HOME_MARGIN if gauge.rate_mah_per_m > THIRSTY_SHARE * gauge.profile.cruise_mah_per_m else 0.0
+    margin = HOME_MARGIN if gauge.still_air_mah_per_m > THIRSTY_SHARE * gauge.profile.cruise_mah_per_m else 0.0
     landing_mah *= 1.0 + margin
     left_m = gauge.cruise_m_for(remaining - reserve - landing_mah)
     worst: FuelDecision | None = None

@@ -287,7 +287,7 @@ class VehicleEnergy:
         (`hold_s` of vehicle time) and the landing, at the profile's prices scaled up as far as
         cruise costs more than the profile says (a pack that drains faster in cruise drains
         faster in a hover and on the way down too), never down."""
-        scale = max(1.0, self.fuel.rate_mah_per_m / self.profile.cruise_mah_per_m)
+        scale = max(1.0, self.fuel.still_air_mah_per_m / self.profile.cruise_mah_per_m)
         profile = self.profile
         return (profile.loiter_mah_per_s * self.hold_s + profile.landing_cost_mah(self.landing_altitude_m)) * scale
 
@@ -315,14 +315,14 @@ class VehicleEnergy:
 
     def energy_account(self) -> EnergyAccount | None:
         """Predicted (by the profile at launch) against used, for what was flown (the cruise metres,
-        the seconds it held in the air, the launch to its altitude, the landing from where it
-        starts); None when the
-        vehicle never launched or its charge was never read."""
+        each priced in the wind known as it was flown, the seconds it held in the air, the launch
+        to its altitude, the landing from where it starts); None when the vehicle never launched
+        or its charge was never read."""
         fuel, profile = self.fuel, self.launch_profile
         if profile is None or fuel.used_mah is None or fuel.used_at_launch is None:
             return None
         altitude = self.task.altitude_m
-        predicted = (profile.launch_cost_mah(altitude) + profile.cruise_cost_mah(fuel.phase_m[FlightPhase.CRUISE])
+        predicted = (profile.launch_cost_mah(altitude) + profile.cruise_cost_mah(fuel.cruise_priced_m)
                      + profile.loiter_mah_per_s * self.hover_s + profile.landing_cost_mah(self.landing_altitude_m))
         return EnergyAccount(predicted, fuel.used_mah - fuel.used_at_launch, fuel.phase_m[FlightPhase.CRUISE],
                              self.status.battery_pct)

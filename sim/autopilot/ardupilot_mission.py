@@ -18,7 +18,8 @@ How it differs from the generic `MissionProtocol`:
   MAV_MISSION_ERROR; reading or clearing a list while it is uploaded is refused; a station's
   cancelling MISSION_ACK is ignored (Q3, Q4);
 - re-request after 1 s without an item, give up 8 s after the last one with
-  OPERATION_CANCELLED and "Mission upload timeout" (Q3), in vehicle time;
+  OPERATION_CANCELLED and "Mission upload timeout" (Q3), in vehicle time (the give-up in real
+  time when the fleet is sped up: `sim.autopilot.vehicle.SimVehicle.started_at_speedup`);
 - a fence of fewer than 3 vertices and circles replacing a larger one is wiped right after its
   ACK, unless the previous fence was already that small or cleared over 2 s before (Q2).
 """
@@ -32,6 +33,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from gcs.autopilots.wire_item import MissionType, WireItem
 from sim.autopilot.ardupilot import fence_problems, fence_total, from_legacy_item, item_result, to_legacy_item
 from sim.autopilot.mission_protocol import MAVMessage, MissionProtocol, ProtocolConfig, _ack
+
+#: Seconds after the last item an upload is given up (ArduPilot's MissionItemProtocol, 8000 ms).
+UPLOAD_GIVE_UP_S = 8.0
 
 _UPLOAD_NAME = {MissionType.MISSION: "Mission", MissionType.FENCE: "Fence", MissionType.RALLY: "Rally"}
 _WARNING_INTERVAL_S = 30.0
@@ -57,7 +61,7 @@ class ArduPilotMissionProtocol(MissionProtocol):
     """`handle(msg, now_s)` / `poll(now_s)` with now in the vehicle's seconds. `writes` lists
     (mission_type, seq) of every item written in place since the vehicle last emptied it."""
 
-    def __init__(self, config: ProtocolConfig, *, give_up_s: float = 8.0) -> None:
+    def __init__(self, config: ProtocolConfig, *, give_up_s: float = UPLOAD_GIVE_UP_S) -> None:
         super().__init__(config)
         self.give_up_s = give_up_s
         self.writes: list[tuple[int, int]] = []

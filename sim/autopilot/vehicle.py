@@ -31,7 +31,7 @@ from gcs.autopilots.wire_item import MissionType, WireItem
 from planner.georef import LocalFrame
 from sim.autopilot import telemetry
 from sim.autopilot.ardupilot import BOOT_TIMES, CAPACITY, BootTimes, boot_refusals, ekf_flags
-from sim.autopilot.ardupilot_mission import ArduPilotMissionProtocol
+from sim.autopilot.ardupilot_mission import UPLOAD_GIVE_UP_S, ArduPilotMissionProtocol
 from sim.autopilot.failsafe import FailsafeLevel, failsafe_level, failsafe_to_trigger
 from sim.autopilot.guidance import NAV_COMMANDS, Guidance
 from sim.autopilot.mission_protocol import MissionProtocol, ProtocolConfig
@@ -242,8 +242,14 @@ class SimVehicle(Guidance):
         }
 
     def started_at_speedup(self, speedup: float) -> None:
-        """The fleet runs this many times faster than real time: ArduPilot SITL changes nothing
-        for it (the px4 profile scales a timeout)."""
+        """The fleet runs this many times faster than real time. An ArduPilot upload is given up
+        8 s after the last item: that times the station, whose round trips do not speed up with
+        the simulation, so it is 8 real seconds here, as on a vehicle at speed-up 1 (SITL keeps it
+        in its own time: at speed-up 60 a station on a loaded machine had 0.13 s to answer, and
+        uploads were cancelled). Its re-requests stay in vehicle time, as often as SITL's. The px4
+        profile scales its link-loss timeout likewise."""
+        if isinstance(self.mission, ArduPilotMissionProtocol):
+            self.mission.give_up_s = UPLOAD_GIVE_UP_S * max(1.0, speedup)
 
     # ---- true state and the Python API -------------------------------------------------
 
@@ -379,7 +385,7 @@ class SimVehicle(Guidance):
 
     def handle(self, msg: MAVMessage, wall_s: float) -> list[MAVMessage]:
         """Answer one incoming message; `wall_s` times the PX4 profile's mission retries
-        (ArduPilot's run on the vehicle's own clock, as SITL's do)."""
+        (ArduPilot's run on the vehicle's own clock, as SITL's do, but for `started_at_speedup`)."""
         kind = msg.get_type()
         target = getattr(msg, "target_system", None)
         if target not in (None, 0, self.sysid):

@@ -505,3 +505,17 @@ def test_battery_failsafe_acts_only_while_armed_with_ardupilots_texts():
     s.run(100.0, until=lambda v: v.mode is Mode.RTL)
     low = [t for t in s.texts() if t.startswith("Battery 1 is low")]
     assert low and low[0].startswith("Battery 1 is low 12.60V used ") and "Battery Failsafe" in s.texts()
+
+
+@pytest.mark.parametrize("speedup", [1.0, 60.0])
+def test_the_mission_protocol_gives_a_station_8_real_seconds_at_any_speed_up(speedup):
+    """ArduPilot gives up an upload 8 s after the last item; a station's round trips do not speed
+    up with the simulation, so sped up 60 times the vehicle waits 8 real seconds, 480 of its own."""
+    s = ready()
+    s.v.started_at_speedup(speedup)
+    s.handle(mavlink.MAVLink_mission_count_message(1, 1, 3, 0))
+    since = s.mark()
+    s.run(7.5 * speedup, dt=0.5)
+    assert "Mission upload timeout" not in s.texts(since)
+    s.run(1.0 * speedup, dt=0.5)
+    assert "Mission upload timeout" in s.texts(since)

@@ -14,11 +14,12 @@ import aiomqtt
 from gcs.bus import Command, CommandKind, FleetWatcher, MessageType, Topics, parse_broker_url, schema_errors
 from gcs.bus.flight_feed import bus_feed
 from gcs.cli import main
-from gcs.flight.controller import FlightController, FlyOptions
+from gcs.flight.controller import FlightController
 from gcs.links import MavLink
 from gcs.plans.plan_folder import load_plan_dir
 from gcs.telemetry.status import Stage
 from sim.plan_fleet import fleet_for_plan
+from tests.gcs.flight.conftest import SPEEDUP, fast_options
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -28,9 +29,8 @@ def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fle
     assert main(["plan", "--area", str(ROOT / "missions" / "paper.geojson"), "--seed", "0", "--strategy",
                  "exhaustive", "--out", str(out), "--quiet"]) == 0
     plan = load_plan_dir(out)
-    options = FlyOptions(tick_s=0.01, transfer_timeout_s=0.1, command_timeout_s=0.2, link_timeout_s=1.0,
-                         lost_giveup_s=1.0, connect_timeout_s=5.0, arm_timeout_s=5.0)
-    sim = fleet_for_plan(plan, speedup=60.0).start()
+    options = fast_options()
+    sim = fleet_for_plan(plan, speedup=SPEEDUP).start()
 
     async def scenario():
         received = []

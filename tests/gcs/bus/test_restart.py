@@ -57,7 +57,12 @@ def test_events_survive_a_broker_restart_in_order_and_complete(make_broker, flee
             await restart
             await bus.drain(10)
             stats = bus.stats
-        await asyncio.sleep(0.5)
+        raised = sum(len(events) for events in fleet.raised.values())
+        for _ in range(100):  # the broker's deliveries to the subscriber, a loaded machine's seconds late
+            if len({(e["uav"], e["seq"]) for e in received}) >= raised:
+                break
+            await asyncio.sleep(0.1)
+        await asyncio.sleep(0.2)  # and any repeat on its way
         subscriber.cancel()
         return fleet, received, stats, queued_while_down, statuses
 
