@@ -202,7 +202,9 @@ class OnlineFlight:
         now = time.monotonic()
         end, reading_end = now + self.step_timeout_s, None
         while not c.interrupted and now < end:
-            waiting = [uid for uid in uids if not self._has_reading(uid)]
+            for uid in uids:
+                c.vehicles[uid].update_stage(now)
+            waiting = [uid for uid in uids if not self._has_reading(uid) and self._steered(uid)]
             if not waiting:
                 break
             if all(self._arrived(uid) for uid in waiting):
@@ -222,13 +224,30 @@ class OnlineFlight:
             if self._has_reading(uid):
                 if uid in self.expected:
                     self.reported[uid] = self.expected[uid][0]
-            else:
+            elif self._steered(uid):
                 c.say(uid, f"no reading of cell {self.expected[uid][0]} in time; deciding without it")
             self.expected.pop(uid, None)
 
     def _on_event(self, event, now: float) -> None:
         if isinstance(event, ReadingReceived):
             self._reading.set()
+
+    def _steered(self, uid: int) -> bool:
+        """Not down, failed, or brought home by its autopilot (its battery failsafe's RTL). A
+        vehicle whose link is lost stays: it is steered again when heard."""
+        stage = self.c.status[uid].stage
+        return stage not in FINAL_STAGES and stage is not Stage.RTL
+
+    def _out_of_step(self, flying: set[int]) -> set[int]:
+        """Vehicles the station no longer steers (`_steered`); each is said once and leaves the
+        search, so no step waits for its reading."""
+        gone = {uid for uid in flying if not self._steered(uid)}
+        for uid in sorted(gone):
+            self.c.say(uid, f"out of the lock step ({self.c.status[uid].stage.value}); the others fly on")
+            self.search.order_return(uid)
+            self.targets.pop(uid, None)
+            self.expected.pop(uid, None)
+        return gone
 
     async def run(self) -> None:
         c = self.c
@@ -249,6 +268,7 @@ class OnlineFlight:
         at_airport: set[int] = set()
         landing_tasks = []
         while not c.interrupted:
+            flying -= self._out_of_step(flying)
             await self._fly_step(flying | at_airport)
             landing_tasks += [asyncio.create_task(self._land(uid)) for uid in at_airport]
             at_airport.clear()

@@ -196,8 +196,11 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     setup = area_plan.build_area_search(area, search=SearchOptions(seed=seed, strategy="exhaustive",
                                                                    horizon_value=None if horizon else False))
     search = observed_search(setup.search.scenario, setup.search.config, seed=seed)
-    fleet = fleet_for_plan(plan, speedup=20.0, seed=seed).start()
-    try:  # lock step: 20 times real time leaves a loaded machine's station time to keep up with four vehicles
+    # lock step: the vehicles hover while the station decides each step, so a station slowed by a
+    # loaded machine costs them battery in proportion to the speed-up (at 20 in CI, a copter's own
+    # battery failsafe brought it home early and the others found 4 targets, not 6)
+    fleet = fleet_for_plan(plan, speedup=10.0, seed=seed).start()
+    try:
         online = asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
                                                         online=search), 280))
     finally:
@@ -220,6 +223,52 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
         assert flown[uid] == [(p.x, p.y) for p in task.trajectory], f"UAV {uid} left the planner's path"
     assert online_found == plan_found == predicted
     assert online_alarms == plan_alarms == plan.raw["summary"]["false_alarms"]
+
+
+def test_online_mode_flies_on_without_a_vehicle_its_autopilot_brought_home(plan_dir):
+    """A vehicle whose autopilot takes it home (its battery failsafe's RTL) leaves the lock step
+    at once: no step waits for its readings, and the others fly their search and land."""
+    import threading
+
+    from gcs.flight.fly import fly_async
+    from gcs.flight.online import observed_search
+    from gcs.plans import planning as area_plan
+    from gcs.plans.options import SearchOptions
+    from sim import Mode
+    from sim.plan_fleet import fleet_for_plan
+    from tests.gcs.flight.conftest import ROOT
+
+    plan = load_plan_dir(plan_dir)
+    setup = area_plan.build_area_search(str(ROOT / "missions" / "paper.geojson"),
+                                        search=SearchOptions(seed=0, strategy="exhaustive"))
+    search = observed_search(setup.search.scenario, setup.search.config, seed=0)
+    fleet = fleet_for_plan(plan, speedup=SPEEDUP).start()
+    sent_home = threading.Event()
+
+    def failsafe_when_searching() -> None:  # 40 vehicle seconds after it reached its altitude
+        while not sent_home.wait(0.05):
+            if fleet.vehicle(2).state.alt_rel_m > 0.95 * plan.uavs[2].altitude_m:
+                sent_home.wait(40.0 / SPEEDUP)
+                fleet.call(fleet.vehicle(2).set_mode, Mode.RTL)
+                sent_home.set()
+
+    watcher = threading.Thread(target=failsafe_when_searching, daemon=True)
+    watcher.start()
+    lines: list[str] = []
+    try:
+        controller = asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
+                                                            online=search, out=lines.append), 280))
+    finally:
+        sent_home.set()
+        fleet.stop()
+    out = "\n".join(lines)
+    assert "UAV 2: out of the lock step (rtl); the others fly on" in out, out[-3000:]
+    after = out[out.index("UAV 2: out of the lock step"):]
+    assert "UAV 2: no reading of cell" not in after, after[-3000:]
+    assert controller.status[2].stage is Stage.LANDED and _landed_home(plan, fleet, 2) < 5.0
+    for uid in (1, 3, 4):
+        assert controller.status[uid].stage is Stage.LANDED and _landed_home(plan, fleet, uid) < 5.0
+        assert controller.status[uid].return_reason in (None, "range"), controller.status[uid]  # as planned
 
 
 def test_fly_area_with_operator_orders_on_stdin(tmp_path):
