@@ -141,8 +141,18 @@ def test_unknown_uav_in_a_return_order_is_refused(plan):
 
 
 def test_a_vehicle_that_goes_silent_does_not_stop_the_others(plan):
-    # 150 s of vehicle time: in flight (the simulated ArduCopter is ready to arm after 42 s)
-    controller, fleet = fly(plan, during=lambda f: f.call(f.stop_answering, 3, 150.0))
+    # silent once in flight (after a fixed vehicle time it fell silent mid-upload on a loaded machine)
+    import threading
+
+    def silence_when_airborne(f) -> None:
+        def watch() -> None:
+            while f.vehicle(3).state.alt_rel_m < 10.0:
+                threading.Event().wait(0.02)
+            f.call(f.stop_answering, 3, 0.0)
+
+        threading.Thread(target=watch, daemon=True).start()
+
+    controller, fleet = fly(plan, during=silence_when_airborne)
     assert controller.status[3].stage is Stage.LOST
     for uid in (1, 2, 4):
         assert controller.status[uid].stage is Stage.LANDED
