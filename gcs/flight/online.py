@@ -24,7 +24,7 @@ import math
 import time
 
 from gcs.flight.events import ReadingReceived
-from gcs.links import CommandError, LinkError, mavlink
+from gcs.links import LinkError, mavlink
 from gcs.telemetry.status import FINAL_STAGES, Stage
 from planner.dtscs import ClosedSearch
 from planner.plan import Stage as PlanStage
@@ -101,16 +101,7 @@ class OnlineFlight:
         vehicle.set_stage(Stage.ARMING)
         try:
             await commands.set_mode("GUIDED")
-            end = time.monotonic() + c.options.arm_timeout_s
-            while True:
-                try:
-                    await commands.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-                    break
-                except CommandError as exc:
-                    if time.monotonic() > end:
-                        raise
-                    c.say(uid, f"arming refused ({st.last_text or exc}); retrying")
-                    await asyncio.sleep(1.0)
+            await vehicle.arm()
             _, takeoff_alt = st.autopilot.command_altitude(task.altitude_m, st.home[2] if st.home else 0.0)
             await commands.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, takeoff_alt)
         except LinkError as exc:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import asyncio
 import math
 import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from gcs.autopilots import Autopilot
@@ -221,9 +222,8 @@ class VehicleFlight:
     async def launch(self) -> bool:
         """Arm and start the mission as the autopilot wants it (`Autopilot.arm_mode`,
         `start_after_arming`; ArduPlane takes off by itself once armed in AUTO), once its charge
-        pays for its plan. Arming is retried while the autopilot refuses, as real ones do a while
-        after boot, each new reason shown; one armed but not started is disarmed again."""
-        st, arm_timeout_s = self.status, self.options.arm_timeout_s
+        pays for its plan (`arm`); one armed but not started is disarmed again."""
+        st = self.status
         autopilot = st.autopilot or Autopilot.GENERIC
         if not preflight.charge_covers_plan(self):
             return False
@@ -235,24 +235,13 @@ class VehicleFlight:
             except CommandError as exc:
                 self.set_stage(Stage.FAILED, f"cannot switch to {mode} to arm: {exc}{self._said()}")
                 return False
-        end = time.monotonic() + arm_timeout_s
-        reasons: list[str] = []
-        while True:
-            if self.ordered_home():
+        try:
+            if not await self.arm(give_up=self.ordered_home):
                 self.set_stage(Stage.LANDED, "kept on the ground: return ordered before take-off")
                 return False
-            try:
-                await self.commands.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-                break
-            except CommandError as exc:
-                reason = st.last_text or str(exc)
-                if exc.result not in REFUSED_FOR_NOW or time.monotonic() > end:
-                    self.set_stage(Stage.FAILED, f"cannot arm: {exc}{self._said()}; left on the ground")
-                    return False
-                if reason not in reasons:
-                    reasons.append(reason)
-                    self.say(f"arming refused: {reason} (retrying for up to {arm_timeout_s:g} s)")
-                await asyncio.sleep(1.0)
+        except CommandError as exc:
+            self.set_stage(Stage.FAILED, f"cannot arm: {exc}{self._said()}; left on the ground")
+            return False
         if self.ordered_home():
             await self.keep_on_ground()
             return False
@@ -266,6 +255,33 @@ class VehicleFlight:
                 return False
         self.set_stage(Stage.SEARCH, "mission started")
         return True
+
+    async def arm(self, give_up: Callable[[], bool] = lambda: False) -> bool:
+        """Arm it, asking again (for up to `arm_timeout_s`) while the autopilot refuses for now, as
+        real ones do a while after boot, or leaves the command unanswered while it is still heard
+        (a loaded autopilot or link), each new reason said. A lost COMMAND_ACK of an arming its
+        HEARTBEAT shows done counts as armed. False when `give_up()` came true first;
+        CommandError when it will not arm."""
+        st, arm_timeout_s = self.status, self.options.arm_timeout_s
+        end = time.monotonic() + arm_timeout_s
+        reasons: list[str] = []
+        while not give_up():
+            try:
+                await self.commands.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+                return True
+            except CommandError as exc:
+                if exc.result is None and st.armed:
+                    return True
+                heard = st.last_heard_s is not None and time.monotonic() - st.last_heard_s < self.options.link_timeout_s
+                unanswered = exc.result is None and heard
+                if (exc.result not in REFUSED_FOR_NOW and not unanswered) or time.monotonic() > end:
+                    raise
+                reason = f"unanswered: {exc}" if unanswered else f"refused: {st.last_text or exc}"
+                if reason not in reasons:
+                    reasons.append(reason)
+                    self.say(f"arming {reason} (retrying for up to {arm_timeout_s:g} s)")
+                await asyncio.sleep(1.0)
+        return False
 
     async def prepare_and_launch(self) -> None:
         """`prepare`, then (unless `options.fly` is off) `launch`, claimed meanwhile; FAILED when

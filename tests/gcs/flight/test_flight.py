@@ -13,6 +13,7 @@ from gcs.display.status_table import render_summary, render_table
 from gcs.flight.controller import FlyOptions
 from gcs.flight.events import ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.flight.fly import upload_plan
+from gcs.links import mavlink
 from gcs.plans.plan_folder import load_plan_dir
 from gcs.telemetry.status import Stage
 from sim import FailsafeLevel
@@ -126,6 +127,49 @@ def test_operator_return_order_sends_one_uav_home_at_once(plan):
     assert _landed_home(plan, fleet, 2) < 5.0
     assert len(st.detections) < min(len(controller.status[u].detections) for u in (1, 3, 4)) / 2
     assert all(controller.status[u].stage is Stage.LANDED for u in plan.uavs)
+
+
+@pytest.mark.parametrize("fault", ["acks lost", "commands unanswered"])
+def test_an_arming_left_unanswered_is_asked_again_while_the_vehicle_is_heard(plan, capsys, fault):
+    """UAV 1's first arming commands (more than one command's tries) get no COMMAND_ACK: the radio
+    loses the ACKs of an arming the vehicle did (its HEARTBEAT says armed), or a busy autopilot
+    leaves the commands unanswered. Either way it is armed and flies; it is never left on the ground."""
+    unanswered = 6
+
+    def lose_arming_acks(fleet):
+        def install():
+            link, vehicle = fleet.link(1), fleet.vehicle(1)
+            dropped = [0]
+
+            def arm(msg) -> bool:
+                return msg.get_type() in ("COMMAND_ACK", "COMMAND_LONG") and \
+                    msg.command == mavlink.MAV_CMD_COMPONENT_ARM_DISARM and dropped[0] < unanswered
+            if fault == "acks lost":
+                send = link.send
+
+                def send_losing(msgs):
+                    kept = [m for m in msgs if not arm(m)]
+                    dropped[0] += len(msgs) - len(kept)
+                    send(kept)
+                link.send = send_losing
+            else:
+                on_command = vehicle._on_command
+
+                def on_command_busy(msg, sender):
+                    if arm(msg) and msg.param1 == 1:
+                        dropped[0] += 1
+                        return []
+                    return on_command(msg, sender)
+                vehicle._on_command = on_command_busy
+        fleet.call(install)
+
+    controller, fleet = fly(plan, during=lose_arming_acks)
+    out = capsys.readouterr().out
+    assert "UAV 1: arming unanswered: COMPONENT_ARM_DISARM to vehicle 1: no COMMAND_ACK after 4 tries" in out \
+        or fault == "acks lost", out[-3000:]
+    assert "cannot arm" not in out, out[-3000:]
+    assert all(controller.status[u].stage is Stage.LANDED for u in plan.uavs), out[-3000:]
+    assert _landed_home(plan, fleet, 1) < 5.0
 
 
 def test_unknown_uav_in_a_return_order_is_refused(plan):
