@@ -44,18 +44,25 @@ MISSION_MESSAGES = ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK", "MI
 
 class MissionTransferError(Exception):
     """A failed transfer; `result` is the MAV_MISSION_RESULT, None for a timeout; `capacity` the
-    number of items the vehicle said it holds (ArduPilot says so with MAV_MISSION_NO_SPACE)."""
+    number of items the vehicle said it holds (ArduPilot says so with MAV_MISSION_NO_SPACE);
+    `vehicle_gave_up`: the vehicle stopped waiting for the station (a slow or lossy link), not a
+    refusal of what was sent."""
 
-    def __init__(self, operation: str, result: int | None, detail: str = "", capacity: int | None = None) -> None:
+    def __init__(self, operation: str, result: int | None, detail: str = "", capacity: int | None = None,
+                 vehicle_gave_up: bool = False) -> None:
         self.operation = operation
         self.result = result
         self.detail = detail
         self.capacity = capacity
+        self.vehicle_gave_up = vehicle_gave_up or result == mavlink.MAV_MISSION_OPERATION_CANCELLED
         name = mavlink.enums["MAV_MISSION_RESULT"][result].name if result is not None else "TIMEOUT"
         super().__init__(f"{operation} failed: {name}{': ' + detail if detail else ''}")
 
 
 _CAPACITY = re.compile(r"Only (\d+) items are supported")
+#: PX4 (mavlink_mission.cpp) drops a transfer 5 s after the station's last message ("Operation
+#: timeout", no ACK) and answers the next item with MAV_MISSION_ERROR and this text
+_PX4_DROPPED = ("IGN MISSION_ITEM: No transfer", "Operation timeout")
 
 
 def _explained(error: MissionTransferError, machine: Upload | Download, texts: list[str]) -> MissionTransferError:
@@ -71,7 +78,8 @@ def _explained(error: MissionTransferError, machine: Upload | Download, texts: l
         detail = f"{len(machine.items)} items sent, the vehicle {room}"
     if texts:
         detail += f" (vehicle: {'; '.join(dict.fromkeys(texts))})"
-    return MissionTransferError(error.operation, error.result, detail, capacity)
+    dropped = error.result == mavlink.MAV_MISSION_ERROR and any(t in _PX4_DROPPED for t in texts)
+    return MissionTransferError(error.operation, error.result, detail, capacity, vehicle_gave_up=dropped)
 
 
 class _Machine:
@@ -302,7 +310,7 @@ async def upload_verified(link: MavLink, sysid: int, items: list[WireItem], auto
     """Upload `items` (for ArduPilot's mission list, item 0 must be the home placeholder), read
     them back and compare with what the autopilot should hold (`gcs.autopilots.compare_items`);
     retries the whole upload when the read-back differs, and when the vehicle gave up waiting for
-    an item (OPERATION_CANCELLED: a slow link). A refused upload raises at once and is
+    an item (`MissionTransferError.vehicle_gave_up`: a slow link). A refused upload raises at once and is
     never reported as uploaded: ArduPilot replaces items as they arrive, so after a refusal it
     holds the new items up to the refused one and the old ones after it; that mixed list is
     cleared (MISSION_CLEAR_ALL) so it cannot be flown, and the error says so."""
@@ -317,9 +325,10 @@ async def upload_verified(link: MavLink, sysid: int, items: list[WireItem], auto
             back = await download(link, sysid, mission_type, timeout_s=timeout_s)
         except MissionTransferError as exc:
             resends += up.resends
-            if exc.result == mavlink.MAV_MISSION_OPERATION_CANCELLED and attempt < attempts:
-                # the vehicle gave up waiting for an item (ArduPilot: 8 s, "Mission upload timeout"):
-                # a slow link, not a refusal; the partly replaced list goes, the upload starts again
+            if exc.vehicle_gave_up and attempt < attempts:
+                # the vehicle gave up waiting for an item (ArduPilot: 8 s, "Mission upload timeout";
+                # PX4: 5 s, then "No transfer" for the next item): a slow link, not a refusal; a
+                # partly replaced list goes, the upload starts again
                 await asyncio.sleep(timeout_s)  # answers still on their way to the old upload arrive first
                 if up.requested and autopilot.replaces_items_as_they_arrive():
                     await clear(link, sysid, mission_type, timeout_s=timeout_s)

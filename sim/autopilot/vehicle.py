@@ -656,7 +656,7 @@ class SimVehicle(Guidance):
         self.statustext("Arming motors" if self.copter else "Throttle armed")
         lat, lon = self.airframe.lat_lon_deg
         self._set_home(lat, lon, self.home.alt_m + self.airframe.kin.alt_m)  # home is where it arms
-        if self.copter:
+        if self.copter and self.params["DISARM_DELAY"] > 0:  # 0: never (ArduPilot's DISARM_DELAY)
             self._disarm_at_s = self.time_s + self.params["DISARM_DELAY"]  # unless it takes off
         return mavlink.MAV_RESULT_ACCEPTED
 

@@ -282,6 +282,15 @@ def test_auto_after_arming_does_not_take_off_and_the_copter_disarms_10_s_after_a
     assert s.v.time_s - armed == pytest.approx(10.0, abs=0.1) and "Disarming motors" in s.texts(mark)
 
 
+def test_a_disarm_delay_of_0_keeps_the_copter_armed_on_the_ground():
+    s = ready()
+    s.param("DISARM_DELAY", 0.0)  # ArduPilot: 0 disables the auto-disarm
+    s.mode(COPTER["GUIDED"])
+    assert s.arm() == ACCEPTED
+    s.run(30.0)
+    assert s.v.armed and s.v.airframe.kin.alt_m == 0.0
+
+
 def test_mission_start_while_disarmed_switches_to_auto_and_nothing_moves():
     s = ready()
     s.upload(copter_mission())

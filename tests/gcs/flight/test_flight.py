@@ -133,13 +133,17 @@ def test_operator_return_order_sends_one_uav_home_at_once(plan):
 def test_an_arming_left_unanswered_is_asked_again_while_the_vehicle_is_heard(plan, capsys, fault):
     """UAV 1's first arming commands (more than one command's tries) get no COMMAND_ACK: the radio
     loses the ACKs of an arming the vehicle did (its HEARTBEAT says armed), or a busy autopilot
-    leaves the commands unanswered. Either way it is armed and flies; it is never left on the ground."""
+    leaves the commands unanswered. Either way it is armed and flies; it is never left on the ground.
+    (With its ACKs lost, its auto-disarm is off: the 2 s of unanswered tries are 60 s of the
+    vehicle's at 30x, past ArduCopter's 10 s DISARM_DELAY; at 1x they are well within it.)"""
     unanswered = 6
 
     def lose_arming_acks(fleet):
         def install():
             link, vehicle = fleet.link(1), fleet.vehicle(1)
             dropped = [0]
+            if fault == "acks lost":
+                vehicle.params["DISARM_DELAY"] = 0.0
 
             def arm(msg) -> bool:
                 return msg.get_type() in ("COMMAND_ACK", "COMMAND_LONG") and \
@@ -224,6 +228,44 @@ def test_upload_under_20_percent_packet_loss_still_verifies(plan):
         assert [(g.command, g.x, g.y) for g in got[1:]] == [(w.command, w.x, w.y) for w in wanted[1:]]
         assert controller.vehicles[uid].upload_reports["fence"].items == len(task.fence_wire())
     assert resends > 0  # the loss really hit the transfers
+
+
+def test_an_upload_px4_dropped_in_a_radio_dropout_starts_again(plan):
+    """The radio to a PX4 drops out mid-upload for longer than PX4 waits (5 s of its time): it
+    drops the transfer ("Operation timeout") and answers the station's next item with
+    MAV_MISSION_ERROR ("IGN MISSION_ITEM: No transfer"), as PX4 SITL at speed-up 5 did on a loaded
+    CI machine. That is no refusal: the station starts the upload again and it verifies."""
+    from sim.plan_fleet import fleet_for_plan
+
+    fleet = fleet_for_plan(plan, speedup=20.0, profile="px4").start()
+    dropped_at: list[float] = []
+
+    def drop_out_after_the_fifth_request():
+        link = fleet.link(1)
+        send, requests = link.send, [0]
+
+        def send_then_drop_out(msgs):
+            send(msgs)
+            requests[0] += sum(m.get_type() in ("MISSION_REQUEST_INT", "MISSION_REQUEST") for m in msgs)
+            if requests[0] >= 5 and not dropped_at:
+                dropped_at.append(fleet.vehicle(1).time_s)
+                link.silent = True
+                asyncio.get_running_loop().call_later(1.0, setattr, link, "silent", False)  # 20 s of PX4's
+        link.send = send_then_drop_out
+
+    fleet.call(drop_out_after_the_fifth_request)
+    try:
+        controller = asyncio.run(upload_plan(plan, fleet.connection_strings(), fast_options(fly=False)))
+        stored = fleet.vehicle(1).mission.items()
+    finally:
+        fleet.stop()
+    assert dropped_at, "the radio never dropped out"
+    assert controller.status[1].stage is not Stage.FAILED, controller.status[1].note
+    report = controller.vehicles[1].upload_reports["mission"]
+    assert report.attempts == 2
+    wanted = plan.uavs[1].mission_wire(controller.status[1].autopilot)
+    assert [(g.command, g.x, g.y) for g in stored] == [(w.command, w.x, w.y) for w in wanted]
+    assert all(controller.vehicles[u].upload_reports["mission"].attempts == 1 for u in (2, 3, 4))
 
 
 @BATTERY_BY_THE_CLOCK
