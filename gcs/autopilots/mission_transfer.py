@@ -121,11 +121,16 @@ class _Machine:
         return msg.get_srcSystem() == self.target[0] and getattr(msg, "mission_type", 0) == self.mission_type
 
     def poll(self, now: float) -> list[MAVMessage]:
-        """Re-send the last message when its answer is overdue; fail after `max_retries`."""
+        """Re-send the last message when its answer is overdue; after `max_retries` fail and send
+        the vehicle MISSION_ACK OPERATION_CANCELLED."""
         if self.finished or now < self.deadline or self._last is None:
             return []
         if self.retries >= self.max_retries:
-            return self._fail(None, f"no answer after {self.max_retries} re-sends")
+            # the protocol's cancel, so the vehicle leaves the transfer at once (PX4 would otherwise
+            # stay busy for 5 s and refuse the next one with "IGN MISSION_COUNT: Busy")
+            self._fail(None, f"no answer after {self.max_retries} re-sends")
+            return [mavlink.MAVLink_mission_ack_message(*self.target, mavlink.MAV_MISSION_OPERATION_CANCELLED,
+                                                        self.mission_type)]
         self.retries += 1
         self.resends += 1
         return self._send(self._last, now)

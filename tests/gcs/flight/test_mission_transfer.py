@@ -89,8 +89,10 @@ def test_upload_timeouts_resend_then_give_up():
     up.handle(_req(0), 0.6)
     assert up.poll(1.2)[0].get_type() == "MISSION_ITEM_INT"  # the retry count restarts on progress
     assert up.poll(1.8)[0].get_type() == "MISSION_ITEM_INT"
-    assert up.poll(2.4) == [] and up.error is not None and up.error.result is None
-    assert up.resends == 3
+    cancel = up.poll(2.4)  # gives up, and tells the vehicle so
+    assert [(m.get_type(), m.type) for m in cancel] == [("MISSION_ACK", mavlink.MAV_MISSION_OPERATION_CANCELLED)]
+    assert up.error is not None and up.error.result is None
+    assert up.poll(3.0) == [] and up.resends == 3
 
 
 def test_upload_ignores_other_systems():
