@@ -45,11 +45,14 @@ VEHICLES_FILE = "vehicles.json"
 #: as `benchmarks/measure_energy.py` measured them (docs/energy.md has the figures and the command).
 STOCK_PROFILES: dict[tuple[str, Airframe], EnergyProfile] = {
     # ArduCopter quad, copter.parm: 3300 mAh; 30.3 A at its 10 m/s WPNAV_SPEED (0.84 mAh/m straight, 1.43 on
-    # 50 m legs with turns: a search path between); 28.1 A hovering; 115 mAh to 30 m, 223 to 60 m;
-    # landing 262 mAh from 30 m, 411 from 60 m; hovering it leans 0.288 into 8 m/s of wind (gcs.flight.lean_wind)
+    # 50 m legs with turns: a search path between, 1.01-1.03 on the search paths of two fleet flights,
+    # docs/energy.md); 28.1 A hovering; 115 mAh to 30 m, 223 to 60 m; landing 262 mAh from 30 m, 411 from
+    # 60 m; and in every sortie about 13 s in level flight below 2 m/s (the climb's end, the station's
+    # hold, the arrival before the descent), 100 mAh: half on the launch, half on the landing; hovering
+    # it leans 0.288 into 8 m/s of wind (gcs.flight.lean_wind)
     ("ardupilot", Airframe.COPTER): EnergyProfile(
-        airframe=Airframe.COPTER, capacity_mah=3300.0, cruise_speed_m_s=10.0, cruise_mah_per_m=1.1,
-        loiter_mah_per_s=7.8, launch_mah=7.0, climb_mah_per_m=3.6, landing_mah=113.0, descent_mah_per_m=4.97,
+        airframe=Airframe.COPTER, capacity_mah=3300.0, cruise_speed_m_s=10.0, cruise_mah_per_m=1.03,
+        loiter_mah_per_s=7.8, launch_mah=57.0, climb_mah_per_m=3.6, landing_mah=163.0, descent_mah_per_m=4.97,
         lean_tan_at_10_m_s=0.387),
     # ArduPlane, plane.parm: 3300 mAh; 11.3 A at 22 m/s air (0.134 mAh/m); 3.2 mAh/s loitering; its
     # full-throttle take-off 77 mAh to 30 m, 114 to 60 m; gliding in 27 mAh from 30 m, 82 from 60 m

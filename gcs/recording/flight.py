@@ -287,11 +287,15 @@ class FlightRecorder:
             self._add("geo/detections", rr.GeoPoints.columns, now, 1, positions=[(d.lat_deg, d.lon_deg)])
 
     def _planned_return_begins(self, uid: int, st, now: float) -> None:
-        trajectory = self.plan.uavs[uid].trajectory if uid in self.plan.uavs else []
-        if (st.stage.value == "search" and uid not in self._planned_return and 0 < st.track_index < len(trajectory)
-                and trajectory[st.track_index].stage != "search"):
+        """Said once a vehicle that follows its plan home is seen on the plan's return (or down
+        after flying it: a short return at a high speed-up may pass between two samples)."""
+        if uid in self._planned_return or uid not in self.plan.uavs or st.return_reason is not None:
+            return
+        trajectory = self.plan.uavs[uid].trajectory
+        first = next((i for i, p in enumerate(trajectory) if i > 0 and p.stage != "search"), None)
+        if first is not None and st.stage.value in ("search", "landed") and st.track_index >= first:
             self._planned_return.add(uid)
-            self._event(now, uid, f"planned return begins (step {trajectory[st.track_index].step} of the plan)")
+            self._event(now, uid, f"planned return begins (step {trajectory[first].step} of the plan)")
 
     def _flush(self) -> None:
         if self.rec is None:
