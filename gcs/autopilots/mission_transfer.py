@@ -60,9 +60,6 @@ class MissionTransferError(Exception):
 
 
 _CAPACITY = re.compile(r"Only (\d+) items are supported")
-#: PX4 (mavlink_mission.cpp) drops a transfer 5 s after the station's last message ("Operation
-#: timeout", no ACK) and answers the next item with MAV_MISSION_ERROR and this text
-_PX4_DROPPED = ("IGN MISSION_ITEM: No transfer", "Operation timeout")
 
 
 def _explained(error: MissionTransferError, machine: Upload | Download, texts: list[str]) -> MissionTransferError:
@@ -78,7 +75,11 @@ def _explained(error: MissionTransferError, machine: Upload | Download, texts: l
         detail = f"{len(machine.items)} items sent, the vehicle {room}"
     if texts:
         detail += f" (vehicle: {'; '.join(dict.fromkeys(texts))})"
-    dropped = error.result == mavlink.MAV_MISSION_ERROR and any(t in _PX4_DROPPED for t in texts)
+    # MAV_MISSION_ERROR is how both autopilots answer a message outside a transfer: ArduPilot an
+    # item when it is not receiving (GCS_Common.cpp), PX4 an item after it dropped the transfer 5 s
+    # after the station's last message ("Operation timeout", then "IGN MISSION_ITEM: No transfer")
+    # or a count while it is still sending ("IGN MISSION_COUNT: Busy", mavlink_mission.cpp)
+    dropped = error.result == mavlink.MAV_MISSION_ERROR
     return MissionTransferError(error.operation, error.result, detail, capacity, vehicle_gave_up=dropped)
 
 
@@ -332,8 +333,8 @@ async def upload_verified(link: MavLink, sysid: int, items: list[WireItem], auto
             resends += up.resends
             if exc.vehicle_gave_up and attempt < attempts:
                 # the vehicle gave up waiting for an item (ArduPilot: 8 s, "Mission upload timeout";
-                # PX4: 5 s, then "No transfer" for the next item): a slow link, not a refusal; a
-                # partly replaced list goes, the upload starts again
+                # PX4: 5 s), or left the transfer: a slow link, not a refusal; a partly replaced list
+                # goes, the upload starts again
                 await asyncio.sleep(timeout_s)  # answers still on their way to the old upload arrive first
                 if up.requested and autopilot.replaces_items_as_they_arrive():
                     await clear(link, sysid, mission_type, timeout_s=timeout_s)

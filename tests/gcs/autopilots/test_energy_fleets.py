@@ -118,7 +118,7 @@ def test_a_range_cut_to_the_charge_that_cannot_fly_its_shortest_way_out_and_home
     assert re.search(r"UAV 2: failed - not armed: charge 100% = 1800 mAh pays for \d+ m of its plan's \d+ m .*, less "
                      r"than its shortest way out and home \(\d+ m\)", out), out[-3000:]
     assert flight.returncode == 1 and not flight.flown[2].armed_seen
-    assert flight.verdicts[1].landed_m is not None and flight.verdicts[3].landed_m is not None
+    assert flight.verdicts[1].landed_m is not None and flight.verdicts[3].landed_m is not None, out[-4000:]
 
 
 def test_a_copter_that_comes_down_away_from_its_airport_is_reported_for_its_crew(tmp_path):

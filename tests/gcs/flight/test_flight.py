@@ -229,19 +229,23 @@ def test_upload_under_20_percent_packet_loss_still_verifies(plan):
     assert resends > 0  # the loss really hit the transfers
 
 
-def test_an_upload_px4_dropped_in_a_radio_dropout_starts_again(plan):
-    """The radio to a PX4 drops out mid-upload for longer than PX4 waits (5 s of its time): it
-    drops the transfer ("Operation timeout") and answers the station's next item with
-    MAV_MISSION_ERROR ("IGN MISSION_ITEM: No transfer"), as PX4 SITL at speed-up 5 did on a loaded
-    CI machine. That is no refusal: the station starts the upload again and it verifies."""
+@pytest.mark.parametrize("profile", ["px4", "ardupilot"])
+def test_an_upload_the_vehicle_dropped_in_a_radio_dropout_starts_again(plan, profile):
+    """The radio drops out mid-upload for longer than the vehicle waits for the station: PX4 drops
+    the transfer after 5 s of its time ("Operation timeout"), ArduPilot after 8 s ("Mission upload
+    timeout", its cancel lost in the dropout), and both answer the station's next item with
+    MAV_MISSION_ERROR (PX4: "IGN MISSION_ITEM: No transfer"), as PX4 and ArduCopter SITL did on a
+    loaded CI machine. That is no refusal: the station starts the upload again and it verifies."""
     from sim.plan_fleet import fleet_for_plan
 
-    fleet = fleet_for_plan(plan, speedup=20.0, profile="px4").start()
+    fleet = fleet_for_plan(plan, speedup=20.0, profile=profile).start()
     dropped_at: list[float] = []
 
     def drop_out_after_the_fifth_request():
         link = fleet.link(1)
         send, requests = link.send, [0]
+        if profile == "ardupilot":
+            fleet.vehicle(1).mission.give_up_s = 8.0  # its 8 s in its own time: 0.4 s here
 
         def send_then_drop_out(msgs):
             send(msgs)
@@ -249,7 +253,7 @@ def test_an_upload_px4_dropped_in_a_radio_dropout_starts_again(plan):
             if requests[0] >= 5 and not dropped_at:
                 dropped_at.append(fleet.vehicle(1).time_s)
                 link.silent = True
-                asyncio.get_running_loop().call_later(1.0, setattr, link, "silent", False)  # 20 s of PX4's
+                asyncio.get_running_loop().call_later(1.0, setattr, link, "silent", False)  # 20 s of the vehicle's
         link.send = send_then_drop_out
 
     fleet.call(drop_out_after_the_fifth_request)
@@ -263,7 +267,8 @@ def test_an_upload_px4_dropped_in_a_radio_dropout_starts_again(plan):
     report = controller.vehicles[1].upload_reports["mission"]
     assert report.attempts == 2
     wanted = plan.uavs[1].mission_wire(controller.status[1].autopilot)
-    assert [(g.command, g.x, g.y) for g in stored] == [(w.command, w.x, w.y) for w in wanted]
+    skip = 1 if profile == "ardupilot" else 0  # ArduPilot's item 0 is its home
+    assert [(g.command, g.x, g.y) for g in stored[skip:]] == [(w.command, w.x, w.y) for w in wanted[skip:]]
     assert all(controller.vehicles[u].upload_reports["mission"].attempts == 1 for u in (2, 3, 4))
 
 
