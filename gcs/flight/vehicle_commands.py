@@ -93,6 +93,33 @@ class VehicleCommands:
             except CommandError:
                 st.unsupported_streams.add(msg_id)
 
+    async def arm(self, timeout_s: float, heard_within_s: float, give_up: Callable[[], bool]) -> bool:
+        """Arm it, asking again (for up to `timeout_s`) while the autopilot refuses for now, as real
+        ones do a while after boot, or leaves the command unanswered while it is still heard (within
+        `heard_within_s`: a loaded autopilot or link), each new reason said. A lost COMMAND_ACK of an
+        arming its HEARTBEAT shows done counts as armed. False when `give_up()` came true first;
+        CommandError when it will not arm."""
+        st = self.status
+        end = time.monotonic() + timeout_s
+        reasons: list[str] = []
+        while not give_up():
+            try:
+                await self.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+                return True
+            except CommandError as exc:
+                if exc.result is None and st.armed:
+                    return True
+                heard = st.last_heard_s is not None and time.monotonic() - st.last_heard_s < heard_within_s
+                unanswered = exc.result is None and heard
+                if (exc.result not in REFUSED_FOR_NOW and not unanswered) or time.monotonic() > end:
+                    raise
+                reason = f"unanswered: {exc}" if unanswered else f"refused: {st.last_text or exc}"
+                if reason not in reasons:
+                    reasons.append(reason)
+                    self.say(f"arming {reason} (retrying for up to {timeout_s:g} s)")
+                await asyncio.sleep(1.0)
+        return False
+
     async def start_mission(self, patience_s: float = 3.0) -> None:
         """MISSION_START(0, 0), asked again for a few seconds while it is refused: PX4 checks a
         new mission in the background and may refuse a start right after the upload."""

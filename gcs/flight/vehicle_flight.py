@@ -20,7 +20,6 @@ the stage it finds (`gcs.flight.resume`), outside the table."""
 
 from __future__ import annotations
 
-import asyncio
 import math
 import time
 from collections.abc import Callable
@@ -31,7 +30,7 @@ from gcs.autopilots.mission_transfer import MissionTransferError
 from gcs.flight import preflight
 from gcs.flight.events import MissionUploaded, ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.flight.options import FlyOptions
-from gcs.flight.vehicle_commands import REFUSED_FOR_NOW, VehicleCommands
+from gcs.flight.vehicle_commands import VehicleCommands
 from gcs.flight.vehicle_energy import VehicleEnergy
 from gcs.flight.vehicle_track import PlanTrack, distance_m
 from gcs.links import CommandError, LinkError, MavLink, mavlink
@@ -257,31 +256,8 @@ class VehicleFlight:
         return True
 
     async def arm(self, give_up: Callable[[], bool] = lambda: False) -> bool:
-        """Arm it, asking again (for up to `arm_timeout_s`) while the autopilot refuses for now, as
-        real ones do a while after boot, or leaves the command unanswered while it is still heard
-        (a loaded autopilot or link), each new reason said. A lost COMMAND_ACK of an arming its
-        HEARTBEAT shows done counts as armed. False when `give_up()` came true first;
-        CommandError when it will not arm."""
-        st, arm_timeout_s = self.status, self.options.arm_timeout_s
-        end = time.monotonic() + arm_timeout_s
-        reasons: list[str] = []
-        while not give_up():
-            try:
-                await self.commands.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-                return True
-            except CommandError as exc:
-                if exc.result is None and st.armed:
-                    return True
-                heard = st.last_heard_s is not None and time.monotonic() - st.last_heard_s < self.options.link_timeout_s
-                unanswered = exc.result is None and heard
-                if (exc.result not in REFUSED_FOR_NOW and not unanswered) or time.monotonic() > end:
-                    raise
-                reason = f"unanswered: {exc}" if unanswered else f"refused: {st.last_text or exc}"
-                if reason not in reasons:
-                    reasons.append(reason)
-                    self.say(f"arming {reason} (retrying for up to {arm_timeout_s:g} s)")
-                await asyncio.sleep(1.0)
-        return False
+        """`VehicleCommands.arm` for up to `arm_timeout_s`, its vehicle heard within `link_timeout_s`."""
+        return await self.commands.arm(self.options.arm_timeout_s, self.options.link_timeout_s, give_up)
 
     async def prepare_and_launch(self) -> None:
         """`prepare`, then (unless `options.fly` is off) `launch`, claimed meanwhile; FAILED when
