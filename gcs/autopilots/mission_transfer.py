@@ -48,15 +48,22 @@ class MissionTransferError(Exception):
     `vehicle_gave_up`: the vehicle stopped waiting for the station (a slow or lossy link), not a
     refusal of what was sent."""
 
-    def __init__(self, operation: str, result: int | None, detail: str = "", capacity: int | None = None,
-                 vehicle_gave_up: bool = False) -> None:
+    def __init__(self, operation: str, result: int | None, detail: str = "", capacity: int | None = None) -> None:
         self.operation = operation
         self.result = result
         self.detail = detail
         self.capacity = capacity
-        self.vehicle_gave_up = vehicle_gave_up or result == mavlink.MAV_MISSION_OPERATION_CANCELLED
         name = mavlink.enums["MAV_MISSION_RESULT"][result].name if result is not None else "TIMEOUT"
         super().__init__(f"{operation} failed: {name}{': ' + detail if detail else ''}")
+
+    @property
+    def vehicle_gave_up(self) -> bool:
+        # OPERATION_CANCELLED: ArduPilot's "Mission upload timeout". MAV_MISSION_ERROR is how both
+        # autopilots answer a message outside a transfer: ArduPilot an item when it is not receiving
+        # (GCS_Common.cpp), PX4 an item after it dropped the transfer 5 s after the station's last
+        # message ("Operation timeout", then "IGN MISSION_ITEM: No transfer") or a count while it is
+        # still sending ("IGN MISSION_COUNT: Busy", mavlink_mission.cpp)
+        return self.result in (mavlink.MAV_MISSION_OPERATION_CANCELLED, mavlink.MAV_MISSION_ERROR)
 
 
 _CAPACITY = re.compile(r"Only (\d+) items are supported")
@@ -75,12 +82,7 @@ def _explained(error: MissionTransferError, machine: Upload | Download, texts: l
         detail = f"{len(machine.items)} items sent, the vehicle {room}"
     if texts:
         detail += f" (vehicle: {'; '.join(dict.fromkeys(texts))})"
-    # MAV_MISSION_ERROR is how both autopilots answer a message outside a transfer: ArduPilot an
-    # item when it is not receiving (GCS_Common.cpp), PX4 an item after it dropped the transfer 5 s
-    # after the station's last message ("Operation timeout", then "IGN MISSION_ITEM: No transfer")
-    # or a count while it is still sending ("IGN MISSION_COUNT: Busy", mavlink_mission.cpp)
-    dropped = error.result == mavlink.MAV_MISSION_ERROR
-    return MissionTransferError(error.operation, error.result, detail, capacity, vehicle_gave_up=dropped)
+    return MissionTransferError(error.operation, error.result, detail, capacity)
 
 
 class _Machine:

@@ -45,8 +45,9 @@ VEHICLES_FILE = "vehicles.json"
 #: as `benchmarks/measure_energy.py` measured them (docs/energy.md has the figures and the command).
 STOCK_PROFILES: dict[tuple[str, Airframe], EnergyProfile] = {
     # ArduCopter quad, copter.parm: 3300 mAh; 30.3 A at its 10 m/s WPNAV_SPEED (0.84 mAh/m straight, 1.43 on
-    # 50 m legs with turns: a search path between, 1.01-1.03 on the search paths of two fleet flights,
-    # docs/energy.md); 28.1 A hovering; 115 mAh to 30 m, 223 to 60 m; landing 262 mAh from 30 m, 411 from
+    # 50 m legs with turns: a search path between; 1.01-1.11 on three fleet flights' search paths with
+    # their slow seconds priced apart, 1.03 chosen within, docs/energy.md); 28.1 A hovering; 115 mAh to
+    # 30 m, 223 to 60 m; landing 262 mAh from 30 m, 411 from
     # 60 m; and in every sortie about 13 s in level flight below 2 m/s (the climb's end, the station's
     # hold, the arrival before the descent), 100 mAh: half on the launch, half on the landing; hovering
     # it leans 0.288 into 8 m/s of wind (gcs.flight.lean_wind)
