@@ -13,6 +13,7 @@ PLANE = {"MANUAL": 0, "AUTO": 10, "RTL": 11, "LOITER": 12, "TAKEOFF": 13, "GUIDE
 PX4 = {"MANUAL": (1, 0), "OFFBOARD": (6, 0), "TAKEOFF": (4, 2), "HOLD": (4, 3), "MISSION": (4, 4), "RTL": (4, 5),
        "LAND": (4, 6)}
 PX4_ALIASES = {"AUTO": "MISSION", "LOITER": "HOLD", "GUIDED": "HOLD"}
+MISSION_MODES = frozenset({"AUTO", "MISSION", "TAKEOFF"})  # a vehicle flying its mission list, by either name
 
 
 def ardupilot_table(mav_type: int | None) -> dict[str, int]:

@@ -23,26 +23,23 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from gcs.autopilots import Autopilot, compare_items
 from gcs.autopilots.mission_transfer import MissionTransferError, MissionType, download, renumber
+from gcs.autopilots.modes import MISSION_MODES
 from gcs.errors import UserError
 from gcs.flight.events import Reattached
 from gcs.flight.journal import JournalError, JournalState, VehicleRecord, read_journal
 from gcs.links import LinkError, mavlink
 from gcs.links.connection import Connection, LinkKind, parse_connection
 from gcs.plans.belief_file import file_sha256
-from gcs.plans.plan_folder import FleetPlan, UavTask, load_plan_dir
+from gcs.plans.plan_folder import FleetPlan, load_plan_dir
 from gcs.telemetry.status import FINAL_STAGES, Stage
 
 if TYPE_CHECKING:
     from gcs.flight.controller import FlightController
 
-__all__ = ["Action", "Decision", "Found", "Resumption", "decide", "links_from_the_same_ports", "resumable_flight",
-           "track_index_on_board"]
+__all__ = ["Action", "Decision", "Found", "Resumption", "decide", "links_from_the_same_ports", "resumable_flight"]
 
-MISSION_MODES = frozenset({"AUTO", "MISSION", "TAKEOFF"})
 AUTOPILOT_RETURN_MODES = frozenset({"RTL", "LAND", "SMART_RTL", "QRTL", "QLAND"})
 LOOK_FOR = {"HEARTBEAT": mavlink.MAVLINK_MSG_ID_HEARTBEAT,
             "GLOBAL_POSITION_INT": mavlink.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,
@@ -116,33 +113,6 @@ def decide(record: VehicleRecord, found: Found) -> Decision:
                         f"flying a mission the station did not upload ({found.on_board}): sending it home")
     return Decision(Action.SEND_HOME, Stage.SEARCH, reason or "resume",
                     f"holding in {found.mode}: sending it home on its planned return")
-
-
-def track_index_on_board(plan: FleetPlan, task: UavTask, autopilot: Autopilot, seq: int,
-                         here: tuple[float, float], fallback: int) -> int:
-    """The plan trajectory step a vehicle flying its search mission is at: between the
-    waypoint before its current item (`seq`, MISSION_CURRENT) and that item, the step nearest
-    `here` (lat, lon); before the first waypoint 0, past the last the trajectory's end;
-    `fallback` when the waypoints cannot be matched to the trajectory."""
-    trajectory = task.trajectory
-    if not trajectory:
-        return fallback
-    j = seq - autopilot.first_mission_seq() - 1  # the waypoint flown to (item first is the take-off)
-    if j < 0:
-        return 0
-    if j >= len(task.waypoints):
-        return len(trajectory) - 1
-    track = np.array([plan.local_m(p.lat_deg, p.lon_deg) for p in trajectory])
-    steps, i = [], 0
-    for lat, lon in task.waypoints[:j + 1]:
-        at = np.hypot(*(track[i:] - np.array(plan.local_m(lat, lon))).T)
-        if not len(at) or at.min() > 1.0:
-            return fallback
-        i += int(np.argmax(at <= 1.0))
-        steps.append(i)
-    lo, hi = (steps[-2] if j > 0 else 0), steps[-1]
-    near = np.hypot(*(track[lo:hi + 1] - np.array(plan.local_m(*here))).T)
-    return lo + int(np.argmin(near))
 
 
 class Resumption:
@@ -292,8 +262,8 @@ class Resumption:
         st.airborne_seen = st.airborne_seen or st.airborne
         if decision.stage is Stage.SEARCH and st.has_position:
             autopilot = st.autopilot or Autopilot.GENERIC
-            st.track_index = track_index_on_board(self.plan, self.plan.uavs[uid], autopilot, st.mission_seq,
-                                                  (st.lat_deg, st.lon_deg), st.track_index)
+            st.track_index = vehicle.track.index_on_board(autopilot, st.mission_seq, st.lat_deg, st.lon_deg,
+                                                          st.track_index)
             st.steps_flown = float(st.track_index)
         st.stage = decision.stage
         c.emit(Reattached(uid, decision.stage, found))

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 
 from gcs.autopilots import Autopilot
 from gcs.autopilots.mission_transfer import MissionTransferError
+from gcs.autopilots.modes import MISSION_MODES
 from gcs.flight import preflight
 from gcs.flight.events import MissionUploaded, ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.flight.options import FlyOptions
@@ -293,6 +294,9 @@ class VehicleFlight:
             return None
         if st.has_position:
             st.track_index = self.track.advance(st.track_index, st.lat_deg, st.lon_deg)
+            if st.stage is Stage.SEARCH and st.mode_name in MISSION_MODES:  # flying its search list
+                st.track_index = max(st.track_index, self.track.index_on_board(
+                    st.autopilot or Autopilot.GENERIC, st.mission_seq, st.lat_deg, st.lon_deg, 0))
             st.steps_flown = float(st.track_index)
         flown_m = self.track.flown_m(st.track_index)  # metres of the plan behind it
         ordered = None if self.operator_range is None else max(0.0, self.operator_range - flown_m)

@@ -4,10 +4,12 @@ under the OC) and a plane's landing circuit. No I/O: a plan in, legs out."""
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
+from gcs.autopilots import Autopilot
 from gcs.plans.plan_folder import FleetPlan
 from planner.return_exact import follow_table
 
@@ -34,6 +36,39 @@ class PlanTrack:
         while index + 1 < len(track) and np.hypot(*(track[index + 1] - pos)) <= np.hypot(*(track[index] - pos)):
             index += 1
         return index
+
+    @functools.cached_property
+    def waypoint_steps(self) -> list[int]:
+        """The trajectory step of each of the task's waypoints, in order, up to the first that is
+        not on the trajectory."""
+        steps, i = [], 0
+        for lat, lon in self.task.waypoints:
+            at = np.hypot(*(self.track_m[i:] - np.array(self.plan.local_m(lat, lon))).T)
+            if not len(at) or at.min() > 1.0:
+                break
+            i += int(np.argmax(at <= 1.0))
+            steps.append(i)
+        return steps
+
+    def index_on_board(self, autopilot: Autopilot, seq: int, lat_deg: float, lon_deg: float, fallback: int) -> int:
+        """The step a vehicle flying its search mission is at, from its current item (`seq`,
+        MISSION_CURRENT; the autopilot's first item is the take-off) and its position: between the
+        waypoint before the one flown to and that one, the step nearest the position; before the
+        first waypoint 0, past the last the trajectory's end; `fallback` when the waypoint flown
+        to is not on the trajectory."""
+        waypoint = seq - autopilot.first_mission_seq() - 1
+        if not len(self.track_m):
+            return fallback
+        if waypoint < 0:
+            return 0
+        if waypoint >= len(self.task.waypoints):
+            return len(self.track_m) - 1
+        steps = self.waypoint_steps
+        if waypoint >= len(steps):
+            return fallback
+        lo, hi = (steps[waypoint - 1] if waypoint > 0 else 0), steps[waypoint]
+        near = np.hypot(*(self.track_m[lo:hi + 1] - np.array(self.plan.local_m(lat_deg, lon_deg))).T)
+        return lo + int(np.argmin(near))
 
     def flown_m(self, index: int) -> float:
         """Metres of the plan behind pose `index`: the trajectory's length up to it."""

@@ -116,7 +116,9 @@ class MissionClient:
                 self.resends += 1
                 continue
             if msg.get_type() == "MISSION_ACK":
-                if msg.type == mavlink.MAV_MISSION_ACCEPTED:  # a late or duplicated ACK of an earlier upload
+                # a late or duplicated ACK of an earlier upload, or ArduPilot's error for its
+                # re-sent last item (see below)
+                if msg.type in (mavlink.MAV_MISSION_ACCEPTED, mavlink.MAV_MISSION_ERROR):
                     continue
                 raise MissionTransferError("download", msg.type)
             count = msg.count

@@ -383,27 +383,29 @@ def test_online_mode_flies_on_without_a_vehicle_its_autopilot_brought_home(plan_
 def test_fly_area_with_operator_orders_on_stdin(tmp_path):
     """`gcs fly --area ... --sim` plans through the plan command into runs/<area name>, then flies;
     `r ID` on stdin sends that UAV home; an unknown UAV is one error line and the flight goes on."""
+    import queue
     import subprocess
     import sys
-    import time
-
+    import threading
 
     proc = subprocess.Popen([sys.executable, "-m", "gcs.cli", "fly", "--area", str(ROOT / "missions" / "paper.geojson"),
                              "--strategy", "exhaustive", "--sim", "--speedup", "60",
                              "--stdin-orders", "--link-timeout", "2"],
-                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            cwd=tmp_path)
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=(tmp_path / "stderr").open("w"),
+                            text=True, cwd=tmp_path)
     out_dir = tmp_path / "runs" / "paper"
-    for _ in range(200):  # planning first: wait until the fleet is up
-        time.sleep(0.05)
-        if (out_dir / "plan.json").exists():
-            break
-    time.sleep(3.0)
-    proc.stdin.write("r 9\nr 3\n")
-    proc.stdin.flush()
-    out, err = proc.communicate(timeout=120)
-    assert proc.returncode == 0, err
-    assert "error: unknown UAV 9" in out
+    lines: queue.Queue[str | None] = queue.Queue()
+    threading.Thread(target=lambda: [lines.put(line) for line in proc.stdout] + [lines.put(None)], daemon=True).start()
+    said: list[str] = []
+    while (line := lines.get(timeout=300)) is not None:
+        said.append(line)
+        if "UAV 3: search - mission started" in line:  # its search flies: an order now sends it home
+            proc.stdin.write("r 9\nr 3\n")
+            proc.stdin.flush()
+    proc.wait(timeout=30)
+    out, err = "".join(said), (tmp_path / "stderr").read_text()
+    assert proc.returncode == 0, out + err
+    assert "error: unknown UAV 9" in out, out
     assert "UAV 3: return ordered (order)" in out
     summary = out[out.index("UAV name"):]
     row3 = next(line for line in summary.splitlines() if line.lstrip().startswith("3 "))

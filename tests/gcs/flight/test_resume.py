@@ -18,7 +18,8 @@ import pytest
 from gcs.autopilots import Autopilot
 from gcs.cli import main
 from gcs.flight.journal import JOURNAL_FILE, FlightJournal, JournalError, VehicleRecord, read_journal
-from gcs.flight.resume import Action, Found, decide, track_index_on_board
+from gcs.flight.resume import Action, Found, decide
+from gcs.flight.vehicle_track import PlanTrack
 from gcs.plans.plan_folder import load_plan_dir
 from gcs.telemetry.status import Stage
 from tests.gcs.flight.resume_peers import SimProcess, flight_events, kill_when, readings, station, vehicle_state
@@ -101,6 +102,7 @@ def test_the_place_on_the_plan_comes_from_the_mission_item_flown_to(plan):
     for autopilot in (Autopilot.ARDUPILOT, Autopilot.PX4):
         first = autopilot.first_mission_seq()
         for uid, task in plan.uavs.items():
+            track = PlanTrack(plan, uid)
             points = [(p.lat_deg, p.lon_deg) for p in task.trajectory]
             steps = []
             for wp in task.waypoints:
@@ -109,10 +111,10 @@ def test_the_place_on_the_plan_comes_from_the_mission_item_flown_to(plan):
             for j, hi in enumerate(steps):
                 lo = steps[j - 1] if j else 0
                 for i in range(lo, hi + 1):
-                    got = track_index_on_board(plan, task, autopilot, first + 1 + j, points[i], fallback=-1)
+                    got = track.index_on_board(autopilot, first + 1 + j, *points[i], fallback=-1)
                     assert got == i, (uid, j, i, got)
-            assert track_index_on_board(plan, task, autopilot, first, points[0], -1) == 0  # taking off
-            assert track_index_on_board(plan, task, autopilot, first + 1 + len(task.waypoints), points[-1], -1) \
+            assert track.index_on_board(autopilot, first, *points[0], -1) == 0  # taking off
+            assert track.index_on_board(autopilot, first + 1 + len(task.waypoints), *points[-1], -1) \
                 == len(points) - 1  # landing
 
 

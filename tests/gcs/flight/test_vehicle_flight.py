@@ -8,6 +8,7 @@ import time
 
 import pytest
 
+from gcs.autopilots import Autopilot
 from gcs.flight.controller import FlightController
 from gcs.flight.events import StageChanged
 from gcs.flight.vehicle_flight import TRANSITIONS, StageError, may_become
@@ -74,3 +75,27 @@ def test_the_controller_keeps_no_state_per_vehicle(plan):
     assert controller.take_orders() == [(3, "mqtt"), (1, "order")]  # in the order given
     assert not any(vehicle.orders for vehicle in controller.vehicles.values())
     assert controller.finished(time.monotonic()) is False
+
+
+@pytest.mark.parametrize("autopilot", [Autopilot.ARDUPILOT, Autopilot.PX4])
+def test_a_vehicle_seen_now_and_then_keeps_its_place_on_the_plan_from_its_current_item(plan, autopilot):
+    """Seen only at every sixth waypoint (a loaded station at high speed-up): each sighting, with
+    the item it flies to, puts it at that waypoint's step, past the poses between that the
+    nearest-pose walk alone may not pass. Outside its search list the item says nothing."""
+    controller = FlightController(plan, [], fast_options(), out=lambda line: None)
+    for uid, vehicle in controller.vehicles.items():
+        st, track = vehicle.status, vehicle.track
+        st.stage, st.autopilot = Stage.SEARCH, autopilot
+        st.mode_name = "AUTO" if autopilot is Autopilot.ARDUPILOT else "MISSION"
+        steps = track.waypoint_steps
+        assert len(steps) == len(vehicle.task.waypoints) > 6
+        for j in range(5, len(steps), 6):
+            st.lat_deg, st.lon_deg = vehicle.task.waypoints[j]
+            st.mission_seq = autopilot.first_mission_seq() + 1 + j + 1  # flying on to the next waypoint
+            vehicle.watch()
+            assert st.track_index == steps[j], (uid, j)
+        st.track_index, st.mode_name = 0, "RTL"
+        st.mission_seq = autopilot.first_mission_seq() + len(steps)
+        st.lat_deg, st.lon_deg = vehicle.task.trajectory[0].lat_deg, vehicle.task.trajectory[0].lon_deg
+        vehicle.watch()
+        assert st.track_index == 0
