@@ -20,7 +20,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Self
 
+import pytest
+
 LOCKS = Path(tempfile.gettempdir()) / f"gcs-sitl-locks-{os.getuid()}"
+
+#: The real-autopilot tests run in two pytest-xdist workers of their own (`--dist loadgroup`,
+#: tests/conftest.py), one test at a time in each, the two side by side (they mostly wait on
+#: simulated time). PX4 SITL in lockstep takes most of a core at speed-up 5 and loses answers
+#: (mission items, acknowledgements) beside another PX4 on the 2-core CI machine: every test that
+#: starts one, mixed fleets too, runs in the PX4 worker; the ArduPilot-only ones, and the simulated
+#: flights whose battery a slow station spends by the clock, in the ArduPilot worker.
+PX4_WORKER = pytest.mark.xdist_group("px4-sitl")
+ARDUPILOT_WORKER = pytest.mark.xdist_group("ardupilot-sitl")
 
 
 def port_free(port: int, *, udp: bool = False) -> bool:

@@ -28,12 +28,6 @@ import pytest
 from tests.peers.ardupilot import peers_dir
 from tests.peers.process import InstanceClaim, SitlProcess, claim, exclusive, lock_file, port_free
 
-#: PX4 SITL in lockstep takes most of a core at speed-up 5 and loses answers (mission items,
-#: command acknowledgements) when several run at once on the 2-core CI machine: the tests that
-#: start one run in one process, one after the other, with every other real-autopilot test
-#: (tests/conftest.py's SITL group)
-ONE_AT_A_TIME = pytest.mark.xdist_group("sitl")
-
 #: PX4's simulated battery drains 100 % over SIM_BAT_DRAIN seconds of armed vehicle time (its
 #: default, 60 s, then stops at SIM_BAT_MIN_PCT 50 %); an hour keeps it well above the reserve
 #: for a whole search

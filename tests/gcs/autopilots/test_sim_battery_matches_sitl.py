@@ -11,6 +11,7 @@ and its estimate rises with the thrust), and how it comes back on disarm."""
 from __future__ import annotations
 
 import math
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import pytest
 from pymavlink import mavutil
@@ -18,10 +19,11 @@ from pymavlink import mavutil
 from sim import BatteryConfig, FleetOptions, HomePose, SimFleet, VehicleConfig
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.energy import Course, Phase, Station, analyse, copter_course, fly, plane_course
-from tests.peers.px4 import ONE_AT_A_TIME, Px4Sitl
+from tests.peers.process import ARDUPILOT_WORKER, PX4_WORKER
+from tests.peers.px4 import Px4Sitl
 from tests.peers.site import CENTRE, GROUND_AMSL_M
 
-pytestmark = [pytest.mark.autopilot, ONE_AT_A_TIME]  # one real autopilot test at a time (tests/peers/px4.py)
+pytestmark = [pytest.mark.autopilot, ARDUPILOT_WORKER]  # tests/peers/process.py
 
 SPEEDUP, PX4_SPEEDUP = 10.0, 5.0
 COPTER = copter_course(alt_m=30.0, leg_m=300.0, speeds=(5, 10), hover_s=10.0, turns=False)
@@ -56,31 +58,41 @@ def _sim(config: VehicleConfig, course: Course, *, setup: dict[str, float] | Non
     return phases
 
 
+def _beside(fly_sim, *args, **kwargs) -> Future:
+    """The simulator's flight in a thread of its own, flown while SITL starts and flies (each
+    measures in its own vehicle time)."""
+    pool = ThreadPoolExecutor(1, thread_name_prefix="sim-course")
+    try:
+        return pool.submit(fly_sim, *args, **kwargs)
+    finally:
+        pool.shutdown(wait=False)
+
+
 @pytest.fixture(scope="module")
 def arducopter() -> tuple[dict[str, Phase], dict[str, Phase]]:
-    """(simulator, SITL): about 30 s of SITL at 10x and as much of the simulator."""
-    sim = _sim(VehicleConfig(battery=BatteryConfig(capacity_mah=3300.0), boot_scale=0.05), COPTER)
+    """(simulator, SITL): about 30 s of SITL at 10x and as much of the simulator, side by side."""
+    sim = _beside(_sim, VehicleConfig(battery=BatteryConfig(capacity_mah=3300.0), boot_scale=0.05), COPTER)
     with ArduPilotSitl("copter", home=(*CENTRE, GROUND_AMSL_M, 0.0), speedup=SPEEDUP) as sitl:
         real = _fly(sitl.udp_connection, COPTER, vehicle="copter", px4=False, speedup=SPEEDUP)
-    return sim, real
+    return sim.result(), real
 
 
 @pytest.fixture(scope="module")
 def arduplane() -> tuple[dict[str, Phase], dict[str, Phase]]:
     config = VehicleConfig(vehicle_type="plane", cruise_speed_m_s=22.0, battery=BatteryConfig(capacity_mah=3300.0),
                            boot_scale=0.05)
-    sim = _sim(config, PLANE, setup=AUTOLAND)
+    sim = _beside(_sim, config, PLANE, setup=AUTOLAND)
     with ArduPilotSitl("plane", home=(*CENTRE, GROUND_AMSL_M, 90.0), speedup=SPEEDUP) as sitl:
         real = _fly(sitl.udp_connection, PLANE, vehicle="plane", px4=False, speedup=SPEEDUP, setup=AUTOLAND)
-    return sim, real
+    return sim.result(), real
 
 
 @pytest.fixture(scope="module")
 def px4_quad() -> tuple[dict[str, Phase], dict[str, Phase]]:
-    sim = _sim(VehicleConfig(profile="px4", boot_scale=0.05), PX4)
+    sim = _beside(_sim, VehicleConfig(profile="px4", boot_scale=0.05), PX4)
     with Px4Sitl(home=(*CENTRE, GROUND_AMSL_M), speedup=PX4_SPEEDUP) as sitl:
         real = _fly(sitl.gcs_connection, PX4, vehicle="copter", px4=True, speedup=PX4_SPEEDUP)
-    return sim, real
+    return sim.result(), real
 
 
 def _close(sim: float, real: float, rel: float, what: str) -> str | None:
@@ -144,6 +156,7 @@ def test_the_simulated_arduplane_draws_full_throttle_to_take_off_and_sags_as_sit
     assert problems == []
 
 
+@PX4_WORKER
 def test_the_simulated_px4_reports_sih_battery_as_px4_does(px4_quad):
     """SIH drains in armed time: the voltage falls from 16.2 V to the floor 15.3 V (50 %) within
     the take-off, PX4's remaining % reads higher with the thrust (hover about 61 %, 9.8 m/s about
