@@ -207,11 +207,12 @@ def charge_covers_plan(vehicle: VehicleFlight) -> bool:
         home = fuel.way_cost(track.home_legs(1))
         shortest_m = track.flown_m(1) + home.metres
         shortest_mah = track.flown_m(1) * per_m + home.mah
-    if (covers_m - overhead) * per_m < shortest_mah:
+    cut_m = covers_m - overhead
+    if cut_m * per_m < shortest_mah or cut_m < shortest_m:  # in metres too: the range is flown in metres
         vehicle.set_stage(Stage.FAILED, f"not armed: {what}, less than its shortest way out and home "
                                         f"({shortest_m:.0f} m{wind})")
         return False
-    vehicle.operator_range = covers_m - overhead
-    vehicle.say(f"{what}: flying a range cut to {covers_m - overhead:.0f} m along its plan (--fit-charge)")
+    vehicle.operator_range = cut_m
+    vehicle.say(f"{what}: flying a range cut to {cut_m:.0f} m along its plan (--fit-charge)")
     return True
 

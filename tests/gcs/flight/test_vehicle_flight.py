@@ -4,6 +4,7 @@ of its own per vehicle."""
 
 from __future__ import annotations
 
+import math
 import time
 
 import pytest
@@ -99,3 +100,26 @@ def test_a_vehicle_seen_now_and_then_keeps_its_place_on_the_plan_from_its_curren
         st.lat_deg, st.lon_deg = vehicle.task.trajectory[0].lat_deg, vehicle.task.trajectory[0].lon_deg
         vehicle.watch()
         assert st.track_index == 0
+
+
+def test_a_range_cut_to_the_charge_is_never_shorter_in_metres_than_the_shortest_way_out_and_home(plan):
+    """`--fit-charge` in a 4 m/s wind blowing north: UAV 2's shortest way out and home is cheaper
+    per metre than its plan, so a charge can pay for that way in mAh while the range it buys, in
+    metres along the plan, is shorter than it (at 40.5 % used: 184 m against 193 m). The range is
+    flown in metres: such a vehicle stays on the ground, and every cut flown fits that way."""
+    from gcs.flight import preflight
+
+    flown = refused = 0
+    for used_pct in [38.0 + 0.5 * i for i in range(11)]:
+        lines: list[str] = []
+        controller = FlightController(plan, [], fast_options(fit_charge=True, wind_m_s=(0.0, 4.0)), out=lines.append)
+        vehicle = controller.vehicles[2]
+        vehicle.energy.fuel.used_mah = vehicle.energy.fuel.capacity_mah * used_pct / 100
+        shortest_m = vehicle.track.flown_m(1) + sum(math.hypot(e, n) for e, n in vehicle.track.home_legs(1))
+        if preflight.charge_covers_plan(vehicle):
+            flown += 1
+            assert vehicle.operator_range is not None and vehicle.operator_range >= shortest_m, (used_pct, lines)
+        else:
+            refused += 1
+            assert vehicle.status.stage is Stage.FAILED and "less than its shortest way out and home" in lines[-1]
+    assert flown and refused
