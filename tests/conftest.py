@@ -8,10 +8,10 @@ ever failed are kept in the tests as `@example`. Elsewhere the default profile d
 on every run and replays the failures it saved in `.hypothesis/`.
 
 Workers (pytest-xdist, `-n auto` in pyproject's addopts): the whole suite, `pytest` without
-arguments, runs in `GCS_TEST_WORKERS` processes (default 3: the PX4 SITL tests one at a time in
-one, the ArduPilot SITL tests one at a time in another, and the rest of the suite in all three as
-they come free; tests/peers/process.py); tests named on the command line run in one process unless
-`-n N` is given."""
+arguments, runs in `GCS_TEST_WORKERS` processes (default 2: the PX4 SITL tests one at a time in
+one, the ArduPilot SITL tests one at a time in the other, and the rest of the suite in both as
+they come free, tests/peers/process.py; with three, the simulated fleets beside two SITLs ran at
+load 14 and timed out); tests named on the command line run in one process unless `-n N` is given."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ settings.register_profile("ci", derandomize=True, database=None, deadline=None, 
                           suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile("ci" if os.environ.get("CI") else "default")
 
-WORKERS = 3
+WORKERS = 2
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
