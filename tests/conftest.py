@@ -8,10 +8,10 @@ ever failed are kept in the tests as `@example`. Elsewhere the default profile d
 on every run and replays the failures it saved in `.hypothesis/`.
 
 Workers (pytest-xdist, `-n auto` in pyproject's addopts): the whole suite, `pytest` without
-arguments, runs in `GCS_TEST_WORKERS` processes (default 2: the PX4 SITL tests one at a time in
-one, the ArduPilot SITL tests one at a time in the other, and the rest of the suite in both as
-they come free, tests/peers/process.py; with three, the simulated fleets beside two SITLs ran at
-load 14 and timed out); tests named on the command line run in one process unless `-n N` is given."""
+arguments, runs in `GCS_TEST_WORKERS` processes (default 2: one for the real-autopilot tests, which
+run one at a time, tests/peers/process.py, two for the rest; three, or two SITL tests side by
+side, made the timing-sensitive tests fail on the loaded 2-core machine, docs/tests.md); tests
+named on the command line run in one process unless `-n N` is given."""
 
 from __future__ import annotations
 

@@ -24,14 +24,12 @@ import pytest
 
 LOCKS = Path(tempfile.gettempdir()) / f"gcs-sitl-locks-{os.getuid()}"
 
-#: The real-autopilot tests run in two pytest-xdist workers of their own (`--dist loadgroup`,
-#: tests/conftest.py), one test at a time in each, the two side by side (they mostly wait on
-#: simulated time). PX4 SITL in lockstep takes most of a core at speed-up 5 and loses answers
-#: (mission items, acknowledgements) beside another PX4 on the 2-core CI machine: every test that
-#: starts one, mixed fleets too, runs in the PX4 worker; the ArduPilot-only ones, and the simulated
-#: flights whose battery a slow station spends by the clock, in the ArduPilot worker.
-PX4_WORKER = pytest.mark.xdist_group("px4-sitl")
-ARDUPILOT_WORKER = pytest.mark.xdist_group("ardupilot-sitl")
+#: The real-autopilot tests, and the simulated flights whose battery a slow station spends by the
+#: clock, run in one pytest-xdist worker, one after the other (`--dist loadgroup`,
+#: tests/conftest.py); the other worker runs the rest of the suite beside them. Two groups side by
+#: side (PX4, ArduPilot) lost an ArduPlane fleet's and a fast-draining copter's flights to the load
+#: (8 on the 2-core CI machine) and were no faster: docs/tests.md.
+SITL_WORKER = pytest.mark.xdist_group("sitl")
 
 
 def port_free(port: int, *, udp: bool = False) -> bool:

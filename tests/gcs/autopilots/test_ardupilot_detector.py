@@ -25,10 +25,10 @@ from gcs.telemetry.status import Stage
 from planner.sensor_noise import reading_draw
 from sim.detector import CAMERA_COMPONENT_ID, Detector, World, serve
 from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
-from tests.peers.process import ARDUPILOT_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.site import GROUND_AMSL_M, Airport, Site
 
-pytestmark = [pytest.mark.autopilot, ARDUPILOT_WORKER]  # tests/peers/process.py
+pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
 # the copter flies east along the row of the airport over five cell centres; targets in two of them
 SITE = Site((Airport("west", -225.0, -45.0, "E", 700.0),), targets=((-165.0, -45.0), (-105.0, -45.0)))

@@ -25,11 +25,11 @@ from tests.gcs.autopilots.flights import (
 )
 from tests.gcs.bus.helpers import Mosquitto
 from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
-from tests.peers.process import ARDUPILOT_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.relay import UdpRelay
 from tests.peers.site import COPTERS, MEADOW, PLANE, Site
 
-pytestmark = [pytest.mark.autopilot, ARDUPILOT_WORKER]  # tests/peers/process.py
+pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
 #: a copter whose current sensor reads 1.3x what SITL's copter draws (ArduPilot SITL feeds the
 #: current pin `current / 17`, and the autopilot multiplies it by BATT_AMP_PERVLT): to the

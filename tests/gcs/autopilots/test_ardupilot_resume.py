@@ -25,10 +25,10 @@ from gcs.recording.plan import read_recording
 from tests.gcs.autopilots.flights import metres
 from tests.gcs.flight.resume_peers import flight_events, kill_when, station
 from tests.peers.ardupilot import ArduPilotSitl
-from tests.peers.process import ARDUPILOT_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.site import COPTERS, Site
 
-pytestmark = [pytest.mark.autopilot, ARDUPILOT_WORKER]  # tests/peers/process.py
+pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
 AWAY_S = 1.0  # and the restarted station's own start: some 30 s of the copter's time at SITL's speed-up 10
 

@@ -17,10 +17,10 @@ from gcs.autopilots import Autopilot
 from gcs.autopilots.mission_transfer import MissionTransferError, WireItem, download, upload_verified
 from gcs.links import MavLink, SigningKey, mavlink
 from tests.peers.ardupilot import ArduPilotSitl
-from tests.peers.process import ARDUPILOT_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.site import COPTERS, PLANE, Site
 
-pytestmark = [pytest.mark.autopilot, ARDUPILOT_WORKER]  # tests/peers/process.py
+pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
 SITE = Site(COPTERS.airports[:1])
 SITES = {"copter": SITE, "plane": PLANE}

@@ -16,13 +16,13 @@ import pytest
 
 from tests.gcs.autopilots.fleets import RESERVE_PCT, WIND, Vehicle, fly_fleet
 from tests.peers.ardupilot import require_ardupilot
-from tests.peers.process import ARDUPILOT_WORKER, PX4_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import Px4Sitl, require_px4
 from tests.peers.site import FIELD_COPTERS, FIELD_PLANES
 
-#: each flies a fleet of three to its end (several minutes of vehicle time); one fleet at a time
-#: in the ArduPilot tests' worker, the mixed fleets in the PX4 tests' (tests/peers/process.py)
-pytestmark = [pytest.mark.autopilot, pytest.mark.timeout(900), ARDUPILOT_WORKER]
+#: each flies a fleet of three to its end (several minutes of vehicle time); one at a time, in
+#: the real autopilots' worker (tests/peers/process.py)
+pytestmark = [pytest.mark.autopilot, pytest.mark.timeout(900), SITL_WORKER]
 
 #: PX4 SIH's stock battery halves in the first 30 s armed and stays there (docs/energy.md): no
 #: pack a flight can be priced by. Our PX4 vehicles drain from full to empty in 20 minutes armed.
@@ -48,7 +48,7 @@ def judge(flight) -> None:
 @pytest.mark.parametrize("fleet, site, extra", [
     pytest.param(COPTERS, FIELD_COPTERS, (), id="3 ArduCopter, one small pack"),
     pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), id="3 ArduPlane"),
-    pytest.param(MIXED, FIELD_COPTERS, (), id="ArduCopter and 2 PX4", marks=PX4_WORKER),
+    pytest.param(MIXED, FIELD_COPTERS, (), id="ArduCopter and 2 PX4"),
 ])
 @pytest.mark.parametrize("wind", [False, True], ids=["still air", "8 m/s wind"])
 def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra, wind):

@@ -22,12 +22,12 @@ from tests.gcs.autopilots.flights import (
 )
 from tests.gcs.bus.helpers import Mosquitto
 from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
-from tests.peers.process import PX4_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
 from tests.peers.relay import UdpRelay
 from tests.peers.site import COPTERS, Site
 
-pytestmark = [pytest.mark.autopilot, PX4_WORKER]
+pytestmark = [pytest.mark.autopilot, SITL_WORKER]
 
 
 

@@ -24,11 +24,11 @@ from planner.sensor_noise import reading_draw
 from sim.detector import CAMERA_COMPONENT_ID
 from tests.gcs.autopilots.flights import metres
 from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
-from tests.peers.process import PX4_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
 from tests.peers.site import Airport, Site
 
-pytestmark = [pytest.mark.autopilot, PX4_WORKER]
+pytestmark = [pytest.mark.autopilot, SITL_WORKER]
 
 SEED, PC, PF = 3, 0.9, 0.1
 SITE = Site((Airport("west", -225.0, -45.0, "E", 600.0), Airport("south", -45.0, -225.0, "N", 600.0)),

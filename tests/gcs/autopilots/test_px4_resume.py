@@ -13,11 +13,11 @@ import pytest
 
 from gcs.flight.journal import read_journal
 from tests.gcs.flight.resume_peers import kill_when, station
-from tests.peers.process import PX4_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
 from tests.peers.site import COPTERS, Site
 
-pytestmark = [pytest.mark.autopilot, PX4_WORKER]
+pytestmark = [pytest.mark.autopilot, SITL_WORKER]
 
 
 def test_a_px4_flies_on_while_the_station_is_dead_and_the_restarted_station_speaks_from_the_same_port(tmp_path):

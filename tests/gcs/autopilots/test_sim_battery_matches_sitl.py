@@ -19,11 +19,11 @@ from pymavlink import mavutil
 from sim import BatteryConfig, FleetOptions, HomePose, SimFleet, VehicleConfig
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.energy import Course, Phase, Station, analyse, copter_course, fly, plane_course
-from tests.peers.process import ARDUPILOT_WORKER, PX4_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import Px4Sitl
 from tests.peers.site import CENTRE, GROUND_AMSL_M
 
-pytestmark = [pytest.mark.autopilot, ARDUPILOT_WORKER]  # tests/peers/process.py
+pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
 SPEEDUP, PX4_SPEEDUP = 10.0, 5.0
 COPTER = copter_course(alt_m=30.0, leg_m=300.0, speeds=(5, 10), hover_s=10.0, turns=False)
@@ -156,7 +156,6 @@ def test_the_simulated_arduplane_draws_full_throttle_to_take_off_and_sags_as_sit
     assert problems == []
 
 
-@PX4_WORKER
 def test_the_simulated_px4_reports_sih_battery_as_px4_does(px4_quad):
     """SIH drains in armed time: the voltage falls from 16.2 V to the floor 15.3 V (50 %) within
     the take-off, PX4's remaining % reads higher with the thrust (hover about 61 %, 9.8 m/s about

@@ -32,13 +32,13 @@ from gcs.autopilots.px4_storage import stored_item
 from gcs.autopilots.wire_item import renumber
 from gcs.plans.plan_folder import load_plan_dir
 from sim import FleetOptions, HomePose, MissionType, SimFleet, VehicleConfig, WireItem
-from tests.peers.process import PX4_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import Px4Sitl
 from tests.peers.site import Airport, Site
 from tests.sim import helpers  # noqa: F401  (MAVLink 2 for pymavlink, before mavutil is used)
 from tests.sim.mission_client import MissionClient
 
-pytestmark = [pytest.mark.autopilot, PX4_WORKER]
+pytestmark = [pytest.mark.autopilot, SITL_WORKER]
 
 SITE = Site((Airport("field", 150.0, -120.0, "E", 3000.0),), half_m=400.0)
 SPEEDUP = 5.0

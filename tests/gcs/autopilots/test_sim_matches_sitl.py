@@ -25,12 +25,12 @@ from gcs.autopilots.wire_item import renumber
 from gcs.plans.plan_folder import load_plan_dir
 from sim import FleetOptions, HomePose, MissionType, SimFleet, VehicleConfig, WireItem
 from tests.peers.ardupilot import ArduPilotSitl
-from tests.peers.process import ARDUPILOT_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.site import Airport, Site
 from tests.sim import helpers  # noqa: F401  (MAVLink 2 for pymavlink, before mavutil is used)
 from tests.sim.mission_client import MissionClient, MissionTransferError
 
-pytestmark = [pytest.mark.autopilot, ARDUPILOT_WORKER]  # tests/peers/process.py
+pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
 # an airport with room for a plane's 250 m approach west of it, inside the square
 SITE = Site((Airport("runway", 150.0, -120.0, "E", 3000.0),), half_m=400.0)

@@ -18,15 +18,15 @@ from gcs.plans.plan_folder import load_plan_dir
 from gcs.telemetry.status import Stage
 from sim import FailsafeLevel
 from tests.gcs.flight.conftest import ROOT, SPEEDUP, fast_options, fly
-from tests.peers.process import ARDUPILOT_WORKER
+from tests.peers.process import SITL_WORKER
 from tests.peers.site import MEADOW
 
 #: Flights whose outcome is a battery spent by the clock: the station's hold while it sends a way
 #: home, or the lock step's hover while it decides, lasts real seconds that the speed-up turns into
 #: many more of the vehicle's. Beside a SITL (load 7 on the CI machine's 2 cores) those seconds
-#: grew until a copter hovered its battery flat; these run in the ArduPilot SITL tests' worker, one
-#: at a time and never beside another (tests/peers/process.py).
-BATTERY_BY_THE_CLOCK = ARDUPILOT_WORKER
+#: grew until a copter hovered its battery flat; these run in the real autopilots' worker, one at
+#: a time and never beside one (tests/peers/process.py).
+BATTERY_BY_THE_CLOCK = SITL_WORKER
 
 
 def _metres(plan, a, b) -> float:
