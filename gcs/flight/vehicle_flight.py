@@ -95,7 +95,6 @@ class VehicleFlight:
         self.return_after_s = options.return_after_s.get(uid)  # flight seconds: ordered home then
         self.busy = self.stay_on_ground = False  # commanded by a task (`claim`); ordered home before take-off
         self.lost_since: float | None = None  # when its link went quiet, and the stage it was in
-        self.disarmed_since: float | None = None  # in its search, disarmed before it ever took off
         self.stage_before_loss: Stage | None = None
         self.upload_reports: dict | None = None  # the verified uploads, by kind ("mission", "fence", "rally")
         self.return_latency_s: float | None = None  # from its return's decision to its leg flying
@@ -131,8 +130,7 @@ class VehicleFlight:
 
     def update_stage(self, now: float) -> None:
         """The stage the telemetry implies: LOST after `link_timeout_s` of silence and back when
-        heard, LANDED once down after flying, RTL when the autopilot turned home by itself, FAILED
-        when disarmed for `link_timeout_s` in its search before it ever took off."""
+        heard, LANDED once down after flying, RTL when the autopilot turned home by itself."""
         st, timeout_s = self.status, self.options.link_timeout_s
         if st.last_heard_s is not None and st.stage not in FINAL_STAGES:
             silent = now - st.last_heard_s > timeout_s
@@ -148,10 +146,6 @@ class VehicleFlight:
         elif st.stage is Stage.SEARCH and st.mode_name in ("RTL", "LAND") and not self.busy:
             st.return_reason = "autopilot"
             self.set_stage(Stage.RTL, f"autopilot switched to {st.mode_name} ({st.last_text or 'no reason given'})")
-        stranded = st.stage is Stage.SEARCH and not (st.armed or st.airborne_seen or self.busy)
-        self.disarmed_since = (self.disarmed_since or now) if stranded else None
-        if stranded and now - self.disarmed_since > self.options.link_timeout_s:
-            self.set_stage(Stage.FAILED, f"disarmed on the ground after its mission started{self._said()}")
 
     def done(self, now: float) -> bool:
         """Landed, failed, or lost for `lost_giveup_s`: the flight no longer waits for it."""

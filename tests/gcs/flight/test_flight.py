@@ -175,30 +175,6 @@ def test_an_arming_left_unanswered_is_asked_again_while_the_vehicle_is_heard(pla
     assert _landed_home(plan, fleet, 1) < 5.0
 
 
-def test_a_vehicle_that_disarms_on_the_ground_after_its_mission_started_fails_and_the_flight_ends(plan, capsys):
-    """UAV 2 accepts MISSION_START but never takes off (an ArduCopter whose AUTO waits for the
-    pilot's throttle), and its auto-disarm disarms it on the ground: the station says so and no
-    longer waits for it; the others fly their search and land."""
-    def stay_on_the_ground(fleet):
-        def install():
-            vehicle = fleet.vehicle(2)
-            on_command = vehicle._on_command
-
-            def on_command_idle(msg, sender):
-                if msg.command != mavlink.MAV_CMD_MISSION_START:
-                    return on_command(msg, sender)
-                return [mavlink.MAVLink_command_ack_message(msg.command, mavlink.MAV_RESULT_ACCEPTED, 0, 0, *sender)]
-            vehicle._on_command = on_command_idle
-        fleet.call(install)
-
-    controller, fleet = fly(plan, during=stay_on_the_ground)
-    out = capsys.readouterr().out
-    assert controller.status[2].stage is Stage.FAILED, out[-3000:]
-    assert "UAV 2: failed - disarmed on the ground after its mission started" in out, out[-3000:]
-    assert not fleet.vehicle(2).state.armed and not controller.status[2].airborne_seen
-    assert all(controller.status[u].stage is Stage.LANDED for u in (1, 3, 4)), out[-3000:]
-
-
 def test_unknown_uav_in_a_return_order_is_refused(plan):
     from gcs.flight.controller import FlightController
 
