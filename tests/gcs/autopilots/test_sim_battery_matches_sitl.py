@@ -11,7 +11,6 @@ and its estimate rises with the thrust), and how it comes back on disarm."""
 from __future__ import annotations
 
 import math
-from concurrent.futures import Future, ThreadPoolExecutor
 
 import pytest
 from pymavlink import mavutil
@@ -58,41 +57,31 @@ def _sim(config: VehicleConfig, course: Course, *, setup: dict[str, float] | Non
     return phases
 
 
-def _beside(fly_sim, *args, **kwargs) -> Future:
-    """The simulator's flight in a thread of its own, flown while SITL starts and flies (each
-    measures in its own vehicle time)."""
-    pool = ThreadPoolExecutor(1, thread_name_prefix="sim-course")
-    try:
-        return pool.submit(fly_sim, *args, **kwargs)
-    finally:
-        pool.shutdown(wait=False)
-
-
 @pytest.fixture(scope="module")
 def arducopter() -> tuple[dict[str, Phase], dict[str, Phase]]:
-    """(simulator, SITL): about 30 s of SITL at 10x and as much of the simulator, side by side."""
-    sim = _beside(_sim, VehicleConfig(battery=BatteryConfig(capacity_mah=3300.0), boot_scale=0.05), COPTER)
+    """(simulator, SITL): about 30 s of SITL at 10x and as much of the simulator."""
+    sim = _sim(VehicleConfig(battery=BatteryConfig(capacity_mah=3300.0), boot_scale=0.05), COPTER)
     with ArduPilotSitl("copter", home=(*CENTRE, GROUND_AMSL_M, 0.0), speedup=SPEEDUP) as sitl:
         real = _fly(sitl.udp_connection, COPTER, vehicle="copter", px4=False, speedup=SPEEDUP)
-    return sim.result(), real
+    return sim, real
 
 
 @pytest.fixture(scope="module")
 def arduplane() -> tuple[dict[str, Phase], dict[str, Phase]]:
     config = VehicleConfig(vehicle_type="plane", cruise_speed_m_s=22.0, battery=BatteryConfig(capacity_mah=3300.0),
                            boot_scale=0.05)
-    sim = _beside(_sim, config, PLANE, setup=AUTOLAND)
+    sim = _sim(config, PLANE, setup=AUTOLAND)
     with ArduPilotSitl("plane", home=(*CENTRE, GROUND_AMSL_M, 90.0), speedup=SPEEDUP) as sitl:
         real = _fly(sitl.udp_connection, PLANE, vehicle="plane", px4=False, speedup=SPEEDUP, setup=AUTOLAND)
-    return sim.result(), real
+    return sim, real
 
 
 @pytest.fixture(scope="module")
 def px4_quad() -> tuple[dict[str, Phase], dict[str, Phase]]:
-    sim = _beside(_sim, VehicleConfig(profile="px4", boot_scale=0.05), PX4)
+    sim = _sim(VehicleConfig(profile="px4", boot_scale=0.05), PX4)
     with Px4Sitl(home=(*CENTRE, GROUND_AMSL_M), speedup=PX4_SPEEDUP) as sitl:
         real = _fly(sitl.gcs_connection, PX4, vehicle="copter", px4=True, speedup=PX4_SPEEDUP)
-    return sim.result(), real
+    return sim, real
 
 
 def _close(sim: float, real: float, rel: float, what: str) -> str | None:
