@@ -25,7 +25,7 @@ from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
 from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
 from tests.peers.relay import UdpRelay
-from tests.peers.site import COPTERS, Site
+from tests.peers.site import COPTERS, PX4_SOLO, Site
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]
 
@@ -39,8 +39,8 @@ def _px4_home(site: Site, index: int) -> tuple[float, float, float]:
 def test_a_planned_mission_uploads_to_px4_and_reads_back_as_px4_stores_it(tmp_path, link):
     """Over the instance's GCS port (`udpout:127.0.0.1:18570+I`), or listening where every PX4
     SITL sends its telemetry (`udpin:127.0.0.1:14550`, vehicles told apart by system id)."""
-    plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
-    with Px4Sitl(home=_px4_home(COPTERS, 0), alone=link == "udpin") as px4:
+    plan_dir = PX4_SOLO.plan(tmp_path)
+    with Px4Sitl(home=_px4_home(PX4_SOLO, 0), alone=link == "udpin") as px4:
         connection = px4.gcs_connection if link == "udpout" else "udpin:127.0.0.1:14550"
         done = subprocess.run([sys.executable, "-m", "gcs.cli", "upload", "--plan", str(plan_dir), "--connect",
                                connection, "--connect-timeout", "30"], capture_output=True, text=True, timeout=300)
@@ -50,8 +50,8 @@ def test_a_planned_mission_uploads_to_px4_and_reads_back_as_px4_stores_it(tmp_pa
 
 
 def test_a_px4_copter_flies_its_search_and_lands_at_its_airport(tmp_path):
-    plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
-    with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4:
+    plan_dir = PX4_SOLO.plan(tmp_path)
+    with Px4Sitl(home=_px4_home(PX4_SOLO, 0), params=STEADY_BATTERY) as px4:
         done = fly(plan_dir, [px4.gcs_connection])
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
     assert "px4 autopilot" in done.stdout and "1/1 landed" in done.stdout
@@ -104,8 +104,8 @@ def test_a_mixed_fleet_brings_the_fast_draining_px4_home_first(tmp_path):
 def test_operator_orders_on_a_px4_a_shorter_range_then_home(tmp_path):
     """The operator's `range 1 N` mid-search (a range of N metres along its plan from take-off) makes the trigger
     send the PX4 home along its planned way as soon as that way no longer fits in it."""
-    plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
-    with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4:
+    plan_dir = PX4_SOLO.plan(tmp_path)
+    with Px4Sitl(home=_px4_home(PX4_SOLO, 0), params=STEADY_BATTERY) as px4:
         done = fly(plan_dir, [px4.gcs_connection], "--no-rrd",
                    orders=(("UAV 1: search", "range 1 360", 0.0),))
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr
@@ -137,8 +137,8 @@ def test_a_px4_whose_link_goes_silent_flies_its_mission_on_and_is_picked_up_agai
     """The station's link to PX4 goes through a relay that drops everything for 50 s of vehicle
     time, 15 s into the search: the station marks it lost; PX4 (NAV_DLL_ACT 0, its default) flies
     its mission on; the station picks it up when the link is back, and it lands at home."""
-    plan_dir = Site(COPTERS.airports[:1]).plan(tmp_path)
-    with Px4Sitl(home=_px4_home(COPTERS, 0), params=STEADY_BATTERY) as px4, UdpRelay(px4.gcs_port) as relay:
+    plan_dir = PX4_SOLO.plan(tmp_path)
+    with Px4Sitl(home=_px4_home(PX4_SOLO, 0), params=STEADY_BATTERY) as px4, UdpRelay(px4.gcs_port) as relay:
         done = fly_with_a_dropout(plan_dir, [f"udpout:127.0.0.1:{relay.port}"], relay, 1,
                                   "--lost-giveup", "60", after_s=15.0 / px4.speedup, silent_s=50.0 / px4.speedup)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr

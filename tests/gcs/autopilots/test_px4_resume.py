@@ -15,13 +15,13 @@ from gcs.flight.journal import read_journal
 from tests.gcs.flight.resume_peers import kill_when, station
 from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
-from tests.peers.site import COPTERS, Site
+from tests.peers.site import PX4_SOLO
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]
 
 
 def test_a_px4_flies_on_while_the_station_is_dead_and_the_restarted_station_speaks_from_the_same_port(tmp_path):
-    site = Site(COPTERS.airports[:1])
+    site = PX4_SOLO
     plan_dir = site.plan(tmp_path)
     with Px4Sitl(home=site.home(0)[:3], params=STEADY_BATTERY) as px4:
         first = station(plan_dir, [px4.gcs_connection])

@@ -140,7 +140,21 @@ def test_a_journal_holds_the_whole_flight_and_its_end(finished):
         assert v.stage is Stage.LANDED and v.airborne_seen and v.mission == "search"
         assert len(v.track) > 20 and v.battery_samples and v.track_index > 100
         lines = [line.text for _, line in state.events if line.uav_id == uid]
-        assert sum(text.startswith("take-off") for text in lines) == 1 and lines[-1].startswith("landed")
+        assert sum(text.startswith("take-off") for text in lines) == 1
+        assert [text for text in lines if not text.startswith("detection")][-1].startswith("landed")
+    _only_recovered_readings_follow_the_landing(finished / JOURNAL_FILE)
+
+
+def _only_recovered_readings_follow_the_landing(journal: Path) -> None:
+    """A reading may reach the station after its vehicle landed only as one asked for again
+    (lost on the link in flight): its index is below one the station already had."""
+    records = [json.loads(line) for line in journal.read_text().splitlines()]
+    for uid in {r["uav"] for r in records if r.get("uav") is not None}:
+        mine = [r for r in records if r.get("uav") == uid]
+        landed = max(i for i, r in enumerate(mine) if r["k"] == "event" and r["text"].startswith("landed"))
+        before = [r["index"] for r in mine[:landed] if r["k"] == "reading"]
+        after = [r["index"] for r in mine[landed:] if r["k"] == "reading"]
+        assert all(index < max(before) and index not in before for index in after), (uid, after)
 
 
 def test_a_torn_last_line_is_skipped_and_a_damaged_journal_refused(finished, tmp_path):
