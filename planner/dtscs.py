@@ -149,6 +149,35 @@ def first_step_feasible(table: np.ndarray, successors: np.ndarray, blocked: np.n
     return False
 
 
+def _leaves_and_returns(spec: UavSpec, table: np.ndarray, no_fly: np.ndarray, config: MissionConfig,
+                        costs: MoveCosts) -> bool:
+    """Whether UAV `spec` can fly one step out of its airport and home after it within its range
+    less the reserve (eq. 23 at step 1); `table` is its return table."""
+    pose = (spec.airport[0], spec.airport[1], spec.heading)
+    return first_step_feasible(table, config.oc.successors, no_fly, pose, 0,
+                               spec.range_units - config.reserve_steps * costs.straight, costs)
+
+
+def range_text(costs: MoveCosts, units: int) -> str:
+    """A range in move-cost units as a person reads it: steps, or cell sides over a real area."""
+    return f"{units} steps" if costs.unit_steps else f"{units / costs.straight:.1f} cell sides"
+
+
+def cannot_leave_reason(spec: UavSpec, costs: MoveCosts, config: MissionConfig) -> str:
+    x, y = spec.airport
+    return (f"range {range_text(costs, spec.range_units)} is too short to leave its airport ({x + 1}, {y + 1}) and "
+            f"come back under {config.oc.name}")
+
+
+def uavs_that_cannot_leave(scenario: Scenario, config: MissionConfig) -> list[UavSpec]:
+    """The UAVs of `scenario` whose range cannot pay for one step out of their airport and the way
+    home after it (eq. 23 at step 1): they stay on the ground."""
+    no_fly, costs = scenario.search_map.no_fly, scenario.move_costs
+    return [spec for spec in scenario.uavs
+            if not _leaves_and_returns(spec, return_table(no_fly, spec.airport, config.oc, costs), no_fly, config,
+                                       costs)]
+
+
 class ClosedSearch:
     """The DTSCS scheme flown step by step over a scenario (Algorithm 3).
 
@@ -188,12 +217,8 @@ class ClosedSearch:
         self.uavs: dict[int, _Uav] = {}
         for spec in scenario.uavs:
             table = return_table(self.map.no_fly, spec.airport, self.config.oc, self.costs)
-            pose = (spec.airport[0], spec.airport[1], spec.heading)
-            if not first_step_feasible(table, self.successors, self.map.no_fly, pose, 0,
-                                       spec.range_units - self.reserve, self.costs):
-                raise ValueError(f"UAV {spec.uav_id}: range {self._range_text(spec.range_units)} is too short to "
-                                 f"leave its airport ({spec.airport[0] + 1}, {spec.airport[1] + 1}) and come back "
-                                 f"under {self.config.oc.name}")
+            if not _leaves_and_returns(spec, table, self.map.no_fly, self.config, self.costs):
+                raise ValueError(f"UAV {spec.uav_id}: {cannot_leave_reason(spec, self.costs, self.config)}")
             uav = _Uav(spec, table, spec.airport[0], spec.airport[1], spec.heading, spec.range_units)
             uav.trajectory.append(TrajectoryPoint(0, uav.x, uav.y, uav.heading, Stage.SEARCH))
             self.uavs[spec.uav_id] = uav
@@ -201,11 +226,6 @@ class ClosedSearch:
                                   scenario.looks_before)
         self._count_looks([(uid, u.x, u.y) for uid, u in self.uavs.items()])
         self._simulate_sensing([(uid, u.x, u.y) for uid, u in self.uavs.items()], 0)
-
-    def _range_text(self, units: int) -> str:
-        if self.costs.unit_steps:
-            return f"{units} steps"
-        return f"{units / self.costs.straight:.1f} cell sides"
 
     @property
     def done(self) -> bool:

@@ -18,14 +18,18 @@ def fleet_for_plan(plan: FleetPlan, *, speedup: float, profile: str = "ardupilot
               pf: float = 0.1, drain: dict[int, float] | None = None, loss: float = 0.0,
               endurance_s: float = 1200.0, signing: SigningKey | None = None):
     """The built-in simulated fleet on free loopback ports: vehicle i (system id i) at UAV i's
-    airport with its start heading, the plan's targets, a sensor on the plan's grid; `drain`
-    multiplies chosen vehicles' battery drain. ValueError for UAV ids other than 1..N."""
-    ids = sorted(plan.uavs)
+    airport with its start heading (a UAV the plan left on the ground waits at its airport), the
+    plan's targets, a sensor on the plan's grid; `drain` multiplies chosen vehicles' battery
+    drain. ValueError for UAV ids other than 1..N."""
+    homes_by_id = {uid: HomePose(*u.airport_lat_lon, 0.0, u.start_heading * 45.0) for uid, u in plan.uavs.items()}
+    for uav in plan.raw.get("grounded", []):
+        homes_by_id[int(uav["id"])] = HomePose(*uav["airport_lat_lon"], 0.0, 0.0)
+    ids = sorted(homes_by_id)
     if ids != list(range(1, len(ids) + 1)):
         raise ValueError(f"the simulated fleet needs UAV ids 1..N, the plan has {ids}")
-    homes = [HomePose(*plan.uavs[i].airport_lat_lon, 0.0, plan.uavs[i].start_heading * 45.0) for i in ids]
+    homes = [homes_by_id[i] for i in ids]
     world = World.of_plan(plan)  # the world `gcs detector` gives real vehicles
-    vehicle = plan.uavs[ids[0]].vehicle.value
+    vehicle = next(iter(plan.uavs.values())).vehicle.value
     config = VehicleConfig(vehicle_type=vehicle, profile=profile, sensor=world.sensor_config(pc, pf),
                            battery=BatteryConfig(endurance_s=endurance_s))
     fleet = SimFleet(homes, config, FleetOptions(base_port=0, speedup=speedup, targets=world.targets, seed=seed,

@@ -97,6 +97,14 @@ def scenario_report(result: ScenarioResult) -> str:
                       + (f", recording {result.rrd}" if result.rrd else "")])
 
 
+def grounded_lines(result: CampaignResult) -> list[str]:
+    """A warning per UAV an area plan left on the ground, its range too short to leave its airport."""
+    seen = dict.fromkeys((uid, why) for sortie in result.sorties for uid, why in sortie.setup.grounded.items())
+    names = {ap.index + 1: ap.name for ap in result.sorties[0].setup.source.airports} if result.sorties else {}
+    return [f"warning: UAV {uid} ({names.get(uid, '?')}) stays on the ground, planned without it: {why}"
+            for uid, why in seen]
+
+
 def area_report(result: CampaignResult) -> str:
     """Per sortie of an area plan its summary, its missions and where its files went; then the
     campaign's sorties when there are several, and where campaign.json went."""

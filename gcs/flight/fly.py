@@ -167,6 +167,9 @@ async def fly_async(plan: FleetPlan, connections: Sequence[str | Connection], op
         controller = FlightController(plan, links, options, out)
         if resume is not None:
             resume.restore(controller)
+        else:
+            for uav in plan.raw.get("grounded", []):
+                controller.say(int(uav["id"]), f"stays on the ground - planned without it: {uav['reason']}")
         for listener in listeners:
             controller.subscribe(listener)
         if bus is not None:

@@ -40,7 +40,7 @@ from planner.area_grid import (
     units_m,
 )
 from planner.campaign import Belief, sortie_seed
-from planner.dtscs import ClosedSearch, MissionConfig
+from planner.dtscs import ClosedSearch, MissionConfig, uavs_that_cannot_leave
 from planner.environment import Sensor
 from planner.horizon import HorizonValue
 from planner.motion import constraint_by_name
@@ -63,6 +63,7 @@ class AreaSetup:
     approach: ApproachOptions = ApproachOptions()
     belief: Belief | None = None
     range_sources: dict[int, str] = field(default_factory=dict)
+    grounded: dict[int, str] = field(default_factory=dict)  # UAV -> why its range cannot leave its airport
 
     def __post_init__(self) -> None:
         if self.belief is None:
@@ -194,6 +195,7 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
         layers = altitude_layers([ap.altitude_m for ap in source.airports], area.altitude_m, area.altitude_step_m,
                                  area.ceiling_m)
         uavs, ranges_m, overheads_m, sources = [], {}, {}, {}
+        grounded: dict[int, str] = {}
         for ap in source.airports:
             uav_id = ap.index + 1
             label = f"airport {ap.name!r} (UAV {uav_id})"
@@ -212,14 +214,15 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
                                          label).circuit_m if vehicle is Vehicle.PLANE else 0.0
             overhead_m = 2 * float(math.hypot(ce - east, cn - north)) + circuit_m
             units = range_units(range_m - overhead_m, cell)
-            if units < 2 * AREA_MOVE_COSTS.straight:
-                raise ValueError(f"{label}: range {range_m:.0f} m leaves {max(range_m - overhead_m, 0):.0f} m over the "
-                                 f"{cell:g} m cells once {overhead_m:.0f} m to the airport's cell and back"
-                                 f"{' and the landing circuit' if circuit_m else ''} are taken off; it cannot leave "
-                                 "its airport and come back")
-            uavs.append(UavSpec(uav_id, (x, y), ap.heading, units))
             ranges_m[uav_id] = range_m
             overheads_m[uav_id] = overhead_m
+            if units < 2 * AREA_MOVE_COSTS.straight:
+                grounded[uav_id] = (f"range {range_m:.0f} m leaves {max(range_m - overhead_m, 0):.0f} m over the "
+                                    f"{cell:g} m cells once {overhead_m:.0f} m to the airport's cell and back"
+                                    f"{' and the landing circuit' if circuit_m else ''} are taken off; it cannot "
+                                    "leave its airport and come back")
+            else:
+                uavs.append(UavSpec(uav_id, (x, y), ap.heading, units))
         targets = []
         for t in source.targets:
             east, north = grid.point_m(t.lon_deg, t.lat_deg)
@@ -228,12 +231,23 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
             targets.append((east, north))
         priors = [PriorCells(grid.to_local(p.geometry), p.tep, p.eu) for p in source.priors]
         sensor = Sensor(search.pc, search.pf, search.footprint)
+        config = mission_config(search, horizon=True)
         scenario = area_scenario(source.name, grid, priors, uavs, targets, area.default_tep, area.default_eu, sensor)
-        closed = _search(scenario, mission_config(search, horizon=True), search.seed, belief)
+        for spec in uavs_that_cannot_leave(scenario, config):
+            grounded[spec.uav_id] = (f"range {ranges_m[spec.uav_id]:.0f} m ({units_m(spec.range_units, cell):.0f} m "
+                                     f"over the {cell:g} m cells) is too short to leave its airport and come back "
+                                     f"under {config.oc.name}")
+        scenario = replace(scenario, uavs=[u for u in uavs if u.uav_id not in grounded])
+        if not scenario.uavs:
+            names = {ap.index + 1: ap.name for ap in source.airports}
+            raise ValueError("no UAV can leave its airport and come back: " + "; ".join(
+                f"UAV {uid} ({names[uid]!r}): {why}" for uid, why in sorted(grounded.items())))
+        closed = _search(scenario, config, search.seed, belief)
     except ValueError as exc:
         raise UserError(f"{area_file}: {exc}") from None
     reference = AltitudeReference.TERRAIN if area.terrain_follow else AltitudeReference.HOME
-    return AreaSetup(source, grid, closed, ranges_m, layers, overheads_m, vehicle, reference, approach, belief, sources)
+    return AreaSetup(source, grid, closed, ranges_m, layers, overheads_m, vehicle, reference, approach, belief, sources,
+                     dict(sorted(grounded.items())))
 
 
 def _fence(source: AreaFile, area: AreaGrid, flown: FlownPath) -> Fence:
@@ -282,6 +296,10 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
                            "waypoints": [[a, b] for a, b in mission.waypoints],
                            "length_m": round(flown.length_m, 3)}
     data = plan_to_dict(plan, seed=seed, area=area, uav_extra=extra)
+    if setup.grounded:
+        data["grounded"] = [{"id": uid, "name": airports[uid].name, "reason": why,
+                             "airport_lat_lon": [airports[uid].lat_deg, airports[uid].lon_deg]}
+                            for uid, why in setup.grounded.items()]
     if campaign is not None:
         data["campaign"] = campaign
     files = {"plan.json": json.dumps(data, indent=1) + "\n"}

@@ -112,13 +112,15 @@ def plan_for_flight(args: argparse.Namespace) -> tuple[FleetPlan, AreaSetup | No
     """`--plan DIR`; or `--area FILE` planned first, as `gcs plan --area` plans it (no Rerun
     recording of the planning), and its setup."""
     if args.area:
-        from gcs.display.plan_tables import area_report
+        from gcs.display.plan_tables import area_report, grounded_lines
         from gcs.plans.make import plan_area
 
         if args.plan:
             raise UserError("give --plan or --area, not both")
         area, search = plan_options_from(args)
         result = plan_area(args.area, area, search, args.out, OutputOptions(record=False, progress=not args.quiet))
+        for line in grounded_lines(result):
+            print(line, file=sys.stderr)
         if not args.quiet:
             print(area_report(result))
         return load_plan_dir(result.out_dir), result.sorties[0].setup

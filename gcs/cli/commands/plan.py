@@ -7,6 +7,7 @@ With `--area area.geojson` (or .kml, .kmz, .gpx, .gpkg, .shp) the search runs ov
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from gcs.cli import given_options
@@ -55,7 +56,7 @@ def refuse_new_options(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gcs.display.plan_tables import area_report, scenario_report
+    from gcs.display.plan_tables import area_report, grounded_lines, scenario_report
     from gcs.plans import make
 
     area, search = plan_options_from(args)
@@ -72,6 +73,8 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(scenario_report(scenario))
         return 0
+    for line in grounded_lines(result):
+        print(line, file=sys.stderr)
     if not args.quiet:
         print(area_report(result))
     return 0

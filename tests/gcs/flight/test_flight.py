@@ -414,6 +414,29 @@ def test_fly_area_with_operator_orders_on_stdin(tmp_path):
     assert (out_dir / "uav3.waypoints").exists() and (out_dir / "flight.rrd").exists()
 
 
+def test_a_uav_planned_without_flies_nothing_and_the_flight_says_why(tmp_path, capsys):
+    """`gcs fly --area --sim` of an area whose west airport's range cannot leave it: the plan
+    leaves UAV 1 on the ground, the flight says so first and flies the other."""
+    import json
+
+    from tests.gcs.plans.conftest import small_area
+
+    doc = small_area()
+    doc["features"][3]["properties"]["range_m"] = 130
+    area = tmp_path / "area.geojson"
+    area.write_text(json.dumps(doc))
+    code = main(["fly", "--area", str(area), "--sim", "--speedup", "60", "--out", str(tmp_path / "out"), "--no-rrd"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.out[-3000:] + captured.err
+    assert "warning: UAV 1 (west) stays on the ground, planned without it: range 130 m" in captured.err
+    lines = captured.out.splitlines()
+    first = next(i for i, line in enumerate(lines) if "UAV 1: stays on the ground - planned without it: range 130 m"
+                 in line)
+    assert first < next(i for i, line in enumerate(lines) if "UAV 2: preparing" in line)
+    assert not any("UAV 1: preparing" in line for line in lines)
+    assert "1/1 landed" in captured.out
+
+
 def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch):
     """A bug in the GCS loop mid-flight: every vehicle in the air is commanded RTL before the
     command ends with one error (FlightAborted), never left flying unwatched."""

@@ -62,15 +62,34 @@ def test_airport_inside_a_no_fly_zone(run_gcs, area_doc, shapes):
     _fails(run_gcs, area_doc, "airport 'west' (UAV 1) is inside a no-fly zone")
 
 
-def test_airport_that_cannot_leave_and_return(run_gcs, area_doc):
-    area_doc["features"][3]["properties"]["range_m"] = 50
-    _fails(run_gcs, area_doc, "cannot leave its airport and come back")
+def _short_ranges(area_doc, west_m: float, south_east_m: float) -> None:
+    area_doc["features"][3]["properties"]["range_m"] = west_m
+    area_doc["features"][4]["properties"].pop("endurance_s")
+    area_doc["features"][4]["properties"]["range_m"] = south_east_m
 
 
-def test_range_too_short_for_the_orientation_constraint(run_gcs, area_doc):
-    # 3 steps (3 * 42.4 m): under 3OC no loop of 3 steps returns to the start cell.
-    area_doc["features"][3]["properties"]["range_m"] = 130
-    _fails(run_gcs, area_doc, "too short to leave")
+def test_airports_that_cannot_leave_and_return(run_gcs, area_doc):
+    """No UAV can fly: the refusal names each with its reason. 50 m does not reach the airport's
+    cell and back; 130 m (3 axis steps) flies no loop back to the start cell under 3OC."""
+    _short_ranges(area_doc, 50, 130)
+    line = _fails(run_gcs, area_doc, "no UAV can leave its airport and come back: UAV 1 ('west'): range 50 m leaves")
+    assert "UAV 2 ('south-east'): range 130 m (" in line and "is too short to leave its airport and come back " \
+                                                             "under 3OC" in line
+
+
+@pytest.mark.parametrize("west_m, why", [(50, "cannot leave its airport and come back"),
+                                         (130, "too short to leave its airport and come back under 3OC")])
+def test_a_uav_that_cannot_leave_its_airport_stays_on_the_ground_and_the_others_are_planned(run_gcs, area_doc,
+                                                                                         west_m, why):
+    _short_ranges(area_doc, west_m, 3000)
+    code, err, out = run_gcs(area_doc)
+    assert code == 0, err
+    assert err.strip().startswith(f"warning: UAV 1 (west) stays on the ground, planned without it: range {west_m} m")
+    assert why in err
+    plan = json.loads((out / "plan.json").read_text())
+    assert [u["id"] for u in plan["uavs"]] == [2] and len(plan["uavs"][0]["trajectory"]) > 10
+    assert [(g["id"], g["name"]) for g in plan["grounded"]] == [(1, "west")] and why in plan["grounded"][0]["reason"]
+    assert not (out / "uav1.waypoints").exists() and (out / "uav2.waypoints").exists()
 
 
 def test_too_many_cells(run_gcs, area_doc):

@@ -48,7 +48,8 @@ def test_a_bad_run_keeps_the_previous_outputs(run_gcs, area_doc):
     assert run_gcs(area_doc)[0] == 0
     out = run_gcs(area_doc)[2]
     before = _snapshot(out)
-    area_doc["features"][3]["properties"]["range_m"] = 10
+    area_doc["features"][3]["properties"]["range_m"] = 10  # no UAV can leave its airport
+    area_doc["features"][4]["properties"]["endurance_s"] = 1
     assert run_gcs(area_doc)[0] == 2
     assert _snapshot(out) == before
 

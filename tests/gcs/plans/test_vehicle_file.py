@@ -118,3 +118,22 @@ def test_plan_ranges_come_from_the_vehicles_file(tmp_path, capsys):
                  "--quiet", "--no-rrd"])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "vehicles schema" in err and not (tmp_path / "x").exists()
+
+
+def test_the_issues_small_pack_stays_on_the_ground_and_the_fleet_is_planned_without_it(tmp_path, capsys):
+    """Issue 23's 1800 mAh ArduCopter on the field's 50 m cells: its range (about 450 m with the
+    30 % reserve) is shorter than the shortest loop out of its airport and home under 3OC, so
+    UAV 2 stays on the ground with its reason and UAVs 1 and 3 are planned."""
+    from tests.peers.site import FIELD_COPTERS
+
+    path = tmp_path / "vehicles.json"
+    path.write_text(json.dumps(vehicles_to_dict({"sysid:2": record("sysid:2", 2, capacity=1800.0)})))
+    out = FIELD_COPTERS.plan(tmp_path, "--vehicles", str(path))
+    err = capsys.readouterr().err
+    plan = json.loads((out / "plan.json").read_text())
+    assert [u["id"] for u in plan["uavs"]] == [1, 3]
+    [grounded] = plan["grounded"]
+    assert grounded["id"] == 2 and "too short to leave its airport and come back under 3OC" in grounded["reason"]
+    range_m = COPTER.with_capacity(1800.0).range_m(60.0, 30.0)
+    assert f"range {range_m:.0f} m" in grounded["reason"] and 300 < range_m < 527
+    assert f"warning: UAV 2 (south) stays on the ground, planned without it: range {range_m:.0f} m" in err
