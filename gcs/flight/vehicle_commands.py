@@ -6,6 +6,7 @@ the one the vehicle was first heard on."""
 from __future__ import annotations
 
 import asyncio
+import math
 import time
 from collections.abc import Callable
 
@@ -132,6 +133,16 @@ class VehicleCommands:
                 if exc.result not in REFUSED_FOR_NOW or time.monotonic() > end:
                     raise
                 await asyncio.sleep(0.5)
+
+    async def armed_after(self, t0: float, timeout_s: float) -> bool | None:
+        """Whether the first HEARTBEAT heard after monotonic time `t0` shows it armed; None when
+        none came within `timeout_s`."""
+        end = time.monotonic() + timeout_s
+        while (self.status.heartbeat_s or -math.inf) <= t0:
+            if time.monotonic() > end:
+                return None
+            await asyncio.sleep(0.02)
+        return self.status.armed
 
     async def replace_mission(self, items: Callable[[], list], timeout_s: float, uploaded: Callable[[], None]) -> None:
         """Replace the mission it flies with `items()` and fly it: hold (ArduPilot swaps the items

@@ -7,7 +7,7 @@ commands (`commands`), the operator's orders and range, and its timers. The flee
 Its stages (`Stage`, the values the journal, bus and recordings carry), in the order flown:
 
     preparing   CONNECTING -> PREPARING -> UPLOADING     `prepare` (checks in `gcs.flight.preflight`)
-    launching   ARMING                                    `launch`
+    launching   ARMING                                    `launch` (in `gcs.flight.launch`)
     searching   SEARCH                                    `watch`: the return trigger, every tick
     returning   RETURN (its planned way home), RTL (the autopilot's)   `send_home`, `rtl`
     landed      LANDED, LANDED_AWAY                       `update_stage`, from its telemetry
@@ -28,13 +28,13 @@ from typing import TYPE_CHECKING
 from gcs.autopilots import Autopilot
 from gcs.autopilots.mission_transfer import MissionTransferError
 from gcs.autopilots.modes import MISSION_MODES
-from gcs.flight import preflight
+from gcs.flight import launch, preflight
 from gcs.flight.events import MissionUploaded, ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.flight.options import FlyOptions
 from gcs.flight.vehicle_commands import VehicleCommands
 from gcs.flight.vehicle_energy import VehicleEnergy
 from gcs.flight.vehicle_track import PlanTrack, distance_m
-from gcs.links import CommandError, LinkError, MavLink, mavlink
+from gcs.links import LinkError, MavLink, mavlink
 from gcs.plans.plan_folder import FleetPlan
 from gcs.plans.vehicle_file import stock_profile
 from gcs.telemetry.status import FINAL_STAGES, Stage, VehicleStatus
@@ -220,41 +220,8 @@ class VehicleFlight:
         return await preflight.prepare(self, mission)
 
     async def launch(self) -> bool:
-        """Arm and start the mission as the autopilot wants it (`Autopilot.arm_mode`,
-        `start_after_arming`; ArduPlane takes off by itself once armed in AUTO), once its charge
-        pays for its plan (`arm`); one armed but not started is disarmed again."""
-        st = self.status
-        autopilot = st.autopilot or Autopilot.GENERIC
-        if not preflight.charge_covers_plan(self):
-            return False
-        self.set_stage(Stage.ARMING)
-        mode = autopilot.arm_mode(st.fixed_wing)
-        if mode is not None:
-            try:
-                await self.commands.set_mode(mode)
-            except CommandError as exc:
-                self.set_stage(Stage.FAILED, f"cannot switch to {mode} to arm: {exc}{self._said()}")
-                return False
-        try:
-            if not await self.arm(give_up=self.ordered_home):
-                self.set_stage(Stage.LANDED, "kept on the ground: return ordered before take-off")
-                return False
-        except CommandError as exc:
-            self.set_stage(Stage.FAILED, f"cannot arm: {exc}{self._said()}; left on the ground")
-            return False
-        if self.ordered_home():
-            await self.keep_on_ground()
-            return False
-        if autopilot.start_after_arming(st.fixed_wing):
-            try:
-                await self.commands.start_mission()
-            except CommandError as exc:
-                disarmed = await self.commands.disarm()
-                self.set_stage(Stage.FAILED, f"cannot start the mission: {exc}{self._said()}; "
-                                             + ("disarmed again" if disarmed else "COULD NOT DISARM: check it"))
-                return False
-        self.set_stage(Stage.SEARCH, "mission started")
-        return True
+        """Arm it and start its mission (`gcs.flight.launch`); False when it stays on the ground."""
+        return await launch.launch(self)
 
     async def arm(self, give_up: Callable[[], bool] = lambda: False) -> bool:
         """`VehicleCommands.arm` for up to `arm_timeout_s`, its vehicle heard within `link_timeout_s`."""
@@ -279,9 +246,6 @@ class VehicleFlight:
             return False
         self.set_stage(Stage.LANDED, "kept on the ground: return ordered before take-off")
         return True
-
-    def _said(self) -> str:  # the autopilot's last words
-        return f" (autopilot: {self.status.last_text})" if self.status.last_text else ""
 
     # ---- searching: the return trigger -----------------------------------------------------
 

@@ -53,22 +53,31 @@ class PlanTrack:
     def index_on_board(self, autopilot: Autopilot, seq: int, lat_deg: float, lon_deg: float, fallback: int) -> int:
         """The step a vehicle flying its search mission is at, from its current item (`seq`,
         MISSION_CURRENT; the autopilot's first item is the take-off) and its position: between the
-        waypoint before the one flown to and that one, the step nearest the position; before the
-        first waypoint 0, past the last the trajectory's end; `fallback` when the waypoint flown
-        to is not on the trajectory."""
+        waypoint before the one flown to and that one (past the last: on to the trajectory's end),
+        the step nearest the position; before the first waypoint 0. `fallback` when the waypoint
+        flown to is not on the trajectory, or when the position is more than `off_track_m` from
+        every step between (a stale MISSION_CURRENT, of an earlier mission, must not move it on)."""
         waypoint = seq - autopilot.first_mission_seq() - 1
         if not len(self.track_m):
             return fallback
         if waypoint < 0:
             return 0
+        steps, last = self.waypoint_steps, len(self.track_m) - 1
         if waypoint >= len(self.task.waypoints):
-            return len(self.track_m) - 1
-        steps = self.waypoint_steps
-        if waypoint >= len(steps):
+            lo, hi = (steps[-1] if steps and len(steps) == len(self.task.waypoints) else 0), last
+        elif waypoint >= len(steps):
             return fallback
-        lo, hi = (steps[waypoint - 1] if waypoint > 0 else 0), steps[waypoint]
+        else:
+            lo, hi = (steps[waypoint - 1] if waypoint > 0 else 0), steps[waypoint]
         near = np.hypot(*(self.track_m[lo:hi + 1] - np.array(self.plan.local_m(lat_deg, lon_deg))).T)
-        return lo + int(np.argmin(near))
+        nearest = int(np.argmin(near))
+        return lo + nearest if near[nearest] <= self.off_track_m else fallback
+
+    @property
+    def off_track_m(self) -> float:
+        """How far from its trajectory a vehicle flying it may be seen: a cell and a half (a plane
+        cuts its turns, a position is a few hundred milliseconds old)."""
+        return 1.5 * self.plan.cell_size_m
 
     def flown_m(self, index: int) -> float:
         """Metres of the plan behind pose `index`: the trajectory's length up to it."""

@@ -74,6 +74,7 @@ class VehicleStatus:
     mission_seq: int = 0
     mission_total: int = 0
     last_heard_s: float | None = None
+    heartbeat_s: float | None = None  # when its last HEARTBEAT came (monotonic)
     airborne_seen: bool = False
     battery_samples: deque = field(default_factory=lambda: deque(maxlen=120))
     detections: list[Detection] = field(default_factory=list)
@@ -158,6 +159,7 @@ class VehicleStatus:
             self.mav_type = msg.type
             self.custom_mode = msg.custom_mode
             self.armed = bool(msg.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+            self.heartbeat_s = now_s
             self.mode_name = self.autopilot.mode_name(msg.type, msg.custom_mode)
         elif kind == "GLOBAL_POSITION_INT":
             lat, lon = msg.lat / 1e7, msg.lon / 1e7

@@ -48,21 +48,31 @@ def fly(plan: Path, connections: list[str] | int, *extra: str, timeout: float = 
                 user(line)
 
         on_line = type_orders
-    with subprocess.Popen(args, stdin=subprocess.PIPE if orders else None, stdout=subprocess.PIPE,
-                          stderr=subprocess.PIPE, text=True) as process:
+    process = subprocess.Popen(args, stdin=subprocess.PIPE if orders else None, stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    # killed at the deadline even when it falls silent, and whatever ends the test (pytest-timeout
+    # raising in the middle of a read): a station left running would hold its worker forever
+    deadline = threading.Timer(timeout, process.kill)
+    deadline.start()
+    try:
         err: list[str] = []
         reader = threading.Thread(target=lambda: err.append(process.stderr.read()), daemon=True)
         reader.start()
         out = []
-        deadline = time.monotonic() + timeout
         for line in process.stdout:
             out.append(line)
             if on_line is not None:
                 on_line(line)
-            if time.monotonic() > deadline:
-                process.kill()
-        process.wait(timeout)
+        process.wait(30)
         reader.join(5)
+    finally:
+        deadline.cancel()
+        if process.poll() is None:
+            process.kill()
+            process.wait(30)
+        for stream in (process.stdin, process.stdout, process.stderr):
+            if stream is not None:
+                stream.close()
     return subprocess.CompletedProcess(args, process.returncode, "".join(out), "".join(err))
 
 

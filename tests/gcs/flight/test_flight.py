@@ -175,6 +175,38 @@ def test_an_arming_left_unanswered_is_asked_again_while_the_vehicle_is_heard(pla
     assert _landed_home(plan, fleet, 1) < 5.0
 
 
+@pytest.mark.parametrize("disarms", [1, 3])
+def test_a_copter_its_autopilot_disarmed_before_its_mission_started_is_armed_again(plan, capsys, disarms):
+    """UAV 2's autopilot disarms it on the ground just before each of its first `disarms`
+    MISSION_STARTs takes (ArduCopter's DISARM_DELAY ran out while a loaded station was slow to
+    start it; as ArduCopter does, it still accepts the start and sits in AUTO, disarmed): its next
+    HEARTBEAT shows it, and it is armed and started again. Three times in a row: it is left
+    FAILED, saying so, and the flight ends with the others landed (it used to wait for it forever)."""
+    def disarm_before_the_start(fleet):
+        def install():
+            vehicle = fleet.vehicle(2)
+            start, left = vehicle._mission_start, [disarms]
+
+            def start_disarmed(p):
+                if left[0] > 0:
+                    left[0] -= 1
+                    vehicle._disarm()
+                return start(p)
+            vehicle._mission_start = start_disarmed
+        fleet.call(install)
+
+    controller, fleet = fly(plan, during=disarm_before_the_start)
+    out = capsys.readouterr().out
+    assert out.count("UAV 2: disarmed on the ground as its mission started") == min(disarms, 2), out[-3000:]
+    assert all(controller.status[u].stage is Stage.LANDED for u in (1, 3, 4)), out[-3000:]
+    if disarms < 3:
+        assert controller.status[2].stage is Stage.LANDED and controller.status[2].airborne_seen, out[-3000:]
+        assert _landed_home(plan, fleet, 2) < 5.0
+    else:
+        assert controller.status[2].stage is Stage.FAILED and not controller.status[2].airborne_seen
+        assert "UAV 2: failed - disarmed on the ground each time its mission started (3 tries)" in out, out[-3000:]
+
+
 def test_unknown_uav_in_a_return_order_is_refused(plan):
     from gcs.flight.controller import FlightController
 

@@ -118,6 +118,22 @@ def test_the_place_on_the_plan_comes_from_the_mission_item_flown_to(plan):
                 == len(points) - 1  # landing
 
 
+def test_a_current_item_the_vehicle_is_nowhere_near_does_not_move_its_place(plan):
+    """A MISSION_CURRENT of an earlier mission (or a late one) names a waypoint far from where the
+    vehicle is: its place stays what the walk along its track found (the fallback)."""
+    for autopilot in (Autopilot.ARDUPILOT, Autopilot.PX4):
+        first = autopilot.first_mission_seq()
+        for uid, task in plan.uavs.items():
+            track = PlanTrack(plan, uid)
+            airport = task.trajectory[0].lat_deg, task.trajectory[0].lon_deg
+            far = [j for j, wp in enumerate(task.waypoints) if _metres(plan, airport, wp) > 4 * track.off_track_m
+                   and (j == 0 or _metres(plan, airport, task.waypoints[j - 1]) > 4 * track.off_track_m)]
+            assert far, uid
+            for j in far:
+                assert track.index_on_board(autopilot, first + 1 + j, *airport, fallback=7) == 7, (uid, j)
+            assert track.index_on_board(autopilot, first + 1 + far[0], *task.waypoints[far[0]], -1) > 0
+
+
 # ---- the journal read back ---------------------------------------------------------------------
 
 @pytest.fixture(scope="module")

@@ -121,9 +121,9 @@ def test_plan_ranges_come_from_the_vehicles_file(tmp_path, capsys):
 
 
 def test_the_issues_small_pack_stays_on_the_ground_and_the_fleet_is_planned_without_it(tmp_path, capsys):
-    """Issue 23's 1800 mAh ArduCopter on the field's 50 m cells: its range (about 450 m with the
-    30 % reserve) is shorter than the shortest loop out of its airport and home under 3OC, so
-    UAV 2 stays on the ground with its reason and UAVs 1 and 3 are planned."""
+    """Issue 23's 1800 mAh ArduCopter on the field's 50 m cells: its range (510 m with the 30 %
+    reserve, 440 m over the grid) is shorter than the shortest loop out of its airport and home
+    under 3OC, so UAV 2 stays on the ground with its reason and UAVs 1 and 3 are planned."""
     from tests.peers.site import FIELD_COPTERS
 
     path = tmp_path / "vehicles.json"
