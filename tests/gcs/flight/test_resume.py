@@ -202,7 +202,11 @@ def _searching(state) -> bool:
 
 
 def _preparing(state) -> bool:
-    return len(state.vehicles) == 4 and all(v.stage is Stage.PREPARING for v in state.vehicles.values())
+    """Every vehicle heard, none armed yet, one or more making ready or uploading (the four pass
+    PREPARING together in a few hundredths of a second: a poll of the journal can miss that)."""
+    stages = [v.stage for v in state.vehicles.values()]
+    return len(stages) == 4 and set(stages) <= {Stage.CONNECTING, Stage.PREPARING, Stage.UPLOADING} \
+        and bool(set(stages) & {Stage.PREPARING, Stage.UPLOADING})
 
 
 def _returning(state) -> bool:
