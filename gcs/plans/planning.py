@@ -327,7 +327,9 @@ def paths_for_teams(collection: dict, missions: list[UavMission], name: str) -> 
 
 def write_outputs(out_dir: Path, files: dict[str, str]) -> None:
     """Publish all files together (names may hold sub-folders, `sortie2/plan.json`); on failure
-    remove nothing old and leave no new folder behind."""
+    remove nothing old and leave no new folder behind. Once published, a plan folder keeps no
+    mission file of a UAV its new plan.json does not fly (one left on the ground, an airport gone):
+    a crew must not load a mission planned for another range."""
     paths = [out_dir / name for name in files]
     folders = {out_dir} | {parent for path in paths for parent in path.parents if out_dir in parent.parents}
     new_dirs = sorted((d for d in folders if not d.exists()), key=lambda d: len(d.parts), reverse=True)
@@ -340,6 +342,10 @@ def write_outputs(out_dir: Path, files: dict[str, str]) -> None:
             if folder.is_dir() and not any(folder.iterdir()):
                 folder.rmdir()
         raise
+    for plan_file in (path for path in paths if path.name == "plan.json"):
+        for old in [*plan_file.parent.glob("uav*.waypoints"), *plan_file.parent.glob("uav*.plan")]:
+            if old not in paths:
+                old.unlink(missing_ok=True)
 
 
 def area_out_dir(area_file: str | Path, out: str | Path | None = None) -> Path:

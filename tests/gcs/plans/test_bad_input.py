@@ -81,6 +81,7 @@ def test_airports_that_cannot_leave_and_return(run_gcs, area_doc):
                                          (130, "too short to leave its airport and come back under 3OC")])
 def test_a_uav_that_cannot_leave_its_airport_stays_on_the_ground_and_the_others_are_planned(run_gcs, area_doc,
                                                                                          west_m, why):
+    assert run_gcs(area_doc)[0] == 0  # planned with both, into the same folder
     _short_ranges(area_doc, west_m, 3000)
     code, err, out = run_gcs(area_doc)
     assert code == 0, err
@@ -89,7 +90,7 @@ def test_a_uav_that_cannot_leave_its_airport_stays_on_the_ground_and_the_others_
     plan = json.loads((out / "plan.json").read_text())
     assert [u["id"] for u in plan["uavs"]] == [2] and len(plan["uavs"][0]["trajectory"]) > 10
     assert [(g["id"], g["name"]) for g in plan["grounded"]] == [(1, "west")] and why in plan["grounded"][0]["reason"]
-    assert not (out / "uav1.waypoints").exists() and (out / "uav2.waypoints").exists()
+    assert sorted(path.name for path in out.glob("uav*")) == ["uav2.plan", "uav2.waypoints"]  # UAV 1's old ones gone
 
 
 def test_too_many_cells(run_gcs, area_doc):
