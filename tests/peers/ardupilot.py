@@ -8,7 +8,6 @@ only where the peers folder is absent."""
 from __future__ import annotations
 
 import os
-import socket
 import subprocess
 import tempfile
 import time
@@ -17,6 +16,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.peers.ports import free_udp_port
 from tests.peers.process import InstanceClaim, SitlProcess, claim, port_free
 
 REPO = Path(__file__).resolve().parents[2]
@@ -36,12 +36,6 @@ def require_ardupilot() -> Path:
     if not (folder / "run-sitl").exists():
         pytest.skip(f"ArduPilot SITL not found at {folder} (set GCS_PEERS_DIR to the peers folder)")
     return folder
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _ports_free(instance: int) -> bool:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.peers.ports import free_ports
 from tests.sim.helpers import Gcs
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -68,23 +69,8 @@ def test_port_in_use_is_a_user_error():
     assert result.stderr.strip().startswith("error: cannot listen") and "Traceback" not in result.stderr
 
 
-def _free_port_pair() -> int:
-    for _ in range(50):
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
-            a.bind(("127.0.0.1", 0))
-            port = a.getsockname()[1]
-            try:
-                with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as b:
-                    b.bind(("127.0.0.1", port + 1))
-            except OSError:
-                continue
-            if port < 65000:
-                return port
-    raise RuntimeError("no free pair of UDP ports")
-
-
 def test_two_vehicles_serve_mavlink_and_ctrl_c_exits_0():
-    base = _free_port_pair()
+    base = free_ports(2)
     proc = subprocess.Popen(
         [sys.executable, "-m", "gcs.cli", "sim", "--vehicles", "2", "--home=-35.36,149.16,90",
          "--base-port", str(base), "--speedup", "5"],

@@ -1,7 +1,6 @@
 """`gcs sim --area`: one vehicle per airport of an area file, at the airport, with its heading."""
 
 import signal
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -9,35 +8,16 @@ from pathlib import Path
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.plans.area_file import read_area_file
+from tests.peers.ports import free_ports
 from tests.sim.helpers import Gcs, distance_m
 
 ROOT = Path(__file__).resolve().parents[2]
 AREA = ROOT / "missions" / "paper.geojson"
 
 
-def _free_ports(n: int) -> int:
-    for _ in range(50):
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
-            a.bind(("127.0.0.1", 0))
-            base = a.getsockname()[1]
-        if base > 65000:
-            continue
-        try:
-            socks = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(n)]
-            for i, s in enumerate(socks):
-                s.bind(("127.0.0.1", base + i))
-        except OSError:
-            continue
-        finally:
-            for s in socks:
-                s.close()
-        return base
-    raise RuntimeError("no free UDP ports")
-
-
 def test_vehicles_start_at_the_area_airports():
     airports = read_area_file(AREA).airports
-    base = _free_ports(len(airports))
+    base = free_ports(len(airports))
     proc = subprocess.Popen([sys.executable, "-m", "gcs.cli", "sim", "--area", str(AREA), "--base-port", str(base),
                              "--speedup", "5"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:

@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from tests.gcs.autopilots.flights import fly
-from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
+from tests.peers.ardupilot import ArduPilotSitl
+from tests.peers.ports import free_udp_port
 from tests.peers.px4 import Px4Sitl
 from tests.peers.recorder import Flown, SpareRecorder, waypoints_passed
 from tests.peers.site import Site
@@ -107,6 +108,7 @@ def fly_fleet(tmp_path: Path, site: Site, vehicles: list[Vehicle], *gcs_args: st
             _injector(serial0[uav], uav, recorders[uav], away_m, params)
         done = fly(plan_dir, connections, "--no-rrd", *gcs_args, timeout=900)
         flown = {uid: r.stop() for uid, r in recorders.items()}
+    assert done.stdout.strip(), f"gcs fly said nothing, exit {done.returncode}: {done.stderr[-3000:]}"
     verdicts = {}
     for u in plan["uavs"]:
         uid = u["id"]

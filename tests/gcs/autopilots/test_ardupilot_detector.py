@@ -24,7 +24,8 @@ from gcs.plans.planning import build_area_search
 from gcs.telemetry.status import Stage
 from planner.sensor_noise import reading_draw
 from sim.detector import CAMERA_COMPONENT_ID, Detector, World, serve
-from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
+from tests.peers.ardupilot import ArduPilotSitl
+from tests.peers.ports import free_udp_port
 from tests.peers.process import SITL_WORKER
 from tests.peers.site import GROUND_AMSL_M, Airport, Site
 

@@ -24,7 +24,8 @@ from tests.gcs.autopilots.flights import (
     recorded,
 )
 from tests.gcs.bus.helpers import Mosquitto
-from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
+from tests.peers.ardupilot import ArduPilotSitl
+from tests.peers.ports import free_udp_port
 from tests.peers.process import SITL_WORKER
 from tests.peers.relay import UdpRelay
 from tests.peers.site import COPTERS, MEADOW, PLANE, Site

@@ -21,7 +21,8 @@ from tests.gcs.autopilots.flights import (
     recorded,
 )
 from tests.gcs.bus.helpers import Mosquitto
-from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
+from tests.peers.ardupilot import ArduPilotSitl
+from tests.peers.ports import free_udp_port
 from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
 from tests.peers.relay import UdpRelay

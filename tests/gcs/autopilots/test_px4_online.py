@@ -23,7 +23,8 @@ from gcs.telemetry.status import Stage
 from planner.sensor_noise import reading_draw
 from sim.detector import CAMERA_COMPONENT_ID
 from tests.gcs.autopilots.flights import metres
-from tests.peers.ardupilot import ArduPilotSitl, free_udp_port
+from tests.peers.ardupilot import ArduPilotSitl
+from tests.peers.ports import free_udp_port
 from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
 from tests.peers.site import Airport, Site

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from gcs.bus import Command, CommandKind, FleetBus, Telemetry
+from tests.peers.ports import free_port
 
 MOSQUITTO = "/usr/sbin/mosquitto"
 MOSQUITTO_PASSWD = "/usr/bin/mosquitto_passwd"
@@ -27,12 +28,6 @@ def ensure_mosquitto() -> None:
     subprocess.run(["apt-get", "update"], check=True, capture_output=True)
     subprocess.run(["apt-get", "install", "-y", "mosquitto"], check=True, capture_output=True,
                    env={**os.environ, "DEBIAN_FRONTEND": "noninteractive"})
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Mosquitto:

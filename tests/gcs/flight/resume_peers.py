@@ -16,6 +16,7 @@ from pathlib import Path
 from gcs.flight.journal import JOURNAL_FILE, JournalError, JournalState, read_journal
 from gcs.recording.flight import FLIGHT_TIME, segment_path
 from gcs.recording.plan import read_recording
+from tests.peers.ports import free_ports
 from tests.peers.process import stop_process
 
 
@@ -94,7 +95,7 @@ class SimProcess:
             lat, lon = plan.uavs[uid].airport_lat_lon
             args.append(f"--home={lat},{lon},{plan.uavs[uid].start_heading * 45}")
         args += [f"--target={lat},{lon}" for lat, lon in (plan.cell_lat_lon(x, y) for x, y in plan.targets)]
-        base = _free_udp_ports(len(ids))
+        base = free_ports(len(ids))
         self.ports = list(range(base, base + len(ids)))
         self.process = subprocess.Popen([*args, "--base-port", str(base)], stdout=subprocess.PIPE,
                                         stderr=subprocess.STDOUT, text=True)
@@ -108,28 +109,6 @@ class SimProcess:
     def __exit__(self, *exc: object) -> None:
         if self.process is not None:
             stop_process(self.process)
-
-
-def _free_udp_ports(n: int) -> int:
-    """The first of `n` consecutive free loopback UDP ports."""
-    import random
-    import socket
-
-    for _ in range(100):
-        base = random.randint(20000, 60000 - n)
-        sockets = []
-        try:
-            for port in range(base, base + n):
-                s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-                sockets.append(s)
-                s.bind(("127.0.0.1", port))
-            return base
-        except OSError:
-            continue
-        finally:
-            for s in sockets:
-                s.close()
-    raise RuntimeError("no free UDP ports")
 
 
 def vehicle_state(connection: str, timeout_s: float = 10.0) -> tuple[float, float, bool]:

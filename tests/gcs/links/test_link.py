@@ -12,6 +12,7 @@ import pytest
 import serial
 
 from gcs.links import CommandError, Connection, LinkKind, LinkState, LinkUnavailable, MavLink, mavlink, parse_connection
+from tests.peers.ports import free_udp_port
 
 
 @pytest.mark.parametrize("text, expected", [
@@ -151,9 +152,7 @@ def test_links_that_cannot_open_say_why(serial_cable, tmp_path):
 def test_several_vehicles_pushing_to_one_udp_port_are_each_answered(make_fleet):
     """As several SITLs with `--serial1 udpclient:HOST:PORT` or MAVProxy outputs: each vehicle
     sends from its own port to ours, and each must get its own replies."""
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    port = free_udp_port()
     fleet = make_fleet(3, out=(("127.0.0.1", port),))
 
     async def main():

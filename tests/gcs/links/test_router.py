@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import asyncio
 import shutil
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -14,14 +13,9 @@ from pathlib import Path
 from gcs.autopilots import Autopilot
 from gcs.autopilots.mission_transfer import WireItem, upload_verified
 from gcs.links import MavLink, mavlink
+from tests.peers.ports import free_udp_port
 
 MAVPROXY = Path(sys.executable).with_name("mavproxy.py")
-
-
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _mission(sysid: int) -> list[WireItem]:
@@ -34,7 +28,7 @@ def _mission(sysid: int) -> list[WireItem]:
 def test_three_vehicles_behind_one_router_port_are_each_answered_and_take_their_missions(make_fleet, tmp_path):
     assert MAVPROXY.exists() or shutil.which("mavproxy.py"), "MAVProxy is installed by tools/setup --test"
     fleet = make_fleet(3)
-    port = _free_udp_port()
+    port = free_udp_port()
     args = [str(MAVPROXY if MAVPROXY.exists() else shutil.which("mavproxy.py")), "--daemon", "--non-interactive",
             "--out", f"udpout:127.0.0.1:{port}", "--state-basedir", str(tmp_path)]
     for conn in fleet.connection_strings():

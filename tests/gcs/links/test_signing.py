@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import asyncio
 import hashlib
-import socket
 import subprocess
 import sys
 
@@ -14,6 +13,7 @@ import pytest
 
 from gcs.links import CommandError, LinkState, MavLink, SigningKey, mavlink
 from gcs.links.signing import SignedCodec, enable_signing, signing_timestamp
+from tests.peers.ports import free_udp_port
 
 PASSPHRASE = "correct horse battery staple"
 KEY = SigningKey.from_passphrase(PASSPHRASE)
@@ -83,9 +83,7 @@ def test_signed_station_and_signed_vehicles_talk_and_everything_is_signed(make_f
 
 @pytest.mark.parametrize("vehicle_key", [None, SigningKey.from_passphrase("another").secret])
 def test_traffic_not_signed_with_our_key_is_refused_and_reported(make_fleet, vehicle_key):
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    port = free_udp_port()
     fleet = make_fleet(signing_key=vehicle_key, out=(("127.0.0.1", port),))  # the vehicle pushes to us
     seen = []
 

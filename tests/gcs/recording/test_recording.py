@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 from gcs.recording.plan import PlanRecorder, cell_to_view, map_to_rgb, read_recording, view_to_cell
-from gcs.recording.replay import free_port, stop_server, viewer_command, wait_for_port
+from gcs.recording.replay import stop_server, viewer_command, wait_for_port
 from planner.plan import Stage
 from tests.gcs.recording.conftest import RecordedRun, record_search
+from tests.peers.ports import free_port
 
 HERE = Path(__file__).parent
 

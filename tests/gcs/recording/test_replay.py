@@ -17,9 +17,10 @@ from PIL import Image
 
 from gcs.cli import main
 from gcs.recording.plan import map_to_rgb
-from gcs.recording.replay import free_port, viewer_command
+from gcs.recording.replay import viewer_command
 from tests.gcs.recording.browser import Browser
 from tests.gcs.recording.conftest import RecordedRun
+from tests.peers.ports import free_port
 
 ROOT = Path(__file__).parents[3]
 

@@ -25,6 +25,7 @@ from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import NameOID
 
 from gcs.tak.pytak_module import pytak
+from tests.peers.ports import free_port
 
 ROOT = Path(__file__).resolve().parents[3]
 HERE = Path(__file__).resolve().parent
@@ -42,12 +43,6 @@ def ensure_freetakserver() -> Path:
     subprocess.run([str(PYTHON), "-m", "pip", "install", "--quiet", "-r", str(HERE / "freetakserver-requirements.txt")],
                    check=True, timeout=1200)
     return PYTHON
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 # ---- certificates -----------------------------------------------------------------------------
@@ -427,8 +422,3 @@ def xml_of_proto(message) -> ET.Element:
     element.append(detail)
     return element
 
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]

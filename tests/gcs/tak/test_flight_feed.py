@@ -10,7 +10,8 @@ from gcs.tak.flight_feed import TakFeed
 from gcs.tak.settings import TakSettings
 from gcs.telemetry.status import Stage
 from tests.gcs.flight.conftest import fast_options, fly
-from tests.gcs.tak.helpers import MulticastReader, free_udp_port
+from tests.gcs.tak.helpers import MulticastReader
+from tests.peers.ports import free_udp_port
 
 
 def test_a_vehicle_that_goes_silent_fades_on_the_map_and_the_other_lands(square_plan_dir):

@@ -14,7 +14,8 @@ from datetime import timedelta
 from pathlib import Path
 
 from gcs.plans.plan_folder import load_plan_dir
-from tests.gcs.tak.helpers import MulticastReader, Received, TakClient, free_udp_port
+from tests.gcs.tak.helpers import MulticastReader, Received, TakClient
+from tests.peers.ports import free_udp_port
 
 ROOT = Path(__file__).resolve().parents[3]
 SQUARE = Path(__file__).with_name("square.geojson")

@@ -18,7 +18,8 @@ from gcs.tak.destination import TakProtocol, TakTls, check_tls, parse_tak_url
 from gcs.tak.publisher import TakPublisher
 from gcs.tak.sender import close_senders, open_senders
 from gcs.tak.settings import TakSettings
-from tests.gcs.tak.helpers import MulticastReader, TakClient, free_port, free_udp_port
+from tests.gcs.tak.helpers import MulticastReader, TakClient
+from tests.peers.ports import free_port, free_udp_port
 
 
 def _sample(uav: int, step: int = 0, stage: str = "search") -> TrackSample:
