@@ -72,6 +72,10 @@ def may_become(before: Stage, after: Stage, lost_in: Stage | None = None) -> boo
     return after in TRANSITIONS[before] or (before not in FINAL_STAGES and after in FROM_ANY_STAGE)
 
 
+#: Wall seconds a vehicle stopped mid-launch is given to lift off before it is disarmed instead
+LIFT_OFF_S = 5.0
+
+
 class StageError(RuntimeError):
     """A stage change `TRANSITIONS` does not list: a bug in the flight code."""
 
@@ -344,14 +348,22 @@ class VehicleFlight:
             self.say(account.line())
 
     async def secure(self, rtl_airborne: bool) -> None:
-        """Disarm it when armed on the ground; with `rtl_airborne`, RTL when in the air and not going home."""
+        """Disarm it when armed on the ground; with `rtl_airborne`, RTL when in the air and not going
+        home. One stopped mid-launch (arming, or started and not yet off the ground) is given
+        `LIFT_OFF_S` to lift off, and sent home if it does or its autopilot refuses the disarm."""
         st = self.status
         if self.link is None or st.stage is Stage.LOST:
             return
-        if st.armed and not st.airborne and st.stage is not Stage.SEARCH:
-            ok = await self.commands.disarm()
-            self.say("on the ground, disarmed" if ok else "ARMED ON THE GROUND: disarm did not confirm, check it")
-        elif rtl_airborne and st.airborne and st.stage not in (Stage.RETURN, Stage.RTL, Stage.LANDED):
+        if rtl_airborne and st.stage in (Stage.ARMING, Stage.SEARCH) and not st.airborne:
+            await preflight.wait_until(lambda: st.airborne, LIFT_OFF_S)
+        if st.armed and not st.airborne:
+            if await self.commands.disarm():
+                self.say("on the ground, disarmed")
+                return
+            if not (rtl_airborne and st.airborne):
+                self.say("ARMED ON THE GROUND: disarm did not confirm, check it")
+                return
+        if rtl_airborne and st.airborne and st.stage not in (Stage.RETURN, Stage.RTL, Stage.LANDED):
             if not await self.rtl():
                 self.say("in the air and did not confirm RTL: check it yourself")
 

@@ -166,7 +166,9 @@ def test_an_arming_left_unanswered_is_asked_again_while_the_vehicle_is_heard(pla
                 vehicle._on_command = on_command_busy
         fleet.call(install)
 
-    controller, fleet = fly(plan, during=lose_arming_acks)
+    # the stock minute to arm in, not the fast options' 5 s: on a loaded machine two commands'
+    # tries (4 s) and a late answer took more than 5 s, and that is no fault of the station
+    controller, fleet = fly(plan, fast_options(arm_timeout_s=FlyOptions.arm_timeout_s), during=lose_arming_acks)
     out = capsys.readouterr().out
     assert "UAV 1: arming unanswered: COMPONENT_ARM_DISARM to vehicle 1: no COMMAND_ACK after 4 tries" in out \
         or fault == "acks lost", out[-3000:]
@@ -495,6 +497,38 @@ def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch)
     finally:
         fleet.stop()
     assert all(mode is Mode.RTL for mode in modes.values()), modes
+
+
+def test_a_controller_failing_as_a_vehicle_lifts_off_sends_it_home_too(plan, monkeypatch):
+    """The bug fires the moment a vehicle's mission has started and it is not yet seen in the air
+    (armed, on the ground, its motors spinning up): once it lifts off it is sent home, and no
+    vehicle is left armed flying its mission unwatched."""
+    from gcs.flight.controller import FlightAborted
+    from gcs.flight.fly import fly_async
+    from gcs.flight.vehicle_flight import VehicleFlight
+    from sim import Mode
+    from sim.plan_fleet import fleet_for_plan
+
+    real = VehicleFlight.watch
+    lifting: list[int] = []
+
+    def watch(self):
+        if self.status.stage is Stage.SEARCH and self.status.armed and not self.status.airborne:
+            lifting.append(self.uid)
+            raise ZeroDivisionError("injected bug")
+        return real(self)
+
+    monkeypatch.setattr(VehicleFlight, "watch", watch)
+    fleet = fleet_for_plan(plan, speedup=2.0).start()  # a take-off of wall seconds, as SITL's at speed-up 1-5
+    try:
+        with pytest.raises(FlightAborted, match="injected bug"):
+            asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options()), 120))
+        states = {uid: fleet.vehicle(uid).state for uid in plan.uavs}
+    finally:
+        fleet.stop()
+    assert states[lifting[0]].mode is Mode.RTL, (lifting, {u: (s.mode, s.armed) for u, s in states.items()})
+    assert all(s.mode is Mode.RTL or not s.armed for s in states.values()), {u: (s.mode, s.armed)
+                                                                             for u, s in states.items()}
 
 
 def test_fly_plan_from_python_keeps_the_journal_and_the_sortie_record(plan_dir, tmp_path):
