@@ -9,6 +9,7 @@ import time
 from typing import TYPE_CHECKING
 
 from gcs.autopilots import Autopilot
+from gcs.autopilots.modes import MISSION_MODES
 from gcs.flight import preflight
 from gcs.links import CommandError
 from gcs.telemetry.status import Stage
@@ -56,6 +57,10 @@ async def launch(vehicle: VehicleFlight) -> bool:
         try:
             await vehicle.commands.start_mission()
         except CommandError as exc:
+            if exc.result is None and await _started_unanswered(vehicle):
+                vehicle.say(f"MISSION_START unanswered, but its HEARTBEAT shows it armed in {st.mode_name}: "
+                            "its mission started")
+                break
             disarmed = await vehicle.commands.disarm()
             vehicle.set_stage(Stage.FAILED, f"cannot start the mission: {exc}{_said(vehicle)}; "
                                             + ("disarmed again" if disarmed else "COULD NOT DISARM: check it"))
@@ -71,6 +76,14 @@ async def launch(vehicle: VehicleFlight) -> bool:
         return False
     vehicle.set_stage(Stage.SEARCH, "mission started")
     return True
+
+
+async def _started_unanswered(vehicle: VehicleFlight) -> bool:
+    """A MISSION_START whose acknowledgements were all lost (or came late) that took: its next
+    HEARTBEAT shows it armed in its mission mode (ArduCopter was armed in GUIDED, and only the start
+    switches it to AUTO)."""
+    armed = await vehicle.commands.armed_after(time.monotonic(), vehicle.options.link_timeout_s)
+    return bool(armed) and vehicle.status.mode_name in MISSION_MODES
 
 
 def _said(vehicle: VehicleFlight) -> str:

@@ -177,6 +177,29 @@ def test_an_arming_left_unanswered_is_asked_again_while_the_vehicle_is_heard(pla
     assert _landed_home(plan, fleet, 1) < 5.0
 
 
+def test_a_mission_start_whose_acknowledgements_are_lost_is_seen_started_and_flown(plan, capsys):
+    """UAV 1's autopilot carries out MISSION_START but every COMMAND_ACK to it is lost (a busy
+    radio, a loaded station): its next HEARTBEAT shows it armed in AUTO, and the station flies it
+    on rather than taking the start as refused and disarming a vehicle that is lifting off."""
+    def lose_start_acks(fleet):
+        def install():
+            link = fleet.link(1)
+            send = link.send
+
+            def send_losing(msgs):
+                send([m for m in msgs if not (m.get_type() == "COMMAND_ACK"
+                                              and m.command == mavlink.MAV_CMD_MISSION_START)])
+            link.send = send_losing
+        fleet.call(install)
+
+    controller, fleet = fly(plan, during=lose_start_acks)
+    out = capsys.readouterr().out
+    assert "UAV 1: MISSION_START unanswered, but its HEARTBEAT shows it armed in AUTO: its mission started" in out, \
+        out[-3000:]
+    assert all(controller.status[u].stage is Stage.LANDED for u in plan.uavs), out[-3000:]
+    assert controller.status[1].return_reason is None and _landed_home(plan, fleet, 1) < 5.0
+
+
 @pytest.mark.parametrize("disarms", [1, 3])
 def test_a_copter_its_autopilot_disarmed_before_its_mission_started_is_armed_again(plan, capsys, disarms):
     """UAV 2's autopilot disarms it on the ground just before each of its first `disarms`
