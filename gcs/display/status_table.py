@@ -77,11 +77,13 @@ def targets_found(controller: FlightController) -> tuple[set[tuple[int, int]], i
 def render_summary(controller: FlightController) -> str:
     """Per vehicle: how it ended, where (distance from its own airport), battery at landing, why
     it returned, the charge it used from launch to touch-down against what its energy profile
-    predicted at launch for what it flew, readings; then the fleet's landings and targets."""
+    predicted at launch for what it flew, readings; a row for each UAV the plan left on the ground
+    (plan.json's `grounded`); then the fleet's landings and targets."""
     plan = controller.plan
-    rows = [f"{'UAV':>3} {'name':<12} {'end':<11} {'from airport m':>14} {'batt %':>6} {'returned':<10} "
-            f"{'used mAh':>8} {'predicted':>9} {'looks':>5} {'hits':>4}  note"]
-    for uid, st in sorted(controller.status.items()):
+    header = (f"{'UAV':>3} {'name':<12} {'end':<11} {'from airport m':>14} {'batt %':>6} {'returned':<10} "
+              f"{'used mAh':>8} {'predicted':>9} {'looks':>5} {'hits':>4}  note")
+    by_uav: dict[int, str] = {}
+    for uid, st in controller.status.items():
         task = plan.uavs[uid]
         away = "-"
         if st.has_position:
@@ -92,14 +94,22 @@ def render_summary(controller: FlightController) -> str:
         account = controller.vehicles[uid].energy.energy_account()
         used = f"{account.used_mah:>8.0f} {account.predicted_mah:>5.0f} {account.error:>+4.0%}" if account \
             else f"{'-':>8} {'-':>9}"
-        rows.append(f"{uid:>3} {task.name[:12]:<12} {st.stage.value:<11} {away:>14} {_num(batt, '.0f'):>6} "
-                    f"{st.return_reason or 'plan':<10} {used} {len(st.detections):>5} "
-                    f"{sum(d.hit for d in st.detections):>4}  {st.note[:70]}")
+        by_uav[uid] = (f"{uid:>3} {task.name[:12]:<12} {st.stage.value:<11} {away:>14} {_num(batt, '.0f'):>6} "
+                       f"{st.return_reason or 'plan':<10} {used} {len(st.detections):>5} "
+                       f"{sum(d.hit for d in st.detections):>4}  {st.note[:70]}")
+    grounded = plan.raw.get("grounded", [])
+    for uav in grounded:  # planned without: never flown, never in the flight's status
+        name = str(uav.get("name", ""))[:12]
+        by_uav[int(uav["id"])] = (f"{uav['id']:>3} {name:<12} {'grounded':<11} {'0.0':>14} {'-':>6} {'-':<10} "
+                                  f"{'-':>8} {'-':>9} {0:>5} {0:>4}  planned without it: {uav['reason'][:50]}")
+    rows = [header, *(by_uav[uid] for uid in sorted(by_uav))]
     found, false_alarms = targets_found(controller)
     landed = sum(st.stage.value == "landed" for st in controller.status.values())
     away_ids = [str(uid) for uid, st in sorted(controller.status.items()) if st.stage.value == "landed away"]
     rows.append(f"{landed}/{len(controller.status)} landed at their airports"
                 + (f"; LANDED AWAY: UAV {', '.join(away_ids)}" if away_ids else "")
+                + (f"; left on the ground by the plan: UAV {', '.join(str(u['id']) for u in grounded)}"
+                   if grounded else "")
                 + f"; targets found {len(found)}/{len(plan.targets)}, positive readings elsewhere {false_alarms}")
     return "\n".join(rows)
 

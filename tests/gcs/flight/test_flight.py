@@ -491,7 +491,10 @@ def test_a_uav_planned_without_flies_nothing_and_the_flight_says_why(tmp_path, c
                  in line)
     assert first < next(i for i, line in enumerate(lines) if "UAV 2: preparing" in line)
     assert not any("UAV 1: preparing" in line for line in lines)
-    assert "1/1 landed" in captured.out
+    summary = captured.out[captured.out.index("UAV name"):].splitlines()
+    row1 = next(line for line in summary if line.lstrip().startswith("1 "))
+    assert "grounded" in row1 and "planned without it: range 130 m" in row1, summary
+    assert "1/1 landed at their airports; left on the ground by the plan: UAV 1;" in captured.out
 
 
 def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch):
