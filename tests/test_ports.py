@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from tests.peers.ports import _ephemeral_low, free_ports
+from tests.peers.ports import _end, free_ports
 from tests.peers.process import port_free
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def test_blocks_are_free_below_the_ephemeral_range_and_never_overlap():
     blocks = [range(b, b + 3) for b in (free_ports(3) for _ in range(20))]
-    assert all(block.stop <= _ephemeral_low() for block in blocks)
+    assert all(block.stop <= _end() for block in blocks)
     assert all(port_free(p, udp=True) for block in blocks for p in block)
     ports = [p for block in blocks for p in block]
     assert len(set(ports)) == len(ports)

@@ -57,10 +57,14 @@ async def launch(vehicle: VehicleFlight) -> bool:
         try:
             await vehicle.commands.start_mission()
         except CommandError as exc:
-            if exc.result is None and await _started_unanswered(vehicle):
+            took = await _started_unanswered(vehicle) if exc.result is None else None
+            if took:
                 vehicle.say(f"MISSION_START unanswered, but its HEARTBEAT shows it armed in {st.mode_name}: "
                             "its mission started")
                 break
+            if took is False and tries_left:  # disarmed by its autopilot meanwhile, as below
+                vehicle.say(f"MISSION_START unanswered and disarmed on the ground{_said(vehicle)}: arming it again")
+                continue
             disarmed = await vehicle.commands.disarm()
             vehicle.set_stage(Stage.FAILED, f"cannot start the mission: {exc}{_said(vehicle)}; "
                                             + ("disarmed again" if disarmed else "COULD NOT DISARM: check it"))
@@ -78,12 +82,14 @@ async def launch(vehicle: VehicleFlight) -> bool:
     return True
 
 
-async def _started_unanswered(vehicle: VehicleFlight) -> bool:
-    """A MISSION_START whose acknowledgements were all lost (or came late) that took: its next
-    HEARTBEAT shows it armed in its mission mode (ArduCopter was armed in GUIDED, and only the start
-    switches it to AUTO)."""
+async def _started_unanswered(vehicle: VehicleFlight) -> bool | None:
+    """After a MISSION_START never acknowledged, from its next HEARTBEAT: True when it took (armed
+    in its mission mode: ArduCopter was armed in GUIDED, and only the start switches it to AUTO),
+    False when its autopilot has disarmed it, None otherwise (armed outside it, or not heard)."""
     armed = await vehicle.commands.armed_after(time.monotonic(), vehicle.options.link_timeout_s)
-    return bool(armed) and vehicle.status.mode_name in MISSION_MODES
+    if armed is None or (armed and vehicle.status.mode_name not in MISSION_MODES):
+        return None
+    return armed
 
 
 def _said(vehicle: VehicleFlight) -> str:

@@ -156,13 +156,14 @@ class VehicleCommands:
             await self.command(mavlink.MAV_CMD_DO_SET_MISSION_CURRENT, autopilot.first_mission_seq())
         await self.start_mission()
 
-    async def disarm(self) -> bool:
-        """Disarm a vehicle on the ground; False when it did not confirm."""
+    async def disarm(self) -> bool | None:
+        """Disarm a vehicle on the ground: True when confirmed, False when its autopilot refused
+        (it counts itself flying), None when unanswered."""
         try:
             await self.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, retries=5)
         except LinkError as exc:
             self.say(f"disarm not acknowledged: {exc}")
-            return False
+            return False if isinstance(exc, CommandError) and exc.result is not None else None
         return True
 
     def request_readings(self, indices: list[int], component: int) -> None:

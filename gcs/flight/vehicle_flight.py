@@ -349,21 +349,26 @@ class VehicleFlight:
 
     async def secure(self, rtl_airborne: bool) -> None:
         """Disarm it when armed on the ground; with `rtl_airborne`, RTL when in the air and not going
-        home. One stopped mid-launch (arming, or started and not yet off the ground) is given
-        `LIFT_OFF_S` to lift off, and sent home if it does or its autopilot refuses the disarm."""
+        home. Stopped mid-launch: an arming already sent is given `LIFT_OFF_S` to take (then
+        disarmed), and one whose disarm its autopilot refuses (lifting off, its take-off roll) or
+        leaves unanswered while it is seen to lift off within `LIFT_OFF_S` is sent home."""
         st = self.status
         if self.link is None or st.stage is Stage.LOST:
             return
-        if rtl_airborne and st.stage in (Stage.ARMING, Stage.SEARCH) and not st.airborne:
-            await preflight.wait_until(lambda: st.airborne, LIFT_OFF_S)
+        if rtl_airborne and st.stage is Stage.ARMING and not st.armed:
+            await preflight.wait_until(lambda: st.armed, LIFT_OFF_S)
+        lifting = False
         if st.armed and not st.airborne:
-            if await self.commands.disarm():
+            disarmed = await self.commands.disarm()
+            if disarmed:
                 self.say("on the ground, disarmed")
                 return
-            if not (rtl_airborne and st.airborne):
+            refused = disarmed is False  # its autopilot counts it flying
+            lifting = rtl_airborne and (refused or await preflight.wait_until(lambda: st.airborne, LIFT_OFF_S))
+            if not lifting:
                 self.say("ARMED ON THE GROUND: disarm did not confirm, check it")
                 return
-        if rtl_airborne and st.airborne and st.stage not in (Stage.RETURN, Stage.RTL, Stage.LANDED):
+        if rtl_airborne and (st.airborne or lifting) and st.stage not in (Stage.RETURN, Stage.RTL, Stage.LANDED):
             if not await self.rtl():
                 self.say("in the air and did not confirm RTL: check it yourself")
 

@@ -5,8 +5,8 @@ A port the kernel hands out for `bind(0)` and the test then closes is a port fro
 range, and any socket that connects in the meantime (a SITL's `udpclient`, a simulated vehicle, a
 browser) may be given it before the server binds it: the server then fails with "address already
 in use" (a CI run lost a whole three-copter flight this way). These ports come from below the
-ephemeral range instead, and each is handed out once per machine-wide cycle through that range
-(a counter under a lock file shared by every pytest worker), so neither the kernel nor another
+ephemeral range instead, and each is handed out once per cycle through that range
+(a counter under the user's lock folder, shared by every pytest worker and checkout), so neither the kernel nor another
 test picks it while its server starts."""
 
 from __future__ import annotations
@@ -26,10 +26,17 @@ def _ephemeral_low() -> int:
         return 32768
 
 
+def _end() -> int:
+    """Where the handed-out range ends: the ephemeral range's start, or (a host whose ephemeral range
+    starts below ours) the last port: still never handed out twice, though no longer out of its way."""
+    low = _ephemeral_low()
+    return low if low > FIRST + 1000 else 65536
+
+
 def free_ports(count: int = 1, *, udp: bool = True) -> int:
     """The first of `count` consecutive loopback ports, free for UDP (or TCP) now and handed to no
-    other caller on this machine until the range has been gone through."""
-    end = _ephemeral_low()
+    other caller of this user on this machine until the range has been gone through."""
+    end = _end()
     with exclusive("ports"):
         try:
             port = int(COUNTER.read_text())
