@@ -17,6 +17,9 @@ from gcs.telemetry.status import VehicleStatus
 
 __all__ = ["REFUSED_FOR_NOW", "VehicleCommands"]
 
+#: How long to wait for the HEARTBEAT that confirms a state change (autopilots send one a second)
+HEARTBEAT_WAIT_S = 2.5
+
 REFUSED_FOR_NOW = (mavlink.MAV_RESULT_DENIED, mavlink.MAV_RESULT_TEMPORARILY_REJECTED, mavlink.MAV_RESULT_FAILED)
 
 
@@ -158,12 +161,17 @@ class VehicleCommands:
 
     async def disarm(self) -> bool | None:
         """Disarm a vehicle on the ground: True when confirmed, False when its autopilot refused
-        (it counts itself flying), None when unanswered."""
+        (it counts itself flying), None when unanswered. A COMMAND_ACK does not say whether it
+        answered an arming or a disarming (a late one of an earlier arming looks the same), so an
+        accepted disarm is believed only when the next HEARTBEAT does not show it still armed."""
         try:
             await self.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, retries=5)
         except LinkError as exc:
             self.say(f"disarm not acknowledged: {exc}")
             return False if isinstance(exc, CommandError) and exc.result is not None else None
+        if await self.armed_after(time.monotonic(), HEARTBEAT_WAIT_S):
+            self.say("disarm acknowledged, but its HEARTBEAT still shows it armed")
+            return None
         return True
 
     def request_readings(self, indices: list[int], component: int) -> None:

@@ -72,7 +72,8 @@ def may_become(before: Stage, after: Stage, lost_in: Stage | None = None) -> boo
     return after in TRANSITIONS[before] or (before not in FINAL_STAGES and after in FROM_ANY_STAGE)
 
 
-#: Wall seconds a vehicle stopped mid-launch is given to lift off before it is disarmed instead
+#: Wall seconds a flight stopped mid-launch gives an arming already sent to take, and a vehicle
+#: whose disarm went unanswered to be seen lifting off (then sent home)
 LIFT_OFF_S = 5.0
 
 
