@@ -21,6 +21,9 @@ import math
 from dataclasses import dataclass, replace
 from enum import Enum
 
+import numpy as np
+from numpy.typing import ArrayLike
+
 __all__ = ["Airframe", "EnergyProfile", "MAX_WIND_FACTOR", "wind_factor"]
 
 #: A direction the vehicle can barely make headway in costs at most this many times its still-air metre.
@@ -102,21 +105,22 @@ class EnergyProfile:
         return replace(self, capacity_mah=capacity_mah)
 
 
-def wind_factor(profile: EnergyProfile, east: float, north: float, wind_m_s: tuple[float, float]) -> float:
+def wind_factor(profile: EnergyProfile, east: ArrayLike, north: ArrayLike, wind_m_s: tuple[float, float]
+                ) -> float | np.ndarray:
     """What a metre flown in the direction (east, north) costs in the wind `wind_m_s` (east, north
     m/s the air moves towards), against a still-air metre: the cruise speed over the ground in
     still air over the ground speed made good in that direction, its air speed the cruise speed
     (a multicopter's ground speed never above it: its autopilot holds that speed over the ground),
-    at most MAX_WIND_FACTOR."""
-    length = math.hypot(east, north)
+    at most MAX_WIND_FACTOR; 1 for no direction (a zero step). Directions may come as arrays:
+    one factor each."""
+    east, north = np.asarray(east, dtype=float), np.asarray(north, dtype=float)
+    length = np.hypot(east, north)
     speed = profile.cruise_speed_m_s
-    if length == 0:
-        return 1.0
-    along = (east * wind_m_s[0] + north * wind_m_s[1]) / length
+    along = (east * wind_m_s[0] + north * wind_m_s[1]) / np.where(length > 0, length, 1.0)
     across2 = wind_m_s[0] ** 2 + wind_m_s[1] ** 2 - along * along
-    if across2 >= speed * speed:
-        return MAX_WIND_FACTOR
-    ground = along + math.sqrt(speed * speed - across2)
+    ground = along + np.sqrt(np.maximum(speed * speed - across2, 0.0))
     if profile.airframe is Airframe.COPTER:
-        ground = min(ground, speed)
-    return MAX_WIND_FACTOR if ground * MAX_WIND_FACTOR <= speed else speed / ground
+        ground = np.minimum(ground, speed)
+    blocked = (across2 >= speed * speed) | (ground * MAX_WIND_FACTOR <= speed)
+    factor = np.where(length == 0, 1.0, np.where(blocked, MAX_WIND_FACTOR, speed / np.where(blocked, 1.0, ground)))
+    return float(factor) if factor.ndim == 0 else factor

@@ -43,6 +43,7 @@ from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from planner.energy import EnergyProfile, wind_factor
 
@@ -64,17 +65,23 @@ MIN_SHARE = 0.4
 #: a, and the first and second harmonics' cosine and sine
 TERMS = 5
 
-#: unit steps in 36 directions, to average a direction's cost over
-_COMPASS = [(math.sin(math.radians(d)), math.cos(math.radians(d))) for d in range(0, 360, 10)]
+#: unit steps (east, north) in 36 directions, to average a direction's cost over
+_COMPASS = np.array([(math.sin(math.radians(d)), math.cos(math.radians(d))) for d in range(0, 360, 10)])
+
+
+def _unit_terms(east: np.ndarray, north: np.ndarray) -> np.ndarray:
+    """(1, cos, sin, cos 2, sin 2) of each direction (east[i], north[i]) not zero, one row each."""
+    length = np.hypot(east, north)
+    cos, sin = east / length, north / length
+    return np.stack([np.ones_like(cos), cos, sin, cos * cos - sin * sin, 2.0 * cos * sin], axis=-1)
 
 
 def _terms(east: float, north: float) -> np.ndarray:
-    """The regressors of a straight stretch: its length times (1, cos, sin, cos 2, sin 2) of
-    its direction."""
+    """The regressors of a straight stretch: its length times `_unit_terms` of its direction."""
     m = math.hypot(east, north)
     if m == 0:
         return np.zeros(TERMS)
-    return np.array([m, east, north, (east * east - north * north) / m, 2.0 * east * north / m])
+    return m * _unit_terms(np.array([east]), np.array([north]))[0]
 
 
 class FlightPhase(str, Enum):
@@ -116,6 +123,7 @@ class FuelGauge:
         self._stretches: list[tuple[np.ndarray, float]] = []  # (`_terms` of a sampled stretch, its mAh)
         self._fit: np.ndarray | None = None
         self._fit_lift = 0.0
+        self._rate: float | None = None  # `rate_mah_per_m` of the current fit
         self._level_since: float | None = None
         self._last_used: float | None = None
         self._last_phase: FlightPhase | None = None
@@ -134,15 +142,16 @@ class FuelGauge:
         is no report (ArduCopter sends 0 when it estimates none)."""
         if math.isfinite(east_m_s) and math.isfinite(north_m_s) and (east_m_s or north_m_s):
             self.wind_m_s = (float(east_m_s), float(north_m_s))
-            self._fit = None
+            self._refit()
 
     def clear_wind(self) -> None:
         """Still air after all (a vehicle's own reading replacing an earlier one)."""
         self.wind_m_s = None
-        self._fit = None
+        self._refit()
 
-    def factor(self, east: float, north: float) -> float:
-        """What the wind known does to a metre flown in the direction (east, north)."""
+    def factor(self, east: ArrayLike, north: ArrayLike) -> float | np.ndarray:
+        """What the wind known does to a metre flown in the direction (east, north), or in each
+        of several."""
         return 1.0 if self.wind_m_s is None else wind_factor(self.profile, east, north, self.wind_m_s)
 
     def moved(self, time_s: float, east_m: float, north_m: float, phase: FlightPhase) -> None:
@@ -189,7 +198,7 @@ class FuelGauge:
                 self.cruise_mah += spent
                 self.cruise_m += metres
                 self._stretches.append((self._pending, spent))
-                self._fit = None
+                self._refit()
         self.used_mah = used
         self._last_used = used
         self._pure = True
@@ -200,21 +209,24 @@ class FuelGauge:
 
     # ---- estimates ------------------------------------------------------------------------
 
+    def _refit(self) -> None:
+        self._fit = self._rate = None
+
     @property
     def fit(self) -> np.ndarray:
         """(a, b, c, d, e) of the module docstring, in mAh per metre."""
         if self._fit is None:
-            normal, moment = np.zeros((TERMS, TERMS)), np.zeros(TERMS)
-            xs = [terms * self.factor(terms[1], terms[2]) for terms, _ in self._stretches]
-            for x, (terms, mah) in zip(xs, self._stretches):
-                normal += np.outer(x, x) / terms[0]
-                moment += x * mah / terms[0]
             weight = np.diag([self.prior_weight_m] + [2.0 * self.prior_weight_m] * (TERMS - 1))
             prior = np.array([self.profile.cruise_mah_per_m, 0.0, 0.0, 0.0, 0.0])
-            self._fit = np.linalg.solve(normal + weight, moment + weight @ prior)
+            terms = np.array([t for t, _ in self._stretches]).reshape(-1, TERMS)
+            mah = np.array([m for _, m in self._stretches])
+            xs = terms * np.reshape(self.factor(terms[:, 1], terms[:, 2]), (-1, 1))
+            weighed = xs / terms[:, :1]
+            self._fit = np.linalg.solve(weighed.T @ xs + weight, weighed.T @ mah + weight @ prior)
             shown = self.shown_mah_per_m
-            fitted = sum(float(self._fit @ x) for x in xs) / self.cruise_m if shown is not None else 0.0
-            self._fit_lift = max(0.0, shown - fitted) if shown is not None else 0.0
+            self._fit_lift = 0.0
+            if shown is not None:
+                self._fit_lift = max(0.0, shown - float(np.sum(xs @ self._fit)) / self.cruise_m)
         return self._fit
 
     @property
@@ -240,19 +252,18 @@ class FuelGauge:
         as it drains, not pulled back towards the profile)."""
         if self.wind_m_s is None:
             return self.still_air_mah_per_m
-        fit, lift = self.fit, self._lift
-        return max(float(np.mean([self._along(fit, e, n, lift) for e, n in _COMPASS])), 1e-9)
+        if self._rate is None:
+            self._rate = max(float(np.mean(self._rates_along(_COMPASS[:, 0], _COMPASS[:, 1]))), 1e-9)
+        return self._rate
 
-    def _along(self, fit: np.ndarray, east: float, north: float, lift: float) -> float:
-        length = math.hypot(east, north)
-        return self.factor(east, north) * float(fit @ _terms(east, north)) / length + lift
+    def _rates_along(self, east: np.ndarray, north: np.ndarray) -> np.ndarray:
+        """The fit's charge per metre in each direction (none zero) in the wind known, lifted."""
+        return self.factor(east, north) * (_unit_terms(east, north) @ self.fit) + self._lift
 
     def rate_along(self, east: float, north: float) -> float:
         """Charge per metre of cruise in the direction (east, north), lifted as the average is."""
-        a = self.rate_mah_per_m
-        if math.hypot(east, north) == 0:
-            return a
-        return max(MIN_SHARE * a, self._along(self.fit, east, north, self._lift))
+        return self.way_cost([(east, north)]).mah / math.hypot(east, north) if (east or north) \
+            else self.rate_mah_per_m
 
     @property
     def remaining_mah(self) -> float | None:
@@ -264,13 +275,15 @@ class FuelGauge:
         return self.capacity_mah * reserve_pct / 100.0
 
     def way_cost(self, legs_m: list[tuple[float, float]]) -> LegCost:
-        """The charge of flying `legs_m` ((east, north) metres each) at the rates learned."""
-        metres = mah = 0.0
-        for east, north in legs_m:
-            length = math.hypot(east, north)
-            metres += length
-            mah += length * self.rate_along(east, north)
-        return LegCost(metres, mah)
+        """The charge of flying `legs_m` ((east, north) metres each) at the rates learned, no
+        direction under MIN_SHARE of the average."""
+        legs = np.asarray(legs_m, dtype=float).reshape(-1, 2)
+        legs = legs[(legs[:, 0] != 0) | (legs[:, 1] != 0)]
+        if not len(legs):
+            return LegCost(0.0, 0.0)
+        length = np.hypot(legs[:, 0], legs[:, 1])
+        rates = np.maximum(MIN_SHARE * self.rate_mah_per_m, self._rates_along(legs[:, 0], legs[:, 1]))
+        return LegCost(float(length.sum()), float(length @ rates))
 
     def cruise_m_for(self, mah: float) -> float:
         """Metres of cruise `mah` pays for at the rate averaged over directions."""

@@ -13,7 +13,7 @@ from hypothesis import given, strategies as st
 from gcs.flight.fuel import MIN_SHARE, PRIOR_WEIGHT_M, SETTLE_S, SHOWN_AFTER_M, FlightPhase, FuelGauge
 from gcs.flight.orders import OperatorOrder, parse_order
 from gcs.flight.return_trigger import HOME_MARGIN, SEVERE_SHARE, THIRSTY_SHARE, check_return, confirmed, fuel_decision
-from planner.energy import MAX_WIND_FACTOR, Airframe, EnergyProfile
+from planner.energy import MAX_WIND_FACTOR, Airframe, EnergyProfile, wind_factor
 
 COPTER = EnergyProfile(airframe=Airframe.COPTER, capacity_mah=3000.0, cruise_speed_m_s=10.0, cruise_mah_per_m=1.0,
                        loiter_mah_per_s=8.0, launch_mah=20.0, climb_mah_per_m=5.0, landing_mah=10.0,
@@ -141,6 +141,30 @@ def test_a_copter_in_the_wind_is_priced_by_the_ground_speed_it_can_make():
     assert gauge.rate_along(1.0, 0.0) == pytest.approx(10.0 / 6.0)
     gauge.set_wind(0.0, -12.0)
     assert gauge.rate_along(0.0, 1.0) == pytest.approx(MAX_WIND_FACTOR)
+
+
+LEG = st.tuples(st.floats(-500.0, 500.0), st.floats(-500.0, 500.0)) | st.just((0.0, 0.0))
+
+
+@given(legs=st.lists(LEG, max_size=12), wind=st.tuples(st.floats(-14.0, 14.0), st.floats(-14.0, 14.0)))
+def test_a_way_costs_what_its_legs_cost_one_by_one(legs, wind):
+    """The priced way (all legs at once, as the trigger prices it every tick) is the sum of each
+    leg priced alone at its direction's rate, after a search in the wind has been learned; a wind
+    factor asked for many directions at once is the one asked for each."""
+    gauge = FuelGauge(COPTER)
+    gauge.set_wind(*wind)
+    gauge.battery(0.0, FlightPhase.GROUND, 0.0, None)
+    t, used = 0.0, 0.0
+    for heading, mah_per_m in {(10.0, 0.0): 1.3, (0.0, 10.0): 2.5, (-7.0, -7.0): 0.7}.items():
+        t, used = cruise(gauge, 40, mah_per_m=mah_per_m, start_s=t, used=used, heading=heading)
+    way = gauge.way_cost(legs)
+    alone = [(math.hypot(e, n), math.hypot(e, n) * gauge.rate_along(e, n)) for e, n in legs if e or n]
+    assert way.metres == pytest.approx(sum(m for m, _ in alone))
+    assert way.mah == pytest.approx(sum(mah for _, mah in alone))
+    east, north = [e for e, _ in legs], [n for _, n in legs]
+    together = wind_factor(COPTER, east, north, wind)
+    assert list(together) == pytest.approx([wind_factor(COPTER, e, n, wind) for e, n in legs])
+    assert all(f == 1.0 for f, (e, n) in zip(together, legs) if not (e or n))
 
 
 def test_a_wind_the_autopilot_does_not_report_is_learned_from_the_charge():
