@@ -125,7 +125,11 @@ def test_operator_return_order_sends_one_uav_home_at_once(plan):
     assert st.return_reason == "order"
     assert st.stage is Stage.LANDED
     assert _landed_home(plan, fleet, 2) < 5.0
-    assert len(st.detections) < min(len(controller.status[u].detections) for u in (1, 3, 4)) / 2
+    # it turned home early in its search, judged by its own plan (not by the others' readings: on a
+    # loaded CI machine another UAV once ended with half its usual count, 76 for about 155)
+    search = sum(p.stage == "search" for p in plan.uavs[2].trajectory)
+    assert st.track_index < search / 2
+    assert len(st.detections) < search / 2
     assert all(controller.status[u].stage is Stage.LANDED for u in plan.uavs)
 
 
