@@ -9,9 +9,10 @@ Protocol behaviour handled (upload): MISSION_COUNT, then answer every request wi
 MISSION_ITEM_INT, the legacy MISSION_REQUEST too (ArduPilot asks only with it; the
 specification allows the INT answer and QGroundControl gives it, so no position is rounded
 to float32); a duplicate or out-of-order request is answered with the item
-asked for; a timeout re-sends the last message (the COUNT, or the last item) up to
-`max_retries` times; MISSION_ACK INVALID_SEQUENCE is not final (a stale item crossed a
-re-request, the vehicle asks again); any other error ACK ends the transfer with that result.
+asked for, unless that item went out a moment ago (`Upload`); a timeout re-sends the last
+message (the COUNT, or the last item) up to `max_retries` times; MISSION_ACK INVALID_SEQUENCE
+is not final (a stale item crossed a re-request, the vehicle asks again); any other error ACK
+ends the transfer with that result.
 
 Autopilot conventions (`Autopilot`):
 - ArduPilot keeps the home position as mission item 0: we upload a placeholder there (the
@@ -120,6 +121,13 @@ class _Machine:
         self.deadline = math.inf
         return []
 
+    def _give_up(self, detail: str) -> list[MAVMessage]:
+        """Fail (TIMEOUT) and send the protocol's cancel, so the vehicle leaves the transfer at once
+        (PX4 would otherwise stay busy for 5 s and refuse the next one with "IGN MISSION_COUNT: Busy")."""
+        self._fail(None, detail)
+        return [mavlink.MAVLink_mission_ack_message(*self.target, mavlink.MAV_MISSION_OPERATION_CANCELLED,
+                                                    self.mission_type)]
+
     def _mine(self, msg: MAVMessage) -> bool:
         return msg.get_srcSystem() == self.target[0] and getattr(msg, "mission_type", 0) == self.mission_type
 
@@ -129,18 +137,20 @@ class _Machine:
         if self.finished or now < self.deadline or self._last is None:
             return []
         if self.retries >= self.max_retries:
-            # the protocol's cancel, so the vehicle leaves the transfer at once (PX4 would otherwise
-            # stay busy for 5 s and refuse the next one with "IGN MISSION_COUNT: Busy")
-            self._fail(None, f"no answer after {self.max_retries} re-sends")
-            return [mavlink.MAVLink_mission_ack_message(*self.target, mavlink.MAV_MISSION_OPERATION_CANCELLED,
-                                                        self.mission_type)]
+            return self._give_up(f"no answer after {self.max_retries} re-sends")
         self.retries += 1
         self.resends += 1
         return self._send(self._last, now)
 
 
 class Upload(_Machine):
-    """Send `items` (already numbered from 0) as the vehicle requests them."""
+    """Send `items` (already numbered from 0) as the vehicle requests them. A vehicle re-requests
+    an item it waits for on its own clock (PX4 every 0.25 s, a fifth of that at SITL's speed-up 5,
+    a simulated one at 30 times real time every 8 ms): a re-request of an item sent less than a
+    quarter of `timeout_s` ago crossed it and is not answered, or a station a little late would
+    answer each one and drown both ends in copies; a vehicle that goes on asking for items it was
+    sent, taking none, for `max_retries` timeouts fails the transfer (TIMEOUT) instead of holding
+    it forever."""
 
     operation = "upload"
 
@@ -152,8 +162,11 @@ class Upload(_Machine):
         self.legacy_requests = 0
         self.last_item_sends = 0
         self.unconfirmed = False
+        self._sent_at: dict[int, float] = {}  # when each item was last sent
+        self._progress_at = math.inf          # when the vehicle last asked for an item it had not
 
     def start(self, now: float) -> list[MAVMessage]:
+        self._progress_at = now
         msg = mavlink.MAVLink_mission_count_message(*self.target, len(self.items), self.mission_type)
         return self._send(msg, now)
 
@@ -174,7 +187,14 @@ class Upload(_Machine):
             if msg.seq not in self.requested:
                 self.requested.add(msg.seq)
                 self._progress()
+                self._progress_at = now
+            elif now - self._sent_at.get(msg.seq, -math.inf) < self.timeout_s / 4:
+                return []  # a re-request crossing the item just sent (see the class docstring)
+            elif now - self._progress_at > self.timeout_s * self.max_retries:
+                return self._give_up(f"the vehicle asked for item {msg.seq} again and again for "
+                                     f"{now - self._progress_at:.1f} s and never took it")
             self.last_item_sends += msg.seq == len(self.items) - 1
+            self._sent_at[msg.seq] = now
             return self._send(self.items[msg.seq].to_msg(self.target), now)
         if kind == "MISSION_ACK":
             last_asked = not self.items or len(self.items) - 1 in self.requested

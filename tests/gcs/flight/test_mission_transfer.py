@@ -55,8 +55,9 @@ def test_upload_duplicate_and_out_of_order_requests_are_answered():
     up = Upload(VEHICLE, _items(3))
     up.start(0.0)
     assert up.handle(_req(1), 0.1)[0].seq == 1  # out of order: send what is asked
-    assert up.handle(_req(1), 0.1)[0].seq == 1  # duplicate: send it again
-    assert up.handle(_req(7), 0.1) == []  # beyond the list: stale
+    assert up.handle(_req(1), 0.2) == []  # a re-request crossing the item just sent (0.5 s / 4)
+    assert up.handle(_req(1), 0.3)[0].seq == 1  # later: it was lost, send it again
+    assert up.handle(_req(7), 0.3) == []  # beyond the list: stale
     assert up.handle(_req(0, mtype=MissionType.FENCE), 0.1) == []  # another list's request
 
 
@@ -93,6 +94,20 @@ def test_upload_timeouts_resend_then_give_up():
     assert [(m.get_type(), m.type) for m in cancel] == [("MISSION_ACK", mavlink.MAV_MISSION_OPERATION_CANCELLED)]
     assert up.error is not None and up.error.result is None
     assert up.poll(3.0) == [] and up.resends == 3
+
+
+def test_a_vehicle_that_keeps_asking_for_an_item_it_was_sent_fails_the_upload_and_is_told():
+    """Our items never reach it (a one-way link), or a loaded station's answers drown in its
+    re-requests: it asks for item 1 every 8 ms (PX4's 0.25 s at 30 times real time). Each copy is
+    not answered; after max_retries timeouts without a new item the upload ends (TIMEOUT, so
+    `upload_verified` tries again) and the vehicle is told to leave the transfer."""
+    up = Upload(VEHICLE, _items(3), timeout_s=0.5, max_retries=4)
+    up.start(0.0)
+    up.handle(_req(0), 0.01)
+    sent = [m for k in range(1, 301) for m in up.handle(_req(1), 0.01 + 0.008 * k)]
+    assert up.error is not None and up.error.result is None and "asked for item 1 again" in str(up.error)
+    assert sum(m.get_type() == "MISSION_ITEM_INT" for m in sent) <= 2.4 / (0.5 / 4) + 1  # one per 125 ms, not 300
+    assert sent[-1].get_type() == "MISSION_ACK" and sent[-1].type == mavlink.MAV_MISSION_OPERATION_CANCELLED
 
 
 def test_upload_ignores_other_systems():
