@@ -53,3 +53,19 @@ def _groups_lost() -> bool:
     tests over workers without a word (xdist renames the tests, pytest 9.2 ignores the renaming)."""
     return Version(pytest.__version__) >= Version("9.2") and Version(metadata.version("pytest-xdist")) <= Version("3.8")
 
+
+
+@pytest.fixture(autouse=True)
+def _beside_heavy_fleets(request):
+    """A test of the station or the simulator (tests/gcs, tests/sim) outside the real autopilots'
+    worker waits while a fleet of several PX4 SITLs flies (`tests.peers.process.cpu_share`)."""
+    path = str(request.node.path)
+    if f"{os.sep}tests{os.sep}gcs{os.sep}" not in path and f"{os.sep}tests{os.sep}sim{os.sep}" not in path \
+            or request.node.get_closest_marker("autopilot") is not None \
+            or any(m.args == ("sitl",) for m in request.node.iter_markers("xdist_group")):
+        yield
+        return
+    from tests.peers.process import cpu_share
+
+    with cpu_share(heavy=False):
+        yield

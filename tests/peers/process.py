@@ -94,6 +94,24 @@ def exclusive(name: str) -> Iterator[None]:
         yield
 
 
+@contextmanager
+def cpu_share(*, heavy: bool) -> Iterator[None]:
+    """Machine-wide: a `heavy` holder runs alone, the others side by side. A fleet of two PX4 SITLs
+    at speed-up 5 and an ArduCopter takes about 1.5 of the CI machine's two cores, and a simulated
+    fleet flown beside it (the vehicles on a thread of the test's own process) lost its uploads:
+    the vehicles asked for items the station had sent, again and again (ci28, ci29, reproduced
+    here). Such fleets take it `heavy`; the simulated flights of the other worker take it shared,
+    so they wait (a fleet is some 3 minutes) instead of failing. Heavy holders waiting go first
+    (they hold the turnstile new shared holders pass)."""
+    with exclusive("cpu-share-turnstile"):
+        file = lock_file("cpu-share")
+        fcntl.flock(file, fcntl.LOCK_EX if heavy else fcntl.LOCK_SH)
+    try:
+        yield
+    finally:
+        file.close()
+
+
 class SitlProcess:
     """Mixin for a dataclass with `process`, `workdir` and `claim` fields and a `start()`
     returning self."""

@@ -19,6 +19,7 @@ from pathlib import Path
 from tests.gcs.autopilots.flights import fly
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.ports import free_udp_port
+from tests.peers.process import cpu_share
 from tests.peers.px4 import Px4Sitl
 from tests.peers.recorder import Flown, SpareRecorder, waypoints_passed
 from tests.peers.site import Site
@@ -88,6 +89,7 @@ def fly_fleet(tmp_path: Path, site: Site, vehicles: list[Vehicle], *gcs_args: st
     recorders: dict[int, SpareRecorder] = {}
     serial0: dict[int, str] = {}
     with ExitStack() as stack:
+        stack.enter_context(cpu_share(heavy=sum(v.autopilot == "px4" for v in vehicles) >= 2))
         for i, v in enumerate(vehicles):
             sysid = i + 1
             if v.autopilot == "px4":
