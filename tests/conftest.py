@@ -55,14 +55,15 @@ def _groups_lost() -> bool:
 
 
 
-@pytest.fixture(autouse=True)
-def _beside_heavy_fleets(request):
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
     """A test of the station or the simulator (tests/gcs, tests/sim) outside the real autopilots'
-    worker waits while a fleet of several PX4 SITLs flies (`tests.peers.process.cpu_share`)."""
-    path = str(request.node.path)
+    worker waits while a fleet of several PX4 SITLs flies (`tests.peers.process.cpu_share`),
+    for its whole run: the module fixtures its setup flies included."""
+    path = str(item.path)
     if f"{os.sep}tests{os.sep}gcs{os.sep}" not in path and f"{os.sep}tests{os.sep}sim{os.sep}" not in path \
-            or request.node.get_closest_marker("autopilot") is not None \
-            or any(m.args == ("sitl",) for m in request.node.iter_markers("xdist_group")):
+            or item.get_closest_marker("autopilot") is not None \
+            or any(m.args == ("sitl",) for m in item.iter_markers("xdist_group")):
         yield
         return
     from tests.peers.process import cpu_share
