@@ -54,7 +54,6 @@ def _groups_lost() -> bool:
     return Version(pytest.__version__) >= Version("9.2") and Version(metadata.version("pytest-xdist")) <= Version("3.8")
 
 
-
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_protocol(item, nextitem):
     """A test of the station or the simulator (tests/gcs, tests/sim) outside the real autopilots'

@@ -94,22 +94,26 @@ def exclusive(name: str) -> Iterator[None]:
         yield
 
 
+def hold(name: str, *, alone: bool) -> IO[str]:
+    """Machine-wide lock `name`, held `alone` (exclusively) or shared with other shared holders
+    until the returned file is closed. Waiting `alone` holders go first (they hold the turnstile
+    that new shared holders pass), so a stream of shared ones cannot starve them."""
+    with exclusive(f"{name}-turnstile"):
+        file = lock_file(name)
+        fcntl.flock(file, fcntl.LOCK_EX if alone else fcntl.LOCK_SH)
+    return file
+
+
 @contextmanager
 def cpu_share(*, heavy: bool) -> Iterator[None]:
-    """Machine-wide: a `heavy` holder runs alone, the others side by side. A fleet of two PX4 SITLs
-    at speed-up 5 and an ArduCopter takes about 1.5 of the CI machine's two cores, and a simulated
+    """A `heavy` holder runs alone, the others side by side (`hold`). A fleet of two PX4 SITLs at
+    speed-up 5 and an ArduCopter takes about 1.5 of the CI machine's two cores, and a simulated
     fleet flown beside it (the vehicles on a thread of the test's own process) lost its uploads:
     the vehicles asked for items the station had sent, again and again (ci28, ci29, reproduced
     here). Such fleets take it `heavy`; the simulated flights of the other worker take it shared,
-    so they wait (a fleet is some 3 minutes) instead of failing. Heavy holders waiting go first
-    (they hold the turnstile new shared holders pass)."""
-    with exclusive("cpu-share-turnstile"):
-        file = lock_file("cpu-share")
-        fcntl.flock(file, fcntl.LOCK_EX if heavy else fcntl.LOCK_SH)
-    try:
+    so they wait (a fleet is some 3 minutes) instead of failing."""
+    with hold("cpu-share", alone=heavy):
         yield
-    finally:
-        file.close()
 
 
 class SitlProcess:

@@ -26,7 +26,7 @@ from typing import IO
 import pytest
 
 from tests.peers.ardupilot import peers_dir
-from tests.peers.process import InstanceClaim, SitlProcess, claim, exclusive, lock_file, port_free
+from tests.peers.process import InstanceClaim, SitlProcess, claim, exclusive, hold, port_free
 
 #: PX4's simulated battery drains 100 % over SIM_BAT_DRAIN seconds of armed vehicle time (its
 #: default, 60 s, then stops at SIM_BAT_MIN_PCT 50 %); an hour keeps it well above the reserve
@@ -105,12 +105,8 @@ def claim_instance(instance: int | None = None) -> InstanceClaim:
 def _hold_udp_14550(alone: bool) -> IO[str]:
     """Every PX4 instance sends to 127.0.0.1:14550 until a station calls it on its GCS port, so a
     station that listens there must have the only PX4 running: an `alone` instance holds this
-    lock exclusively, every other one shared. Waiting `alone` instances go first (they hold the
-    turnstile that new shared holders pass), so a stream of shared ones cannot starve them."""
-    with exclusive("px4-14550-turnstile"):
-        file = lock_file("px4-14550")
-        fcntl.flock(file, fcntl.LOCK_EX if alone else fcntl.LOCK_SH)
-    return file
+    lock alone, every other one shared."""
+    return hold("px4-14550", alone=alone)
 
 
 @dataclass
