@@ -162,6 +162,7 @@ async def fly_async(plan: FleetPlan, connections: Sequence[str | Connection], op
     `controller.run()`."""
     if display is not None:
         out, watchers = display.line, [*watchers, display]
+    plan.prepare_returns()  # before any link is read: the first return check must not stall them
     async with AsyncExitStack() as stack:
         links = await stack.enter_async_context(open_links(connections, signing=signing))
         controller = FlightController(plan, links, options, out)

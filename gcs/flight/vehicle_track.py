@@ -11,7 +11,6 @@ import numpy as np
 
 from gcs.autopilots import Autopilot
 from gcs.plans.plan_folder import FleetPlan
-from planner.return_exact import follow_table
 
 __all__ = ["Legs", "PlanTrack", "distance_m"]
 
@@ -118,8 +117,7 @@ class PlanTrack:
             plan = self.plan
             p = self.task.trajectory[index]
             pose = (p.x, p.y, p.heading)
-            path = [pose] + follow_table(plan.return_table(self.uid), pose, plan.oc.successors, plan.no_fly,
-                                         plan.move_costs)
+            path = [pose] + plan.way_home(self.uid, pose)
             points = np.array([plan.grid.centre_m(x, y) for x, y, _ in path]
                               + [plan.local_m(*self.task.airport_lat_lon)])
             legs = [(float(e), float(n)) for e, n in np.diff(points, axis=0)]
@@ -143,8 +141,7 @@ class PlanTrack:
         plan, traj = self.plan, self.task.trajectory
         p = traj[min(index + 1, len(traj) - 1)]
         pose = (p.x, p.y, p.heading)
-        path = [pose] + follow_table(plan.return_table(self.uid), pose, plan.oc.successors, plan.no_fly,
-                                     plan.move_costs)
+        path = [pose] + plan.way_home(self.uid, pose)
         keep = [path[0]] + [path[i] for i in range(1, len(path) - 1) if path[i + 1][2] != path[i][2]] + [path[-1]]
         return [plan.cell_lat_lon(x, y) for x, y, _ in keep] if len(path) > 1 else [plan.cell_lat_lon(pose[0], pose[1])]
 

@@ -30,7 +30,7 @@ from gcs.missions.items import (
 )
 from planner.georef import Grid, LocalFrame
 from planner.motion import STEPS, MoveCosts, OrientationConstraint, constraint_by_name
-from planner.return_exact import UNREACHABLE, return_table
+from planner.return_exact import UNREACHABLE, follow_table, return_table
 
 __all__ = ["FleetPlan", "Pose", "UavTask", "load_plan_dir"]
 
@@ -160,6 +160,21 @@ class FleetPlan:
             self._tables[uav_id] = return_table(self.no_fly, self.uavs[uav_id].airport_cell, self.oc,
                                                 self.move_costs)
         return self._tables[uav_id]
+
+    def way_home(self, uav_id: int, pose: tuple[int, int, int]) -> list[tuple[int, int, int]]:
+        """The poses after `pose` on this UAV's lowest-cost way home (the exact table's path under
+        the OC, `planner.return_exact.follow_table`)."""
+        return follow_table(self.return_table(uav_id), pose, self.oc.successors, self.no_fly, self.move_costs)
+
+    def prepare_returns(self) -> None:
+        """Compute every UAV's return table, and load the kernels that build and follow them, now:
+        before a flight, not on its event loop, where a vehicle's first return check would hold
+        every link for a second on a loaded station (ten seconds of a vehicle at SPEEDUP 10,
+        whose telemetry the station then loses)."""
+        for uav_id, task in self.uavs.items():
+            if task.trajectory:
+                p = task.trajectory[0]
+                self.way_home(uav_id, (p.x, p.y, p.heading))
 
     def home_m(self, uav_id: int, pose: tuple[int, int, int]) -> float:
         """Metres of the lowest-cost way home from `pose` over the grid (inf when there is none)."""

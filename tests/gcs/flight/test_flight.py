@@ -47,7 +47,16 @@ def test_four_uavs_fly_the_plan_and_land_at_their_own_airports(plan):
     def broken_listener(event, now):
         raise RuntimeError("a listener bug")
 
-    controller, fleet = fly(plan, listeners=[broken_listener, lambda event, now: events.append(event)])
+    tables_when_first_heard = []
+
+    def first_heard(event, now):
+        if not tables_when_first_heard:
+            tables_when_first_heard.append(sorted(plan._tables))
+
+    controller, fleet = fly(plan, listeners=[broken_listener, lambda event, now: events.append(event), first_heard])
+    # every way home was computed before a link was read (`FleetPlan.prepare_returns`): a UAV's
+    # first return check, on the event loop, once held every link for a second on a loaded station
+    assert tables_when_first_heard == [sorted(plan.uavs)]
     for uid in plan.uavs:
         assert controller.status[uid].stage is Stage.LANDED
         assert controller.status[uid].return_reason is None  # the plan's own return
