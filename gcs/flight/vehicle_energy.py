@@ -258,9 +258,10 @@ class VehicleEnergy:
                     f"the way home needs {ordered.cost:.0f} m: returning")
         remaining = fuel.remaining_mah or 0.0
         pct = f"{st.battery_pct:.0f}%" if st.battery_pct is not None else f"{remaining:.0f} mAh"
+        air = "in still air" if fuel.wind_m_s is None else "in the wind"
         return (f"battery {pct} ({remaining:.0f} mAh) pays for {decision.range_left_m:.0f} m above the "
                 f"{self.reserve_pct:g}% reserve and the landing; the way home is {decision.home_m:.0f} m "
-                f"({decision.home_mah:.0f} mAh with the landing, at {fuel.rate_mah_per_m:.2f} mAh/m in the wind): "
+                f"({decision.home_mah:.0f} mAh with the landing, at {fuel.rate_mah_per_m:.2f} mAh/m {air}): "
                 "returning")
 
     def evaluate(self, steps_ahead: list[Legs], home_legs: list[Legs], circuit_legs: Legs,

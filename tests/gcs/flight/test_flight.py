@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import re
 
 import pytest
 
@@ -108,13 +109,18 @@ def test_px4_flies_a_plane_whose_approach_leaves_the_area_only_when_its_fence_co
 
 
 @BATTERY_BY_THE_CLOCK
-def test_fast_draining_battery_is_sent_home_early_and_lands_above_the_reserve(plan):
+def test_fast_draining_battery_is_sent_home_early_and_lands_above_the_reserve(plan, capsys):
     # 15 times real time: the station holds the vehicle while it sends the way home, which takes a
     # second on a loaded machine, 15 of the vehicle's (at 60, 60 s of a hover at four times the
     # draw against the 3 s priced: it touched down at 14 %)
     controller, fleet = fly(plan, drain={1: 4.0}, speedup=15.0)
     st = controller.status[1]
     assert st.return_reason == "battery"
+    # the station says what the charge pays for and what the way home costs, in the air it knows
+    # (the simulator has no wind)
+    assert re.search(r"UAV 1: battery \d+% \(\d+ mAh\) pays for \d+ m above the 30% reserve and the landing; "
+                     r"the way home is \d+ m \(\d+ mAh with the landing, at [\d.]+ mAh/m in still air\): returning",
+                     capsys.readouterr().out)
     assert st.stage is Stage.LANDED
     assert _landed_home(plan, fleet, 1) < 5.0
     state = fleet.vehicle(1).state
