@@ -216,6 +216,7 @@ class SortieLog:
         for uid, st in sorted(controller.status.items()):
             mine = [r for r in self.readings if r.uav_id == uid]
             vehicles.append({"id": uid, "end": st.stage.value, "return_reason": st.return_reason,
+                             "note": st.note or None, "battery_pct": st.battery_pct,
                              "readings": len(mine), "positive": sum(r.hit for r in mine),
                              "track_points": len(self.tracks.get(uid, [])), "track_length_m": round(st.odometer_m, 1)})
         data = {

@@ -106,6 +106,10 @@ def test_a_vehicle_whose_charge_cannot_pay_for_its_plan_stays_on_the_ground_nami
     assert "the plan needs" in out and "--fit-charge" in out
     assert flight.returncode == 1
     assert flight.verdicts[2].passed == 0 and not flight.flown[2].armed_seen
+    # the sortie record keeps why it stayed down
+    record = json.loads((tmp_path / "field" / "plan" / "sortie.json").read_text())
+    grounded = next(v for v in record["vehicles"] if v["id"] == 2)
+    assert grounded["end"] == "failed" and grounded["note"].startswith("not armed: charge 100% = 1800 mAh pays for")
 
 
 def test_a_range_cut_to_the_charge_that_cannot_fly_its_shortest_way_out_and_home_is_not_flown(tmp_path):

@@ -5,6 +5,7 @@ sortie from it with fresh batteries; bad folders are refused with the reason."""
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import signal
 import subprocess
@@ -80,6 +81,9 @@ def test_a_flight_leaves_the_posterior_of_its_readings_its_tracks_and_its_detect
     assert len(log) == record["readings"]["count"] == sum(v["readings"] for v in record["vehicles"]) > 400
     assert record["readings"]["positive"] == sum(r[4] for r in log) > 0
     assert all(v["end"] == "landed" for v in record["vehicles"])
+    # what the crew's summary said of each vehicle, and the charge it came down with
+    assert all(re.fullmatch(r"battery \d+%, [\d.]+ m from its airport", v["note"]) for v in record["vehicles"])
+    assert all(25.0 < v["battery_pct"] <= 100.0 for v in record["vehicles"])  # reserve 30 %, less the slack
 
     options = plan["campaign"]["options"]
     pc, pf = options["pc"], options["pf"]
