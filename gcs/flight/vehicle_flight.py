@@ -12,11 +12,12 @@ Its stages (`Stage`, the values the journal, bus and recordings carry), in the o
     returning   RETURN (its planned way home), RTL (the autopilot's)   `send_home`, `rtl`
     landed      LANDED, LANDED_AWAY                       `update_stage`, from its telemetry
 
-FAILED can end any stage before the end. LOST is an overlay: any stage before the end may go
-silent, and the vehicle comes back to the stage it was lost in (`update_stage`), or goes on from
-it where the task commanding it takes it meanwhile. Every change goes through `set_stage`, which
-refuses one `TRANSITIONS` does not list (`StageError`); only a resumed flight's reattachment sets
-the stage it finds (`gcs.flight.resume`), outside the table."""
+FAILED can end any stage before the end (in the air: RTL at once, and the flight waits for it).
+LOST is an overlay: any stage before the end may go silent, and the vehicle comes back to the
+stage it was lost in (`update_stage`), or goes on from it where the task commanding it takes it
+meanwhile. Every change goes through `set_stage`, which refuses one `TRANSITIONS` does not list
+(`StageError`); only a resumed flight's reattachment sets the stage it finds
+(`gcs.flight.resume`), outside the table."""
 
 from __future__ import annotations
 
@@ -57,7 +58,7 @@ TRANSITIONS: dict[Stage, frozenset[Stage]] = {
     S.RETURN: frozenset({S.RTL, S.LANDED, S.LANDED_AWAY}),
     S.RTL: frozenset({S.RETURN, S.LANDED, S.LANDED_AWAY}),
     S.LANDED: frozenset(), S.LANDED_AWAY: frozenset(),
-    S.FAILED: frozenset({S.RTL}),  # failed in the air: sent home when the flight stops
+    S.FAILED: frozenset({S.RTL}),  # failed in the air: sent home at once (`set_stage`)
     S.LOST: frozenset(set(S) - FINAL_STAGES - {S.LOST} | {S.FAILED}),  # narrowed by `may_become`
 }
 #: Reached from every stage before the end: a failure, and a link gone quiet.
@@ -99,6 +100,7 @@ class VehicleFlight:
         self.orders: list[tuple[int, str]] = []    # return orders not yet carried out: (sequence, reason)
         self.return_after_s = options.return_after_s.get(uid)  # flight seconds: ordered home then
         self.busy = self.stay_on_ground = False  # commanded by a task (`claim`); ordered home before take-off
+        self.failed_in_air = False  # FAILED in the air, its RTL not yet answered: the flight waits for it
         self.lost_since: float | None = None  # when its link went quiet, and the stage it was in
         self.stage_before_loss: Stage | None = None
         self.upload_reports: dict | None = None  # the verified uploads, by kind ("mission", "fence", "rally")
@@ -125,6 +127,16 @@ class VehicleFlight:
             st.stage = stage
             self.say(f"{stage.value}{' - ' + note if note else ''}")
             self.station.emit(StageChanged(self.uid, before, stage, note))
+            if stage is Stage.FAILED and st.airborne:  # no task flies it any more: its autopilot brings it home
+                self.failed_in_air = True
+                self.station.spawn(self._home_after_failure())
+
+    async def _home_after_failure(self) -> None:
+        try:
+            if not await self.rtl():
+                self.say("in the air and did not confirm RTL: check it yourself")
+        finally:
+            self.failed_in_air = False
 
     def mark_lost(self, note: str, now: float, before: Stage | None = None) -> None:
         """LOST from `now` (monotonic): heard again, it gets `before` back (by default the stage
@@ -155,7 +167,7 @@ class VehicleFlight:
     def done(self, now: float) -> bool:
         """Landed, failed, or lost for `lost_giveup_s`: the flight no longer waits for it."""
         lost_s = now - (self.lost_since or now) if self.status.stage is Stage.LOST else -math.inf
-        return self.status.stage in FINAL_STAGES or lost_s >= self.options.lost_giveup_s
+        return (self.status.stage in FINAL_STAGES and not self.failed_in_air) or lost_s >= self.options.lost_giveup_s
 
     # ---- telemetry -----------------------------------------------------------------------
 
