@@ -12,7 +12,8 @@ Its stages (`Stage`, the values the journal, bus and recordings carry), in the o
     returning   RETURN (its planned way home), RTL (the autopilot's)   `send_home`, `rtl`
     landed      LANDED, LANDED_AWAY                       `update_stage`, from its telemetry
 
-FAILED can end any stage before the end (in the air: RTL at once, and the flight waits for it).
+FAILED can end any stage before the end (in the air after its launch: RTL at once, and the
+flight waits for it).
 LOST is an overlay: any stage before the end may go silent, and the vehicle comes back to the
 stage it was lost in (`update_stage`), or goes on from it where the task commanding it takes it
 meanwhile. Every change goes through `set_stage`, which refuses one `TRANSITIONS` does not list
@@ -127,7 +128,9 @@ class VehicleFlight:
             st.stage = stage
             self.say(f"{stage.value}{' - ' + note if note else ''}")
             self.station.emit(StageChanged(self.uid, before, stage, note))
-            if stage is Stage.FAILED and st.airborne:  # no task flies it any more: its autopilot brings it home
+            if stage is Stage.FAILED and st.airborne and before in (Stage.ARMING, Stage.SEARCH, Stage.RETURN):
+                # launched by this station and no task flies it any more: its autopilot brings it home
+                # (one found in the air while it was prepared, e.g. `gcs upload` to a flying vehicle, is not ours)
                 self.failed_in_air = True
                 self.station.spawn(self._home_after_failure())
 
