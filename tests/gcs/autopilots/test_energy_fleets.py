@@ -45,21 +45,25 @@ def judge(flight) -> None:
     assert flight.returncode == 0, flight.stdout[-4000:]
 
 
-@pytest.mark.parametrize("fleet, site, extra", [
-    pytest.param(COPTERS, FIELD_COPTERS, (), id="3 ArduCopter, one small pack"),
-    pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), id="3 ArduPlane"),
-    pytest.param(MIXED, FIELD_COPTERS, (), id="ArduCopter and 2 PX4"),
+@pytest.mark.parametrize("fleet, site, extra, wind, crew_wind", [
+    pytest.param(COPTERS, FIELD_COPTERS, (), False, False, id="still air-3 ArduCopter, one small pack"),
+    pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), False, False, id="still air-3 ArduPlane"),
+    pytest.param(MIXED, FIELD_COPTERS, (), False, False, id="still air-ArduCopter and 2 PX4"),
+    pytest.param(COPTERS, FIELD_COPTERS, (), True, True, id="8 m/s wind-3 ArduCopter, one small pack"),
+    pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), True, True, id="8 m/s wind-3 ArduPlane"),
+    # no crew's figure: the wind only the copters read in the air, from their lean
+    # (gcs/flight/lean_wind.py); stock packs (a 2200 mAh one would fly a loop it cannot pay for in
+    # that wind, docs/energy.md). No PX4 fleet in wind: SIH v1.15.3 has none, its vehicles would
+    # fly the still-air flight again
+    pytest.param([Vehicle()] * 3, FIELD_COPTERS, (), True, False, id="8 m/s wind read in flight-3 ArduCopter"),
 ])
-@pytest.mark.parametrize("wind", [False, True], ids=["still air", "8 m/s wind"])
-def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra, wind):
+def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra, wind, crew_wind):
     require_ardupilot()
-    if any(v.autopilot == "px4" for v in fleet):
-        require_px4()
-    speedup = Px4Sitl.speedup if any(v.autopilot == "px4" for v in fleet) else 10.0  # PX4 keeps up to 5
-    # the crew's wind, measured at launch; not with PX4 in the fleet: SIH v1.15.3 has no wind, and
-    # its vehicles would be priced in air they never meet
     px4 = any(v.autopilot == "px4" for v in fleet)
-    crew = ("--wind", f"{WIND['SIM_WIND_SPD']:g}@{WIND['SIM_WIND_DIR']:g}") if wind and not px4 else ()
+    if px4:
+        require_px4()
+    speedup = Px4Sitl.speedup if px4 else 10.0  # PX4 keeps up to 5
+    crew = ("--wind", f"{WIND['SIM_WIND_SPD']:g}@{WIND['SIM_WIND_DIR']:g}") if crew_wind else ()
     flight = fly_fleet(tmp_path, site, fleet, "--fit-charge", *crew, plan_args=extra, wind=wind, speedup=speedup)
     if wind:  # the bound in wind: nobody below reserve - 5; one whose charge cannot pay in it stays down
         for v in flight.verdicts.values():
@@ -69,6 +73,9 @@ def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra
             else:
                 assert v.touchdown_pct >= RESERVE_PCT - 5, f"{v}\n{flight.stdout[-4000:]}"
         assert any(v.touchdown_pct is not None for v in flight.verdicts.values())
+        if not crew_wind:
+            assert re.search(r"UAV \d: wind [\d.]+ m/s from \d+ deg, read from its lean", flight.stdout), \
+                flight.stdout[-4000:]
     else:
         judge(flight)
         errors = flight.energy_errors()
