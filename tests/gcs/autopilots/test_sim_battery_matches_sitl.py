@@ -24,7 +24,7 @@ from tests.peers.site import CENTRE, GROUND_AMSL_M
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
-SPEEDUP, PX4_SPEEDUP = 10.0, 5.0
+SPEEDUP, PX4_SPEEDUP = 20.0, 5.0  # ArduPilot as its flight tests (docs/tests.md)
 #: the simulator's course flies as the simulated fleets do (docs/tests.md), PX4's at 20: at 30 a
 #: run read 94 %, not 97, 3 s of vehicle time after the disarm
 SIM_SPEEDUP, SIM_PX4_SPEEDUP = 30.0, 20.0
@@ -64,7 +64,7 @@ def _sim(config: VehicleConfig, course: Course, *, setup: dict[str, float] | Non
 
 @pytest.fixture(scope="module")
 def arducopter() -> tuple[dict[str, Phase], dict[str, Phase]]:
-    """(simulator, SITL): about 30 s of SITL at 10x and 10 s of the simulator at 30x."""
+    """(simulator, SITL): about 30 s of SITL at 20x and 10 s of the simulator at 30x."""
     sim = _sim(VehicleConfig(battery=BatteryConfig(capacity_mah=3300.0), boot_scale=0.05), COPTER)
     with ArduPilotSitl("copter", home=(*CENTRE, GROUND_AMSL_M, 0.0), speedup=SPEEDUP) as sitl:
         real = _fly(sitl.udp_connection, COPTER, vehicle="copter", px4=False, speedup=SPEEDUP)
