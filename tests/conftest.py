@@ -23,7 +23,7 @@ import pytest
 from hypothesis import HealthCheck, settings
 from packaging.version import Version
 
-from tests import kernel_reach
+from tests import cpu_report, kernel_reach
 
 settings.register_profile("ci", derandomize=True, database=None, deadline=None, print_blob=True,
                           suppress_health_check=[HealthCheck.too_slow])
@@ -40,10 +40,13 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
 
 def pytest_addoption(parser: pytest.Parser) -> None:
     kernel_reach.add_option(parser)
+    cpu_report.add_option(parser)
 
 
 def pytest_configure(config: pytest.Config) -> None:
     config.pluginmanager.register(kernel_reach.KernelReach(config), "gcs-kernel-reach")
+    if config.getoption("cpu_report") or os.environ.get("CI"):
+        config.pluginmanager.register(cpu_report.CpuReport(), "gcs-cpu-report")
     if config.getoption("dist", "no") == "loadgroup" and _groups_lost():
         raise pytest.UsageError("pytest-xdist 3.8 does not keep an xdist_group in one worker under pytest 9.2 "
                                 "(pytest-dev/pytest-xdist#1386): install the test extra's pytest, below 9.2")
@@ -59,7 +62,8 @@ def _groups_lost() -> bool:
 def pytest_runtest_protocol(item, nextitem):
     """A test of the station or the simulator (tests/gcs, tests/sim) outside the real autopilots'
     worker waits while a fleet of several PX4 SITLs flies (`tests.peers.process.cpu_share`),
-    for its whole run: the module fixtures its setup flies included."""
+    for its whole run: the module fixtures its setup flies included. One marked `cpu_alone` takes
+    the lock alone: the others wait for it as for such a fleet."""
     path = str(item.path)
     if f"{os.sep}tests{os.sep}gcs{os.sep}" not in path and f"{os.sep}tests{os.sep}sim{os.sep}" not in path \
             or item.get_closest_marker("autopilot") is not None \
@@ -68,5 +72,5 @@ def pytest_runtest_protocol(item, nextitem):
         return
     from tests.peers.process import cpu_share
 
-    with cpu_share(heavy=False):
+    with cpu_share(heavy=item.get_closest_marker("cpu_alone") is not None):
         yield

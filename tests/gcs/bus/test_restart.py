@@ -38,10 +38,10 @@ def test_events_survive_a_broker_restart_in_order_and_complete(make_broker, flee
         statuses: list[str] = []
         async with FleetBus(parse_broker_url(broker.url), fleet=fleet_name, telemetry_hz=10.0,
                             reconnect_min_s=0.05, reconnect_max_s=0.5, on_status=statuses.append) as bus:
-            fleet = ScriptedFleet(bus)
             await bus.wait_connected(5)
-            while len(connects) < 1:
+            while len(connects) < 1:  # subscribed before the first event (its take-off): not retained
                 await asyncio.sleep(0.01)
+            fleet = ScriptedFleet(bus)
             loop = asyncio.get_running_loop()
             restart = None
             queued_while_down = 0
