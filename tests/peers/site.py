@@ -104,7 +104,7 @@ COPTERS = Site((Airport("west", -240.0, -30.0, "E", 1300.0), Airport("south", -3
 PLANE = Site((Airport("runway", -500.0, -500.0, "N", 10000.0),), half_m=1000.0, cell_m=100.0,
              no_fly=(100.0, 100.0, 300.0, 300.0))
 #: One PX4 copter at COPTERS' west airport with a 700 m range: PX4 flies missions at 5 m/s, so its
-#: flight is about three minutes of vehicle time, half a minute of wall time at speed-up 5.
+#: flight is about three minutes of vehicle time, under half a minute of wall time at speed-up 8.
 PX4_SOLO = Site((Airport("west", -240.0, -30.0, "E", 700.0),))
 MEADOW = Site((Airport("edge", -400.0, -750.0, "N", 4000.0),), half_m=750.0, cell_m=100.0,
               no_fly=(100.0, 100.0, 300.0, 300.0))

@@ -24,7 +24,7 @@ from tests.gcs.bus.helpers import Mosquitto
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.ports import free_udp_port
 from tests.peers.process import SITL_WORKER
-from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
+from tests.peers.px4 import PX4_SPEEDUP, STEADY_BATTERY, Px4Sitl
 from tests.peers.relay import UdpRelay
 from tests.peers.site import COPTERS, PX4_SOLO, Site
 
@@ -74,8 +74,8 @@ def test_a_mixed_fleet_brings_the_fast_draining_px4_home_first(tmp_path):
     stop = threading.Event()
     try:
         listener = bus_events(broker.port, "mixed", events, stop)
-        with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=5), \
-                Px4Sitl(home=_px4_home(COPTERS, 1), sysid=2, speedup=5,
+        with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=PX4_SPEEDUP), \
+                Px4Sitl(home=_px4_home(COPTERS, 1), sysid=2,
                         params={"SIM_BAT_DRAIN": 300.0, "SIM_BAT_MIN_PCT": 0.0}) as px4:
             done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection],
                        "--mqtt", f"mqtt://127.0.0.1:{broker.port}", "--fleet", "mixed")
@@ -119,10 +119,11 @@ def test_operator_orders_on_a_px4_a_shorter_range_then_home(tmp_path):
 
 def test_a_px4_that_fails_its_pre_arm_checks_stays_on_the_ground_with_its_reason_while_the_ardupilot_flies(tmp_path):
     """COM_ARMABLE 0 puts PX4 in its safety configuration: its pre-arm bit stays off, so the
-    station never arms it, names PX4's own reason, and flies the other vehicle."""
+    station never arms it, names PX4's own reason, and flies the other vehicle. The ArduCopter
+    flies at the speed-up of the ArduPilot flight tests (the PX4 never flies)."""
     plan_dir = COPTERS.plan(tmp_path)
     port = free_udp_port()
-    with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port), \
+    with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=20), \
             Px4Sitl(home=_px4_home(COPTERS, 1), sysid=2, params={**STEADY_BATTERY, "COM_ARMABLE": 0}) as px4:
         done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], "--no-rrd",
                    "--ready-timeout", "30")

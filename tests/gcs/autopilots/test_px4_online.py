@@ -26,7 +26,7 @@ from tests.gcs.autopilots.flights import metres
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.ports import free_udp_port
 from tests.peers.process import SITL_WORKER
-from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
+from tests.peers.px4 import PX4_SPEEDUP, STEADY_BATTERY, Px4Sitl
 from tests.peers.site import Airport, Site
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]
@@ -42,7 +42,7 @@ def test_online_search_on_a_mixed_fleet_with_detectors_folds_both_vehicles_readi
     ardupilot_camera_port = free_udp_port()
     detector = None
     try:
-        with ArduPilotSitl("copter", home=SITE.home(0), sysid=1, speedup=5,
+        with ArduPilotSitl("copter", home=SITE.home(0), sysid=1, speedup=PX4_SPEEDUP,
                            serial2=f"udpclient:127.0.0.1:{ardupilot_camera_port}") as ardupilot, \
                 Px4Sitl(home=SITE.home(1)[:3], sysid=2, params=STEADY_BATTERY) as px4:
             detector = subprocess.Popen(

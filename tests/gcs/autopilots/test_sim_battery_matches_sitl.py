@@ -19,12 +19,12 @@ from sim import BatteryConfig, FleetOptions, HomePose, SimFleet, VehicleConfig
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.energy import Course, Phase, Station, analyse, copter_course, fly, plane_course
 from tests.peers.process import SITL_WORKER
-from tests.peers.px4 import Px4Sitl
+from tests.peers.px4 import PX4_SPEEDUP, Px4Sitl
 from tests.peers.site import CENTRE, GROUND_AMSL_M
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
-SPEEDUP, PX4_SPEEDUP = 20.0, 5.0  # ArduPilot as its flight tests (docs/tests.md)
+SPEEDUP = 20.0  # ArduPilot as its flight tests (docs/tests.md)
 #: the simulator's course flies as the simulated fleets do (docs/tests.md), PX4's at 10: at 30 and
 #: at 20 on a loaded machine a run read 94 %, not 97, 3 s of vehicle time after the disarm
 SIM_SPEEDUP, SIM_PX4_SPEEDUP = 30.0, 10.0

@@ -19,16 +19,14 @@ from gcs.plans.plan_folder import load_plan_dir
 from gcs.telemetry.status import Stage
 from sim import FailsafeLevel
 from tests.gcs.flight.conftest import ROOT, SPEEDUP, fast_options, fly
-from tests.peers.process import SITL_WORKER
 from tests.peers.site import MEADOW
 
 #: Flights whose outcome is a battery spent by the clock: the station's hold while it sends a way
 #: home, or the lock step's hover while it decides, lasts real seconds that the speed-up turns into
-#: many more of the vehicle's. Beside a SITL (load 7 on the CI machine's 2 cores) those seconds
-#: grew until a copter hovered its battery flat; these run in the real autopilots' worker, one at
-#: a time and never beside one (tests/peers/process.py). A worker of their own beside it was
-#: faster but, with three workers, the machine was loaded beyond what the flights bear (docs/tests.md).
-BATTERY_BY_THE_CLOCK = SITL_WORKER
+#: many more of the vehicle's. They run one at a time in a worker of their own (an xdist group), so
+#: two never load the machine together; at speed-ups where a slowed station still leaves them their
+#: battery beside a SITL (docs/tests.md).
+BATTERY_BY_THE_CLOCK = pytest.mark.xdist_group("clock")
 
 
 def _metres(plan, a, b) -> float:
