@@ -11,6 +11,8 @@ and its estimate rises with the thrust), and how it comes back on disarm."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 from pymavlink import mavutil
@@ -62,31 +64,46 @@ def _sim(config: VehicleConfig, course: Course, *, setup: dict[str, float] | Non
     return phases
 
 
-@pytest.fixture(scope="module")
-def arducopter() -> tuple[dict[str, Phase], dict[str, Phase]]:
-    """(simulator, SITL): about 30 s of SITL at 20x and 10 s of the simulator at 30x."""
-    sim = _sim(VehicleConfig(battery=BatteryConfig(capacity_mah=3300.0), boot_scale=0.05), COPTER)
-    with ArduPilotSitl("copter", home=(*CENTRE, GROUND_AMSL_M, 0.0), speedup=SPEEDUP) as sitl:
-        real = _fly(sitl.udp_connection, COPTER, vehicle="copter", px4=False, speedup=SPEEDUP)
-    return sim, real
+Phases = dict[str, Phase]
+
+
+def _side_by_side(sim: Callable[[], Phases], real: Callable[[], Phases]) -> tuple[Phases, Phases]:
+    """(simulator, SITL): the simulator's course flown on a thread while SITL flies its own (the
+    figures are per second and metre of each vehicle's own time, so neither waits for the other)."""
+    with ThreadPoolExecutor(1, thread_name_prefix="sim-course") as pool:
+        simulated = pool.submit(sim)
+        flown = real()
+        return simulated.result(), flown
 
 
 @pytest.fixture(scope="module")
-def arduplane() -> tuple[dict[str, Phase], dict[str, Phase]]:
+def arducopter() -> tuple[Phases, Phases]:
+    """About 30 s of SITL at 20x, and beside it 10 s of the simulator at 30x."""
+    def real() -> Phases:
+        with ArduPilotSitl("copter", home=(*CENTRE, GROUND_AMSL_M, 0.0), speedup=SPEEDUP) as sitl:
+            return _fly(sitl.udp_connection, COPTER, vehicle="copter", px4=False, speedup=SPEEDUP)
+    return _side_by_side(lambda: _sim(VehicleConfig(battery=BatteryConfig(capacity_mah=3300.0), boot_scale=0.05),
+                                      COPTER), real)
+
+
+@pytest.fixture(scope="module")
+def arduplane() -> tuple[Phases, Phases]:
     config = VehicleConfig(vehicle_type="plane", cruise_speed_m_s=22.0, battery=BatteryConfig(capacity_mah=3300.0),
                            boot_scale=0.05)
-    sim = _sim(config, PLANE, setup=AUTOLAND)
-    with ArduPilotSitl("plane", home=(*CENTRE, GROUND_AMSL_M, 90.0), speedup=SPEEDUP) as sitl:
-        real = _fly(sitl.udp_connection, PLANE, vehicle="plane", px4=False, speedup=SPEEDUP, setup=AUTOLAND)
-    return sim, real
+
+    def real() -> Phases:
+        with ArduPilotSitl("plane", home=(*CENTRE, GROUND_AMSL_M, 90.0), speedup=SPEEDUP) as sitl:
+            return _fly(sitl.udp_connection, PLANE, vehicle="plane", px4=False, speedup=SPEEDUP, setup=AUTOLAND)
+    return _side_by_side(lambda: _sim(config, PLANE, setup=AUTOLAND), real)
 
 
 @pytest.fixture(scope="module")
-def px4_quad() -> tuple[dict[str, Phase], dict[str, Phase]]:
+def px4_quad() -> tuple[Phases, Phases]:
+    """One after the other: beside PX4 SITL the simulated PX4 read 96 %, not 97, 3 s of its time
+    after the disarm (its voltage filter)."""
     sim = _sim(VehicleConfig(profile="px4", boot_scale=0.05), PX4)
     with Px4Sitl(home=(*CENTRE, GROUND_AMSL_M), speedup=PX4_SPEEDUP) as sitl:
-        real = _fly(sitl.gcs_connection, PX4, vehicle="copter", px4=True, speedup=PX4_SPEEDUP)
-    return sim, real
+        return sim, _fly(sitl.gcs_connection, PX4, vehicle="copter", px4=True, speedup=PX4_SPEEDUP)
 
 
 def _close(sim: float, real: float, rel: float, what: str) -> str | None:
