@@ -4,12 +4,13 @@ two pytest workers asking together."""
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import sys
 from pathlib import Path
 
 from tests.peers.ports import _end, free_ports
-from tests.peers.process import port_free
+from tests.peers.process import port_free, tcp_listening
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -29,3 +30,13 @@ def test_processes_asking_together_get_different_ports():
     bases = [int(b) for p in procs for b in p.communicate(timeout=60)[0].split()]
     ports = [b + k for b in bases for k in (0, 1)]
     assert len(bases) == 90 and len(set(ports)) == len(ports)
+
+
+def test_a_port_listens_only_once_its_socket_listens():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", free_ports(1)))
+        port = s.getsockname()[1]
+        assert not tcp_listening(port)
+        s.listen()
+        assert tcp_listening(port)
+    assert not tcp_listening(port)

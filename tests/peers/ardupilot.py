@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from tests.peers.ports import free_udp_port
-from tests.peers.process import InstanceClaim, SitlProcess, claim, port_free
+from tests.peers.process import InstanceClaim, SitlProcess, claim, port_free, tcp_listening
 
 REPO = Path(__file__).resolve().parents[2]
 KIND = "ardupilot"
@@ -109,10 +109,12 @@ class ArduPilotSitl(SitlProcess):
         self.process = subprocess.Popen(args, env=env, stdout=log, stderr=subprocess.STDOUT, cwd=self.workdir)
         log.close()
         deadline = time.monotonic() + 20.0
-        while port_free(self.tcp_port):  # SERIAL0 listens once the process is up
+        # SERIAL0 listens once the process is up, SERIAL2 a moment later (a camera connecting to it
+        # at once was refused, ci41)
+        while port_free(self.tcp_port) or (self.serial2 is None and not tcp_listening(self.tcp_port_2)):
             if self.process.poll() is not None:
                 raise RuntimeError(f"SITL exited at start: {(self.workdir / 'sitl.log').read_text()[-2000:]}")
-            assert time.monotonic() < deadline, "SITL did not open its TCP port"
+            assert time.monotonic() < deadline, "SITL did not open its TCP ports"
             time.sleep(0.05)
         return self
 

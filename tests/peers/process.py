@@ -41,6 +41,15 @@ def port_free(port: int, *, udp: bool = False) -> bool:
     return True
 
 
+def tcp_listening(port: int) -> bool:
+    """Whether a TCP socket listens on `port` now, read from /proc/net/tcp (a probe that binds or
+    connects would be seen by the listener: ArduPilot SITL exits when its bind fails)."""
+    wanted = f":{port:04X}"
+    with open("/proc/net/tcp") as table:
+        next(table)
+        return any(fields[1].endswith(wanted) and fields[3] == "0A" for fields in map(str.split, table))
+
+
 def stop_process(process: subprocess.Popen) -> None:
     """Terminate, and kill what does not end within 10 s."""
     if process.poll() is None:

@@ -14,7 +14,7 @@ import re
 
 import pytest
 
-from tests.gcs.autopilots.fleets import RESERVE_PCT, WIND, Vehicle, fly_fleet
+from tests.gcs.autopilots.fleets import RESERVE_PCT, WIND, FleetFlight, Vehicle, fly_fleet
 from tests.peers.ardupilot import require_ardupilot
 from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import require_px4
@@ -48,8 +48,31 @@ def judge(flight) -> None:
     assert flight.returncode == 0, flight.stdout[-4000:]
 
 
+def judge_still_air(flight, fleet: list[Vehicle]) -> None:
+    """`judge`, and each prediction within 5 % where the autopilot measures its current."""
+    judge(flight)
+    errors = flight.energy_errors()
+    assert set(errors) == set(flight.verdicts), flight.stdout[-4000:]
+    # the prediction is held to 5 % where the autopilot measures its current; PX4 SIH reports
+    # only a percentage that rises with thrust (docs/energy.md): its "used" is no measurement
+    measured = {i + 1 for i, v in enumerate(fleet) if v.autopilot != "px4"}
+    assert all(abs(errors[u]) <= 5.0 for u in measured), f"{errors}\n{flight.stdout[-6000:]}"
+
+
+@pytest.fixture(scope="module")
+def copters_in_still_air(tmp_path_factory: pytest.TempPathFactory) -> FleetFlight:
+    """The three ArduCopters (one with a small pack) fly the field once with stock profiles: one
+    test judges that flight, another plans the next from the profiles it learned (one flight of
+    the real autopilots' worker, not two)."""
+    require_ardupilot()
+    return fly_fleet(tmp_path_factory.mktemp("copters-still-air"), FIELD_COPTERS, COPTERS, "--fit-charge")
+
+
+def test_three_copters_one_with_a_small_pack_spend_their_batteries_on_the_search_in_still_air(copters_in_still_air):
+    judge_still_air(copters_in_still_air, COPTERS)
+
+
 @pytest.mark.parametrize("fleet, site, extra, wind, crew_wind", [
-    pytest.param(COPTERS, FIELD_COPTERS, (), False, False, id="still air-3 ArduCopter, one small pack"),
     pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), False, False, id="still air-3 ArduPlane"),
     pytest.param(MIXED, FIELD_COPTERS, (), False, False, id="still air-ArduCopter and 2 PX4"),
     pytest.param(COPTERS, FIELD_COPTERS, (), True, True, id="8 m/s wind-3 ArduCopter, one small pack"),
@@ -80,20 +103,13 @@ def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra
             assert re.search(r"UAV \d: wind [\d.]+ m/s from \d+ deg, read from its lean", flight.stdout), \
                 flight.stdout[-4000:]
     else:
-        judge(flight)
-        errors = flight.energy_errors()
-        assert set(errors) == set(flight.verdicts), flight.stdout[-4000:]
-        # the prediction is held to 5 % where the autopilot measures its current; PX4 SIH reports
-        # only a percentage that rises with thrust (docs/energy.md): its "used" is no measurement
-        measured = {i + 1 for i, v in enumerate(fleet) if v.autopilot != "px4"}
-        assert all(abs(errors[u]) <= 5.0 for u in measured), f"{errors}\n{flight.stdout[-6000:]}"
+        judge_still_air(flight, fleet)
 
 
-def test_a_learned_profile_plans_a_flight_that_spends_the_battery(tmp_path):
+def test_a_learned_profile_plans_a_flight_that_spends_the_battery(tmp_path, copters_in_still_air):
     """Fly once with stock profiles, plan again with the vehicles.json that flight wrote, fly
     again: every vehicle flies its new plan and lands with at most reserve + 10 %."""
-    require_ardupilot()
-    first = fly_fleet(tmp_path / "first", FIELD_COPTERS, COPTERS, "--fit-charge")
+    first = copters_in_still_air
     learned = first.plan_dir / "vehicles.json"
     assert learned.exists(), first.stdout[-3000:]
     records = json.loads(learned.read_text())["vehicles"]
