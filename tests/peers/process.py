@@ -24,8 +24,9 @@ import pytest
 
 LOCKS = Path(tempfile.gettempdir()) / f"gcs-sitl-locks-{os.getuid()}"
 
-#: The real-autopilot tests run in one pytest-xdist worker, one after the other (`--dist loadgroup`,
-#: tests/conftest.py); the other workers run the rest of the suite beside them. Two groups side by
+#: The real-autopilot tests, and the simulated flights whose battery a slow station spends by the
+#: clock, run in one pytest-xdist worker, one after the other (`--dist loadgroup`,
+#: tests/conftest.py); the other worker runs the rest of the suite beside them. Two groups side by
 #: side (PX4, ArduPilot) lost an ArduPlane fleet's and a fast-draining copter's flights to the load
 #: (8 on the 2-core CI machine) and were no faster: docs/tests.md.
 SITL_WORKER = pytest.mark.xdist_group("sitl")

@@ -19,14 +19,15 @@ from gcs.plans.plan_folder import load_plan_dir
 from gcs.telemetry.status import Stage
 from sim import FailsafeLevel
 from tests.gcs.flight.conftest import ROOT, SPEEDUP, fast_options, fly
+from tests.peers.process import SITL_WORKER
 from tests.peers.site import MEADOW
 
 #: Flights whose outcome is a battery spent by the clock: the station's hold while it sends a way
 #: home, or the lock step's hover while it decides, lasts real seconds that the speed-up turns into
-#: many more of the vehicle's. They run one at a time in a worker of their own (an xdist group), so
-#: two never load the machine together; at speed-ups where a slowed station still leaves them their
-#: battery beside a SITL (docs/tests.md).
-BATTERY_BY_THE_CLOCK = pytest.mark.xdist_group("clock")
+#: many more of the vehicle's. They run in the real autopilots' worker, one at a time and never
+#: beside a SITL (tests/peers/process.py); a worker of their own (the xdist group "clock", three
+#: workers) was faster, but at load 8 a simulated flight beside them failed (docs/tests.md).
+BATTERY_BY_THE_CLOCK = SITL_WORKER
 
 
 def _metres(plan, a, b) -> float:
