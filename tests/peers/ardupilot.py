@@ -111,7 +111,7 @@ class ArduPilotSitl(SitlProcess):
         deadline = time.monotonic() + 20.0
         # SERIAL0 listens once the process is up, SERIAL2 a moment later (a camera connecting to it
         # at once was refused, ci41)
-        while port_free(self.tcp_port) or (self.serial2 is None and not tcp_listening(self.tcp_port_2)):
+        while not tcp_listening(self.tcp_port) or (self.serial2 is None and not tcp_listening(self.tcp_port_2)):
             if self.process.poll() is not None:
                 raise RuntimeError(f"SITL exited at start: {(self.workdir / 'sitl.log').read_text()[-2000:]}")
             assert time.monotonic() < deadline, "SITL did not open its TCP ports"

@@ -43,8 +43,9 @@ def port_free(port: int, *, udp: bool = False) -> bool:
 
 
 def tcp_listening(port: int) -> bool:
-    """Whether a TCP socket listens on `port` now, read from /proc/net/tcp (a probe that binds or
-    connects would be seen by the listener: ArduPilot SITL exits when its bind fails)."""
+    """Whether a TCP socket listens on `port` now, read from /proc/net/tcp: a probe that binds
+    could take the port for a moment from the process about to listen on it, and one that
+    connects would be its first client."""
     wanted = f":{port:04X}"
     with open("/proc/net/tcp") as table:
         next(table)

@@ -40,9 +40,9 @@ _BUNDLE_COPY = Path(tempfile.gettempdir()) / f"gcs-px4-bundle-{os.getuid()}"
 #: of a core and the client 0.14 with the bundle's files, 0.45 and 0.07 (224 messages a second
 #: instead of 1,533) with these.
 RC_OVERRIDES = Path(__file__).parent / "px4_rc"
-#: A PX4's speed-up (docs/tests.md, "Speed-ups"): at 8 it takes about three quarters of a core; at 10
-#: more than one, and a station's upload was refused ("IGN MISSION_ITEM: No transfer"): PX4 times
-#: a transfer out in its own time, 5 s, 0.5 s of wall time at 10.
+#: A PX4's speed-up (docs/tests.md, "Speed-ups"): with RC_OVERRIDES about 0.09 of a core per unit
+#: (measured at 5), so some three quarters of a core at 8; at 10 a station's upload was refused
+#: ("IGN MISSION_ITEM: No transfer"): PX4 times a transfer out after 5 s of its own time.
 PX4_SPEEDUP = 8.0
 KIND = "px4"
 
