@@ -121,6 +121,11 @@ class FuelGauge:
         self.cruise_priced_m = 0.0   # cruise metres, each weighed by the wind known as it was flown
         self.used_at_launch: float | None = None
         self._stretches: list[tuple[np.ndarray, float]] = []  # (`_terms` of a sampled stretch, its mAh)
+        self._summed = 0             # stretches in the sums below, each weighed in the wind `_summed_in`
+        self._summed_in: tuple[float, float] | None = None
+        self._normal = np.zeros((TERMS, TERMS))  # the least squares' normal matrix, prior left out
+        self._rhs = np.zeros(TERMS)  # and its right-hand side
+        self._flown = np.zeros(TERMS)  # the sum of the stretches' weighed terms
         self._fit: np.ndarray | None = None
         self._fit_lift = 0.0
         self._rate: float | None = None  # `rate_mah_per_m` of the current fit
@@ -129,6 +134,7 @@ class FuelGauge:
         self._last_phase: FlightPhase | None = None
         self._pure = True            # one phase (and settled cruise) since the last battery report
         self._pending = np.zeros(TERMS)  # the terms of the stretch flown since the last battery report
+        self.version = 0             # counts the changes to what the estimates read
 
     # ---- inputs ---------------------------------------------------------------------------
 
@@ -136,6 +142,7 @@ class FuelGauge:
         """The autopilot's battery capacity (its parameter), when it gives a positive one."""
         if math.isfinite(capacity_mah) and capacity_mah > 0:
             self.capacity_mah = float(capacity_mah)
+            self.version += 1
 
     def set_wind(self, east_m_s: float, north_m_s: float) -> None:
         """The wind the autopilot estimates: the air moving towards (east, north). A wind of 0
@@ -203,6 +210,7 @@ class FuelGauge:
         self._last_used = used
         self._pure = True
         self._pending = np.zeros(TERMS)
+        self.version += 1
 
     def _settled(self, time_s: float) -> bool:
         return self._level_since is not None and time_s - self._level_since >= self.settle_s
@@ -211,6 +219,26 @@ class FuelGauge:
 
     def _refit(self) -> None:
         self._fit = self._rate = None
+        self.version += 1
+
+    def _sum_stretches(self) -> None:
+        """Add the stretches sampled since the last fit to the normal equations, or sum them all
+        again when the wind known has changed (it weighs every stretch): a fit costs the same
+        late in a long flight as early."""
+        if self._summed_in != self.wind_m_s:
+            self._summed, self._summed_in = 0, self.wind_m_s
+            self._normal, self._rhs, self._flown = np.zeros((TERMS, TERMS)), np.zeros(TERMS), np.zeros(TERMS)
+        new = self._stretches[self._summed:]
+        if not new:
+            return
+        terms = np.array([t for t, _ in new]).reshape(-1, TERMS)
+        mah = np.array([m for _, m in new])
+        xs = terms * np.reshape(self.factor(terms[:, 1], terms[:, 2]), (-1, 1))
+        weighed = xs / terms[:, :1]
+        self._normal += weighed.T @ xs
+        self._rhs += weighed.T @ mah
+        self._flown += xs.sum(axis=0)
+        self._summed = len(self._stretches)
 
     @property
     def fit(self) -> np.ndarray:
@@ -218,15 +246,12 @@ class FuelGauge:
         if self._fit is None:
             weight = np.diag([self.prior_weight_m] + [2.0 * self.prior_weight_m] * (TERMS - 1))
             prior = np.array([self.profile.cruise_mah_per_m, 0.0, 0.0, 0.0, 0.0])
-            terms = np.array([t for t, _ in self._stretches]).reshape(-1, TERMS)
-            mah = np.array([m for _, m in self._stretches])
-            xs = terms * np.reshape(self.factor(terms[:, 1], terms[:, 2]), (-1, 1))
-            weighed = xs / terms[:, :1]
-            self._fit = np.linalg.solve(weighed.T @ xs + weight, weighed.T @ mah + weight @ prior)
+            self._sum_stretches()
+            self._fit = np.linalg.solve(self._normal + weight, self._rhs + weight @ prior)
             shown = self.shown_mah_per_m
             self._fit_lift = 0.0
             if shown is not None:
-                self._fit_lift = max(0.0, shown - float(np.sum(xs @ self._fit)) / self.cruise_m)
+                self._fit_lift = max(0.0, shown - float(self._flown @ self._fit) / self.cruise_m)
         return self._fit
 
     @property
@@ -277,13 +302,22 @@ class FuelGauge:
     def way_cost(self, legs_m: list[tuple[float, float]]) -> LegCost:
         """The charge of flying `legs_m` ((east, north) metres each) at the rates learned, no
         direction under MIN_SHARE of the average."""
-        legs = np.asarray(legs_m, dtype=float).reshape(-1, 2)
-        legs = legs[(legs[:, 0] != 0) | (legs[:, 1] != 0)]
-        if not len(legs):
-            return LegCost(0.0, 0.0)
+        return self.way_costs([legs_m])[0]
+
+    def way_costs(self, ways: list[list[tuple[float, float]]]) -> list[LegCost]:
+        """`way_cost` of each of `ways`, priced together."""
+        counts = [len(way) for way in ways]
+        legs = np.asarray([leg for way in ways for leg in way], dtype=float).reshape(-1, 2)
         length = np.hypot(legs[:, 0], legs[:, 1])
-        rates = np.maximum(MIN_SHARE * self.rate_mah_per_m, self._rates_along(legs[:, 0], legs[:, 1]))
-        return LegCost(float(length.sum()), float(length @ rates))
+        moving = length > 0
+        rates = np.zeros(len(legs))
+        if moving.any():
+            rates[moving] = np.maximum(MIN_SHARE * self.rate_mah_per_m,
+                                       self._rates_along(legs[moving, 0], legs[moving, 1]))
+        bounds = np.concatenate([[0], np.cumsum(counts)])
+        metres = np.add.reduceat(np.append(length, 0.0), bounds[:-1]) * (np.diff(bounds) > 0)
+        mah = np.add.reduceat(np.append(length * rates, 0.0), bounds[:-1]) * (np.diff(bounds) > 0)
+        return [LegCost(float(m), float(c)) for m, c in zip(metres, mah)]
 
     def cruise_m_for(self, mah: float) -> float:
         """Metres of cruise `mah` pays for at the rate averaged over directions."""

@@ -76,13 +76,13 @@ def fuel_decision(gauge: FuelGauge, *, reserve_pct: float, landing_mah: float, s
     if remaining is None or not steps_ahead:
         return None
     reserve = gauge.reserve_mah(reserve_pct)
-    circuit = gauge.way_cost(circuit_legs)
+    costs = gauge.way_costs([circuit_legs, *steps_ahead, *home_legs])
+    circuit, ahead_costs, home_costs = costs[0], costs[1:1 + len(steps_ahead)], costs[1 + len(steps_ahead):]
     margin = HOME_MARGIN if gauge.still_air_mah_per_m > THIRSTY_SHARE * gauge.profile.cruise_mah_per_m else 0.0
     landing_mah *= 1.0 + margin
     left_m = gauge.cruise_m_for(remaining - reserve - landing_mah)
     worst: FuelDecision | None = None
-    for ahead, home in zip(steps_ahead, home_legs):
-        step, way = gauge.way_cost(ahead), gauge.way_cost(home)
+    for step, way in zip(ahead_costs, home_costs):
         way = LegCost(way.metres, way.mah * (1.0 + margin))
         check = check_return(remaining, way.mah + circuit.mah, landing_mah, reserve, step.mah)
         ordered = None if ordered_left_m is None else check_return(ordered_left_m, way.metres, step=step.metres)

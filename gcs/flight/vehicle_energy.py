@@ -18,7 +18,7 @@ from gcs.flight.return_trigger import FuelDecision, confirmed, fuel_decision
 from gcs.flight.vehicle_track import Legs, PlanTrack
 from gcs.links import mavlink
 from gcs.plans.plan_folder import UavTask
-from gcs.telemetry.status import Stage, VehicleStatus
+from gcs.telemetry.status import Stage, VehicleStatus, ground_distance_m
 from planner.energy import EnergyProfile
 
 __all__ = ["EnergyAccount", "PlanCharge", "VehicleEnergy", "wind_from_message"]
@@ -28,6 +28,10 @@ MAVMessage = mavlink.MAVLink_message
 #: Vehicle seconds a return is expected to hold the vehicle while its way home is sent, until a
 #: return of the flight has shown how long (`gcs.flight.controller`: the longest seen).
 HOLD_S = 3.0
+#: The return trigger evaluates again once the vehicle is this far from where it last did, or its
+#: charge, fit, pose or orders changed: positions arrive every metre or so, each evaluation prices
+#: every look-ahead pose's way home, and ten metres of a leg is well inside the reserve.
+REEVALUATE_M = 10.0
 
 #: A vehicle's launch is over once it is within this share of its mission altitude (the fuel gauge
 #: waits a few seconds more before it samples cruise); on its way home, a vehicle descending faster
@@ -113,6 +117,8 @@ class VehicleEnergy:
         self.levelled = False
         self.trigger_since: float | None = None
         self.decision: FuelDecision | None = None
+        self._evaluated: tuple[tuple, float, float] | None = None  # what `decision` was made from, and where
+        self._searching_ahead = False  # search poses lay ahead at that evaluation
         self._last_m: tuple[float, float] | None = None  # lat, lon of the last position
         self._last_s: float | None = None
         self.holding = False  # held in the air by the station (while its way home is uploaded)
@@ -238,14 +244,29 @@ class VehicleEnergy:
         of its plan, the way home from each, the landing circuit (`evaluate`); True when it must
         turn home now (searching, airborne, and confirmed: `must_return`)."""
         st = self.status
-        steps_ahead, home = track.look_ahead(st.track_index, st.lat_deg, st.lon_deg, lookahead_steps) \
-            if st.has_position else ([], [])
-        if not steps_ahead:
-            self.decision = None
-            st.margin = math.inf  # the plan's own return (or its end): already the lowest-cost way home
+        inputs = (id(self.fuel), self.fuel.version, st.track_index, lookahead_steps, ordered_left_m, self.hold_s,
+                  self.reserve_pct)
+        if not self._still_valid(inputs):
+            steps_ahead, home = track.look_ahead(st.track_index, st.lat_deg, st.lon_deg, lookahead_steps) \
+                if st.has_position else ([], [])
+            self._searching_ahead = bool(steps_ahead)
+            if steps_ahead:
+                self.evaluate(steps_ahead, home, track.circuit_legs(), ordered_left_m)
+            else:
+                self.decision = None
+                st.margin = math.inf  # the plan's own return (or its end): already the lowest-cost way home
+            self._evaluated = (inputs, st.lat_deg, st.lon_deg) if st.has_position else None
+        if not self._searching_ahead:
             return False
-        self.evaluate(steps_ahead, home, track.circuit_legs(), ordered_left_m)
         return st.airborne_seen and st.stage is Stage.SEARCH and self.must_return(st.time_boot_s)
+
+    def _still_valid(self, inputs: tuple) -> bool:
+        """Whether the last evaluation stands: made from the same charge, fit, pose and orders,
+        within REEVALUATE_M of here."""
+        if self._evaluated is None or self._evaluated[0] != inputs:
+            return False
+        st = self.status
+        return ground_distance_m(self._evaluated[1], self._evaluated[2], st.lat_deg, st.lon_deg) < REEVALUATE_M
 
     def why_home(self, operator_range_m: float | None) -> str:
         """The last evaluation's reason to return, in the operator's terms."""

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import math
 from collections.abc import AsyncIterator, Callable, Sequence
 from typing import TYPE_CHECKING
 
@@ -21,6 +20,7 @@ from gcs.tak.destination import TakDestination
 from gcs.tak.publisher import TakPublisher
 from gcs.tak.sender import close_senders, open_senders
 from gcs.tak.settings import TakSettings
+from gcs.telemetry.status import ground_distance_m
 
 if TYPE_CHECKING:
     from gcs.bus.watcher import FleetWatcher
@@ -30,12 +30,6 @@ __all__ = ["BusOnTak", "tak_on_bus"]
 
 _NOT_FLYING = ("landed", "failed", "lost")
 _MARKER_OF_EVENT = {"return": "return", "rtl": "return", "landed": "landed", "failed": "failed"}
-_EARTH_RADIUS_M = 6_371_008.8
-
-
-def _ground_distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    k = math.radians(1.0) * _EARTH_RADIUS_M
-    return math.hypot((lat2 - lat1) * k, (lon2 - lon1) * k * math.cos(math.radians((lat1 + lat2) / 2)))
 
 
 class BusOnTak:
@@ -67,7 +61,7 @@ class BusOnTak:
             return
         before = self._last.get(uav)
         if before is not None and data["t_s"] - before["t_s"] >= 0.2:
-            moved = _ground_distance_m(before["lat_deg"], before["lon_deg"], data["lat_deg"], data["lon_deg"])
+            moved = ground_distance_m(before["lat_deg"], before["lon_deg"], data["lat_deg"], data["lon_deg"])
             self._speed[uav] = moved / (data["t_s"] - before["t_s"])
         if before is None or data["t_s"] - before["t_s"] >= 0.2:
             self._last[uav] = data

@@ -164,7 +164,7 @@ class VehicleStatus:
         elif kind == "GLOBAL_POSITION_INT":
             lat, lon = msg.lat / 1e7, msg.lon / 1e7
             if self.airborne and self.has_position:
-                self.odometer_m += _ground_distance_m(self.lat_deg, self.lon_deg, lat, lon)
+                self.odometer_m += ground_distance_m(self.lat_deg, self.lon_deg, lat, lon)
             self.lat_deg, self.lon_deg = lat, lon
             self.rel_alt_m = msg.relative_alt / 1000.0
             self.time_boot_s = msg.time_boot_ms / 1000.0
@@ -256,7 +256,7 @@ class VehicleStatus:
         return [i for i in range(max(self.detection_indices)) if i not in self.detection_indices]
 
 
-def _ground_distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
+def ground_distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
     """Metres between two nearby points (equirectangular; exact enough between telemetry samples)."""
     k = math.pi / 180.0 * 6_371_008.8
     return math.hypot((lat2 - lat1) * k, (lon2 - lon1) * k * math.cos(math.radians((lat1 + lat2) / 2)))

@@ -327,3 +327,35 @@ def test_a_vehicle_draining_faster_than_its_profile_has_its_way_home_priced_with
     d = _decision(thirsty)
     way = thirsty.way_cost([(-1000.0, 0.0)]).mah
     assert way > 1000.0 and d.home_mah == pytest.approx((way + 110.0) * (1 + HOME_MARGIN), rel=1e-6)
+
+
+def test_the_trigger_is_evaluated_again_when_what_it_reads_changes_and_not_at_every_position(plan):
+    """The last decision stands while the vehicle is within REEVALUATE_M of where it was made and
+    nothing it was made from changed; a battery report, another pose or ten metres more make a
+    new one."""
+    from gcs.flight.vehicle_energy import REEVALUATE_M, VehicleEnergy
+    from gcs.flight.vehicle_track import PlanTrack
+    from gcs.telemetry.status import Stage, VehicleStatus
+
+    track, status = PlanTrack(plan, 1), VehicleStatus(1)
+    energy = VehicleEnergy(plan.uavs[1], status, COPTER, reserve_pct=30.0)
+    energy.fuel.battery(0.0, FlightPhase.CRUISE, 500.0, None)
+    status.stage, status.airborne_seen = Stage.SEARCH, True
+    first = plan.uavs[1].trajectory[1]
+    metre_north = 1.0 / 111_195.0
+
+    def at(north_m: float):
+        status.lat_deg, status.lon_deg = first.lat_deg + north_m * metre_north, first.lon_deg
+        energy.check_along(track, 3, None)
+        return energy.decision
+
+    made = at(0.0)
+    assert made is not None and math.isfinite(made.margin_m)
+    assert at(0.3 * REEVALUATE_M) is made and at(0.9 * REEVALUATE_M) is made
+    assert at(1.1 * REEVALUATE_M) is not made
+    made = energy.decision
+    energy.fuel.battery(1.0, FlightPhase.CRUISE, 510.0, None)
+    after_report = at(1.1 * REEVALUATE_M)
+    assert after_report is not made and after_report.margin_m < made.margin_m
+    status.track_index = 1
+    assert at(1.1 * REEVALUATE_M) is not after_report
