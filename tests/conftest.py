@@ -8,10 +8,11 @@ ever failed are kept in the tests as `@example`. Elsewhere the default profile d
 on every run and replays the failures it saved in `.hypothesis/`.
 
 Workers (pytest-xdist, `-n auto` in pyproject's addopts): the whole suite, `pytest` without
-arguments, runs in `GCS_TEST_WORKERS` processes (default 2: one for the real-autopilot tests and
-the simulated flights whose battery is spent by the clock, one at a time, tests/peers/process.py,
-the other for the rest; three were faster but failed on timing at load 8, docs/tests.md); tests
-named on the command line run in one process unless `-n N` is given."""
+arguments, runs in `GCS_TEST_WORKERS` processes (default 2: one starts with the real-autopilot
+tests, the other with the simulated flights whose battery is spent by the clock, each group one
+test at a time, tests/peers/process.py; both then take the rest; three were faster but failed on
+timing at load 8-9, docs/tests.md); tests named on the command line run in one process unless
+`-n N` is given."""
 
 from __future__ import annotations
 

@@ -24,12 +24,18 @@ import pytest
 
 LOCKS = Path(tempfile.gettempdir()) / f"gcs-sitl-locks-{os.getuid()}"
 
-#: The real-autopilot tests, and the simulated flights whose battery a slow station spends by the
-#: clock, run in one pytest-xdist worker, one after the other (`--dist loadgroup`,
-#: tests/conftest.py); the other worker runs the rest of the suite beside them. Two groups side by
-#: side (PX4, ArduPilot) lost an ArduPlane fleet's and a fast-draining copter's flights to the load
-#: (8 on the 2-core CI machine) and were no faster: docs/tests.md.
+#: The real-autopilot tests run in one pytest-xdist worker, one after the other (`--dist
+#: loadgroup`, tests/conftest.py). Two groups side by side (PX4, ArduPilot) lost an ArduPlane
+#: fleet's and a fast-draining copter's flights to the load (8 on the 2-core CI machine) and were no
+#: faster: docs/tests.md.
 SITL_WORKER = pytest.mark.xdist_group("sitl")
+
+#: The simulated flights whose outcome is a battery a slow station spends by the clock (its hold
+#: while it sends a way home, the lock step's hover while it decides): one after the other, never
+#: two beside each other. pytest-xdist hands out the largest group first (`--loadscope-reorder`,
+#: its default), so with two workers one starts with the real autopilots' group, the other with
+#: this one, and each takes other tests only when its group is nearly done.
+CLOCK_WORKER = pytest.mark.xdist_group("clock")
 
 
 def port_free(port: int, *, udp: bool = False) -> bool:

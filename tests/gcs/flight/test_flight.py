@@ -19,15 +19,13 @@ from gcs.plans.plan_folder import load_plan_dir
 from gcs.telemetry.status import Stage
 from sim import FailsafeLevel
 from tests.gcs.flight.conftest import ROOT, SPEEDUP, fast_options, fly
-from tests.peers.process import SITL_WORKER
+from tests.peers.process import CLOCK_WORKER
 from tests.peers.site import MEADOW
 
 #: Flights whose outcome is a battery spent by the clock: the station's hold while it sends a way
 #: home, or the lock step's hover while it decides, lasts real seconds that the speed-up turns into
-#: many more of the vehicle's. They run in the real autopilots' worker, one at a time and never
-#: beside a SITL (tests/peers/process.py); a worker of their own (the xdist group "clock", three
-#: workers) was faster, but at load 8 a simulated flight beside them failed (docs/tests.md).
-BATTERY_BY_THE_CLOCK = SITL_WORKER
+#: many more of the vehicle's (tests/peers/process.CLOCK_WORKER).
+BATTERY_BY_THE_CLOCK = CLOCK_WORKER
 
 
 def _metres(plan, a, b) -> float:

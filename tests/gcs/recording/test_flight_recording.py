@@ -17,6 +17,7 @@ from gcs.plans.plan_folder import FleetPlan, load_plan_dir
 from gcs.recording.figures import figure_series
 from gcs.recording.flight import FLIGHT_TIME
 from gcs.recording.plan import read_recording
+from tests.peers.process import CLOCK_WORKER
 
 ROOT = Path(__file__).resolve().parents[3]
 AREA = ROOT / "missions" / "paper.geojson"
@@ -33,13 +34,15 @@ def flown(tmp_path_factory) -> Path:
     """One real flight of the paper area: UAV 1's battery drains 4x faster, so it is sent home
     early by the return trigger; the others fly their plans. At 30 times real time, as the other
     simulated flights with a battery spent by the clock: at 60, a CI run's loaded station took 2 s
-    to hold UAV 1 and send its way home, two minutes of its 4x drain, and it came down 26 m short."""
+    to hold UAV 1 and send its way home, two minutes of its 4x drain, and it came down 26 m short.
+    Its tests run among the flights whose battery is spent by the clock."""
     out = tmp_path_factory.mktemp("flight") / "paper"
     assert main(["fly", "--area", str(AREA), "--sim", "--speedup", "30", "--out", str(out), "--seed", "0",
                  "--sim-drain", "1:4"]) == 0
     return out
 
 
+@CLOCK_WORKER
 def test_a_flight_is_recorded_in_the_plan_folder(flown):
     plan = load_plan_dir(flown)
     rec = read_recording(flown / "flight.rrd", FLIGHT_TIME)
@@ -61,6 +64,7 @@ def test_a_flight_is_recorded_in_the_plan_folder(flown):
         assert left and all(math.isfinite(v[0]) for v in left)
 
 
+@CLOCK_WORKER
 def test_battery_falls_over_the_flight(flown):
     plan = load_plan_dir(flown)
     rec = read_recording(flown / "flight.rrd", FLIGHT_TIME)
@@ -74,6 +78,7 @@ def test_battery_falls_over_the_flight(flown):
     assert fast[-1][0] < normal[-1][0] - 20.0  # UAV 1 drained 4x faster, though it came home first
 
 
+@CLOCK_WORKER
 def test_events_tell_take_offs_the_early_return_and_why_and_landings(flown):
     plan = load_plan_dir(flown)
     rec = read_recording(flown / "flight.rrd", FLIGHT_TIME)
@@ -94,6 +99,7 @@ def test_events_tell_take_offs_the_early_return_and_why_and_landings(flown):
     assert min(v[0] for v in margins) <= 1.0  # the margin ran out: that is what sent it home
 
 
+@CLOCK_WORKER
 def test_no_rrd_writes_no_recording_and_rrd_names_the_file(flown, tmp_path):
     folder = tmp_path / "plan"
     shutil.copytree(flown, folder, ignore=shutil.ignore_patterns("*.rrd"))
