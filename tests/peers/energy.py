@@ -339,7 +339,8 @@ def _sample(st: Station, bs) -> Sample:
 def fly(station: Station, course: Course, *, vehicle: str, idle_s: float = 6.0, params: tuple[str, ...] = (),
         setup: dict[str, float] | None = None, arm_timeout_s: float = 120.0) -> Record:
     """Set the `setup` parameters, upload the course, arm, stay `idle_s` on the ground armed, fly
-    it, and record until the vehicle has been disarmed 3 s; `params` are read first."""
+    it, and record until the vehicle has been disarmed 3 s and reported its battery once more;
+    `params` are read first."""
     lat, lon, _ = connect(station, vehicle=vehicle)
     for name, value in (setup or {}).items():
         station.set_param(name, value)
@@ -384,6 +385,9 @@ def fly(station: Station, course: Course, *, vehicle: str, idle_s: float = 6.0, 
     while station.armed and station.t_s < record.start_t_s + 3600.0 and time.monotonic() < deadline:
         station.recv()
     station.run_for(3.0)
+    # and the first battery report at or after those 3 s: the vehicle's clock can pass them between
+    # two reports, the last one then older than 3 s (a recovering reading lower than it should be)
+    station.wait("BATTERY_STATUS", timeout_s=station.wall_s(3.0))
     station.on_battery = None
     record.texts = station.texts
     return record
