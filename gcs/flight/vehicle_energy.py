@@ -144,6 +144,7 @@ class VehicleEnergy:
         capacity = self.fuel.capacity_mah if self.fuel.capacity_mah != self.profile.capacity_mah else None
         self.profile = profile
         self.fuel = self._gauge(profile)
+        self._evaluated = None
         self.lean_wind = LeanWind(profile.lean_tan_at_10_m_s) if profile.lean_tan_at_10_m_s else None
         if capacity is not None:
             self.fuel.set_capacity(capacity)
@@ -244,8 +245,7 @@ class VehicleEnergy:
         of its plan, the way home from each, the landing circuit (`evaluate`); True when it must
         turn home now (searching, airborne, and confirmed: `must_return`)."""
         st = self.status
-        inputs = (id(self.fuel), self.fuel.version, st.track_index, lookahead_steps, ordered_left_m, self.hold_s,
-                  self.reserve_pct)
+        inputs = (self.fuel.version, st.track_index, lookahead_steps, ordered_left_m, self.hold_s, self.reserve_pct)
         if not self._still_valid(inputs):
             steps_ahead, home = track.look_ahead(st.track_index, st.lat_deg, st.lon_deg, lookahead_steps) \
                 if st.has_position else ([], [])
