@@ -27,7 +27,9 @@ class Browser:
 
     def __init__(self, port: int) -> None:
         self.port = port
-        self.profile = tempfile.TemporaryDirectory(prefix="gcs-chromium-")
+        # Chromium's helper processes can still be writing its profile as the browser exits (ci47:
+        # "Directory not empty: 'Default'" at clean-up); what they leave is a temporary folder
+        self.profile = tempfile.TemporaryDirectory(prefix="gcs-chromium-", ignore_cleanup_errors=True)
         self.proc = subprocess.Popen([str(CHROMIUM), *FLAGS, f"--remote-debugging-port={port}",
                                       f"--user-data-dir={self.profile.name}", "about:blank"],
                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
