@@ -314,10 +314,9 @@ class FuelGauge:
         if moving.any():
             rates[moving] = np.maximum(MIN_SHARE * self.rate_mah_per_m,
                                        self._rates_along(legs[moving, 0], legs[moving, 1]))
-        bounds = np.concatenate([[0], np.cumsum(counts)])
-        metres = np.add.reduceat(np.append(length, 0.0), bounds[:-1]) * (np.diff(bounds) > 0)
-        mah = np.add.reduceat(np.append(length * rates, 0.0), bounds[:-1]) * (np.diff(bounds) > 0)
-        return [LegCost(float(m), float(c)) for m, c in zip(metres, mah)]
+        ends = np.cumsum(counts)[:-1]
+        return [LegCost(float(m.sum()), float(c.sum()))
+                for m, c in zip(np.split(length, ends), np.split(length * rates, ends))]
 
     def cruise_m_for(self, mah: float) -> float:
         """Metres of cruise `mah` pays for at the rate averaged over directions."""
