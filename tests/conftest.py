@@ -18,12 +18,14 @@ from __future__ import annotations
 
 import os
 from importlib import metadata
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
 from packaging.version import Version
 
 from tests import cpu_report, kernel_reach
+from tests.areas import paper_area_with_range
 
 settings.register_profile("ci", derandomize=True, database=None, deadline=None, print_blob=True,
                           suppress_health_check=[HealthCheck.too_slow])
@@ -36,6 +38,12 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     if "GCS_TEST_WORKERS" in os.environ:
         return int(os.environ["GCS_TEST_WORKERS"])
     return WORKERS if config.args_source is pytest.Config.ArgsSource.TESTPATHS else 0
+
+
+@pytest.fixture(scope="session")
+def flight_area(tmp_path_factory) -> Path:
+    """The paper area at the simulated flights' range (tests/areas.py)."""
+    return paper_area_with_range(tmp_path_factory.mktemp("area"))
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

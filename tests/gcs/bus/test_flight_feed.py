@@ -24,9 +24,9 @@ from tests.gcs.flight.conftest import SPEEDUP, fast_options
 ROOT = Path(__file__).resolve().parents[3]
 
 
-def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fleet_name, tmp_path):
+def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fleet_name, tmp_path, flight_area):
     out = tmp_path / "plan"
-    assert main(["plan", "--area", str(ROOT / "missions" / "paper.geojson"), "--seed", "0", "--strategy",
+    assert main(["plan", "--area", str(flight_area), "--seed", "0", "--strategy",
                  "exhaustive", "--out", str(out), "--quiet"]) == 0
     plan = load_plan_dir(out)
     options = fast_options()

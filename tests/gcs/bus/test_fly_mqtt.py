@@ -31,7 +31,7 @@ async def _subscriber(port: int, fleet: str, events: list, telemetry: list) -> N
             await asyncio.sleep(0.1)
 
 
-def test_a_flight_survives_a_broker_restart_and_every_event_arrives(make_broker, fleet_name, tmp_path):
+def test_a_flight_survives_a_broker_restart_and_every_event_arrives(make_broker, fleet_name, tmp_path, flight_area):
     broker = make_broker()
 
     async def scenario():
@@ -40,7 +40,7 @@ def test_a_flight_survives_a_broker_restart_and_every_event_arrives(make_broker,
         subscriber = asyncio.create_task(_subscriber(broker.port, fleet_name, events, telemetry))
         await asyncio.sleep(0.5)
         proc = await asyncio.create_subprocess_exec(
-            sys.executable, "-m", "gcs.cli", "fly", "--area", str(ROOT / "missions" / "paper.geojson"), "--sim",
+            sys.executable, "-m", "gcs.cli", "fly", "--area", str(flight_area), "--sim",
             "--speedup", "20", "--no-rrd", "--mqtt", broker.url, "--fleet", fleet_name, "--out", str(tmp_path / "run"),
             cwd=ROOT, stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE)
         deadline = time.monotonic() + 60

@@ -23,9 +23,9 @@ SPEEDUP = 30.0
 
 
 @pytest.fixture(scope="session")
-def plan_dir(tmp_path_factory) -> Path:
+def plan_dir(tmp_path_factory, flight_area) -> Path:
     out = tmp_path_factory.mktemp("plan") / "paper"
-    assert main(["plan", "--area", str(ROOT / "missions" / "paper.geojson"), "--seed", "0", "--strategy", "exhaustive",
+    assert main(["plan", "--area", str(flight_area), "--seed", "0", "--strategy", "exhaustive",
                  "--out", str(out), "--quiet"]) == 0
     return out
 

@@ -31,7 +31,7 @@ from gcs.plans.vehicle_file import load_vehicles, profile_for_uav
 from gcs.telemetry.status import Detection
 from planner.motion import OC3
 from planner.success import expected_finds
-from tests.gcs.flight.conftest import ROOT, fly
+from tests.gcs.flight.conftest import fly
 from tests.planner.helpers import assert_plan_safe
 
 SPEEDUP = "60"
@@ -57,12 +57,12 @@ def closed_form_posterior(p0: np.ndarray, eu0: np.ndarray, cells_hits, pc: float
 
 
 @pytest.fixture(scope="module")
-def campaign(tmp_path_factory):
-    """Sortie 1 of the paper area flown by `gcs fly --area ... --sim` (the area file copied, so
-    tests may change it)."""
+def campaign(tmp_path_factory, flight_area):
+    """Sortie 1 of the paper area (at the test flights' range) flown by `gcs fly --area ... --sim`
+    (the area file copied, so tests may change it)."""
     base = tmp_path_factory.mktemp("campaign")
     area = base / "paper.geojson"
-    shutil.copy(ROOT / "missions" / "paper.geojson", area)
+    shutil.copy(flight_area, area)
     first = base / "paper"
     assert main(["fly", "--area", str(area), "--sim", "--speedup", SPEEDUP, "--out", str(first), "--no-rrd",
                  "--link-timeout", "2"]) == 0
@@ -78,7 +78,7 @@ def test_a_flight_leaves_the_posterior_of_its_readings_its_tracks_and_its_detect
     assert record["plan_sha256"] == file_sha256(folder / "plan.json")
     assert record["area"] == {"file": str(campaign.area.resolve()), "sha256": file_sha256(campaign.area)}
     log = record["reading_log"]
-    assert len(log) == record["readings"]["count"] == sum(v["readings"] for v in record["vehicles"]) > 400
+    assert len(log) == record["readings"]["count"] == sum(v["readings"] for v in record["vehicles"]) > 250
     assert record["readings"]["positive"] == sum(r[4] for r in log) > 0
     assert all(v["end"] == "landed" for v in record["vehicles"])
     # what the crew's summary said of each vehicle, and the charge it came down with

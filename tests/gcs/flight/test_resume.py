@@ -26,7 +26,7 @@ from tests.gcs.flight.resume_peers import SimProcess, flight_events, kill_when, 
 from tests.gcs.flight.test_campaign import closed_form_posterior
 
 SPEEDUP = 20.0
-DRAIN = 3.0  # every battery drains 3x as fast: the return trigger sends them home on fuel, mid-search
+DRAIN = 5.0  # every battery drains 5x as fast: the return trigger sends them home on fuel, mid-search
 
 
 def _metres(plan, a, b) -> float:
@@ -126,8 +126,8 @@ def test_a_current_item_the_vehicle_is_nowhere_near_does_not_move_its_place(plan
         for uid, task in plan.uavs.items():
             track = PlanTrack(plan, uid)
             airport = task.trajectory[0].lat_deg, task.trajectory[0].lon_deg
-            far = [j for j, wp in enumerate(task.waypoints) if _metres(plan, airport, wp) > 4 * track.off_track_m
-                   and (j == 0 or _metres(plan, airport, task.waypoints[j - 1]) > 4 * track.off_track_m)]
+            far = [j for j, wp in enumerate(task.waypoints[1:], 1) if _metres(plan, airport, wp) > 4 * track.off_track_m
+                   and _metres(plan, airport, task.waypoints[j - 1]) > 4 * track.off_track_m]
             assert far, uid
             for j in far:
                 assert track.index_on_board(autopilot, first + 1 + j, *airport, fallback=7) == 7, (uid, j)
@@ -137,12 +137,10 @@ def test_a_current_item_the_vehicle_is_nowhere_near_does_not_move_its_place(plan
 # ---- the journal read back ---------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def finished(tmp_path_factory) -> Path:
+def finished(tmp_path_factory, flight_area) -> Path:
     """A whole flight of the paper area by `gcs fly --sim`: its journal ends."""
-    from tests.gcs.flight.conftest import ROOT
-
     out = tmp_path_factory.mktemp("finished") / "paper"
-    assert main(["fly", "--area", str(ROOT / "missions" / "paper.geojson"), "--strategy", "exhaustive", "--sim",
+    assert main(["fly", "--area", str(flight_area), "--strategy", "exhaustive", "--sim",
                  "--speedup", "60", "--out", str(out), "--no-rrd"]) == 0
     return out
 
@@ -152,9 +150,10 @@ def test_a_journal_holds_the_whole_flight_and_its_end(finished):
     record = json.loads((finished / "sortie.json").read_text())
     assert state.ended is not None and state.ended["landed"] == [1, 2, 3, 4] and state.start.sim
     assert sum(readings(state).values()) == record["readings"]["count"]
+    plan = load_plan_dir(finished)
     for uid, v in state.vehicles.items():
         assert v.stage is Stage.LANDED and v.airborne_seen and v.mission == "search"
-        assert len(v.track) > 20 and v.battery_samples and v.track_index > 100
+        assert len(v.track) > 20 and v.battery_samples and v.track_index == len(plan.uavs[uid].trajectory) - 1
         lines = [line.text for _, line in state.events if line.uav_id == uid]
         assert sum(text.startswith("take-off") for text in lines) == 1
         assert [text for text in lines if not text.startswith("detection")][-1].startswith("landed")

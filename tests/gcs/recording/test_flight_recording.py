@@ -20,7 +20,6 @@ from gcs.recording.plan import read_recording
 from tests.peers.process import CLOCK_WORKER
 
 ROOT = Path(__file__).resolve().parents[3]
-AREA = ROOT / "missions" / "paper.geojson"
 
 
 def _metres(plan: FleetPlan, a: tuple[float, float], b: tuple[float, float]) -> float:
@@ -30,15 +29,16 @@ def _metres(plan: FleetPlan, a: tuple[float, float], b: tuple[float, float]) -> 
 
 
 @pytest.fixture(scope="module")
-def flown(tmp_path_factory) -> Path:
-    """One real flight of the paper area: UAV 1's battery drains 4x faster, so it is sent home
-    early by the return trigger; the others fly their plans. At 30 times real time, as the other
-    simulated flights with a battery spent by the clock: at 60, a CI run's loaded station took 2 s
-    to hold UAV 1 and send its way home, two minutes of its 4x drain, and it came down 26 m short.
+def flown(tmp_path_factory, flight_area) -> Path:
+    """One real flight of the paper area (at the test flights' range): UAV 1's battery drains 6x
+    faster, so it is sent home early by the return trigger; the others fly their plans. At 30 times
+    real time, as the other simulated flights with a battery spent by the clock: at 60, a CI run's
+    loaded station took 2 s to hold UAV 1 and send its way home, two minutes of a 4x drain, and it
+    came down 26 m short.
     Its tests run among the flights whose battery is spent by the clock."""
     out = tmp_path_factory.mktemp("flight") / "paper"
-    assert main(["fly", "--area", str(AREA), "--sim", "--speedup", "30", "--out", str(out), "--seed", "0",
-                 "--sim-drain", "1:4"]) == 0
+    assert main(["fly", "--area", str(flight_area), "--sim", "--speedup", "30", "--out", str(out), "--seed", "0",
+                 "--sim-drain", "1:6"]) == 0
     return out
 
 
@@ -75,7 +75,7 @@ def test_battery_falls_over_the_flight(flown):
         assert np.all(np.diff(battery) <= 1.0)  # never climbs (a reading may repeat)
     _, fast = rec.column("uav/1/battery", "Scalars:scalars")
     _, normal = rec.column("uav/2/battery", "Scalars:scalars")
-    assert fast[-1][0] < normal[-1][0] - 20.0  # UAV 1 drained 4x faster, though it came home first
+    assert fast[-1][0] < normal[-1][0] - 20.0  # UAV 1 drained 6x faster, though it came home first
 
 
 @CLOCK_WORKER

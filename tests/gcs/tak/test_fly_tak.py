@@ -60,7 +60,7 @@ def test_a_simulated_flight_is_on_the_tak_server_as_a_tak_client_sees_it(tak_ser
             await asyncio.sleep(1.0)
             proc = await _fly(tmp_path / "square", "--tak", tcp_url, "--tak", tls_url, "--tak", mesh_url,
                               "--tak-cert", str(certs.client_p12), "--tak-ca", str(certs.ca),
-                              "--tak-interface", "127.0.0.1", "--sim-drain", "1:4",
+                              "--tak-interface", "127.0.0.1", "--sim-drain", "1:8",
                               env={"GCS_TAK_CERT_PASSWORD": certs.p12_password})
             out, _ = await asyncio.wait_for(proc.communicate(), 240)
             ended = time.monotonic()
@@ -107,7 +107,7 @@ def test_a_simulated_flight_is_on_the_tak_server_as_a_tak_client_sees_it(tak_ser
             assert len(links) == len(plan.uavs[uav].waypoints) + 2
             airport = plan.uavs[uav].airport_lat_lon
             assert tuple(map(float, links[0].get("point").split(","))) == (round(airport[0], 7), round(airport[1], 7))
-        # UAV 1 was sent home by the return trigger (its battery drains 4x): where it turned, and its leg home
+        # UAV 1 was sent home by the return trigger (its battery drains 8x): where it turned, and its leg home
         turned = [e for e in events if e.uid == "gcs.square.uav.1.return"]
         assert turned and turned[0].type == "b-m-p-s-m" and "going home: battery" in turned[0].remarks, name
         leg = [e for e in events if e.uid == "gcs.square.uav.1.return-leg"]
