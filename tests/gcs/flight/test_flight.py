@@ -570,7 +570,9 @@ def test_a_controller_failing_as_a_vehicle_lifts_off_sends_it_home_too(plan, mon
         return real(self)
 
     monkeypatch.setattr(VehicleFlight, "watch", watch)
-    fleet = fleet_for_plan(plan, speedup=2.0).start()  # a take-off of wall seconds, as SITL's at speed-up 1-5
+    # a take-off of wall seconds, as SITL's at speed-up 1-5, after a start-up of two (not 42 s of
+    # the simulated ArduPilot's time, 21 of wall time at this speed-up)
+    fleet = fleet_for_plan(plan, speedup=2.0, boot_scale=0.1).start()
     try:
         with pytest.raises(FlightAborted, match="injected bug"):
             asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options()), 120))
