@@ -207,6 +207,7 @@ class SimVehicle(Guidance):
         self._rtl_alt_m = 0.0
         self._auto_armed = False  # ArduCopter: AUTO flies from the ground only after MISSION_START
         self._disarm_at_s: float | None = None
+        self._station_time_scale = 1.0  # vehicle seconds per real second of a station's wait
         self._lift_at_s: float | None = None
         self._prearm_report_s = 30.0
         self.streams = telemetry.StreamScheduler(telemetry.default_intervals_s(
@@ -243,13 +244,16 @@ class SimVehicle(Guidance):
 
     def started_at_speedup(self, speedup: float) -> None:
         """The fleet runs this many times faster than real time. An ArduPilot upload is given up
-        8 s after the last item: that times the station, whose round trips do not speed up with
-        the simulation, so it is 8 real seconds here, as on a vehicle at speed-up 1 (SITL keeps it
-        in its own time: at speed-up 60 a station on a loaded machine had 0.13 s to answer, and
-        uploads were cancelled). Its re-requests stay in vehicle time, as often as SITL's. The px4
-        profile scales its link-loss timeout likewise."""
+        8 s after the last item, and an ArduCopter armed on the ground disarms DISARM_DELAY after
+        arming unless its mission has started: both time the station, whose round trips do not
+        speed up with the simulation, so they are real seconds here, as on a vehicle at speed-up 1
+        (SITL keeps them in its own time: at speed-up 60 a station on a loaded machine had 0.13 s
+        to answer an upload and 0.17 s to start a mission after arming, and lost both). Its
+        re-requests stay in vehicle time, as often as SITL's. The px4 profile scales its link-loss
+        timeout likewise."""
+        self._station_time_scale = max(1.0, speedup)
         if isinstance(self.mission, ArduPilotMissionProtocol):
-            self.mission.give_up_s = UPLOAD_GIVE_UP_S * max(1.0, speedup)
+            self.mission.give_up_s = UPLOAD_GIVE_UP_S * self._station_time_scale
 
     # ---- true state and the Python API -------------------------------------------------
 
@@ -657,7 +661,7 @@ class SimVehicle(Guidance):
         lat, lon = self.airframe.lat_lon_deg
         self._set_home(lat, lon, self.home.alt_m + self.airframe.kin.alt_m)  # home is where it arms
         if self.copter and self.params["DISARM_DELAY"] > 0:  # 0: never (ArduPilot's DISARM_DELAY)
-            self._disarm_at_s = self.time_s + self.params["DISARM_DELAY"]  # unless it takes off
+            self._disarm_at_s = self.time_s + self.params["DISARM_DELAY"] * self._station_time_scale  # unless it flies
         return mavlink.MAV_RESULT_ACCEPTED
 
     def _clear_flight(self) -> None:

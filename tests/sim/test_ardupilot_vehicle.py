@@ -517,6 +517,21 @@ def test_battery_failsafe_acts_only_while_armed_with_ardupilots_texts():
 
 
 @pytest.mark.parametrize("speedup", [1.0, 60.0])
+def test_an_armed_copter_gives_a_station_10_real_seconds_to_start_its_mission_at_any_speed_up(speedup):
+    """DISARM_DELAY times the station's MISSION_START after its arming: sped up 60 times, the
+    copter armed on the ground disarms after 10 real seconds, 600 of its own."""
+    s = ready()
+    s.v.started_at_speedup(speedup)
+    s.mode(COPTER["GUIDED"])
+    armed = s.v.time_s
+    assert s.arm() == ACCEPTED
+    s.run(9.5 * speedup, dt=0.5)
+    assert s.v.armed
+    s.run(1.0 * speedup, dt=0.5)
+    assert not s.v.armed and s.v.time_s - armed > 10.0 * speedup - 0.6
+
+
+@pytest.mark.parametrize("speedup", [1.0, 60.0])
 def test_the_mission_protocol_gives_a_station_8_real_seconds_at_any_speed_up(speedup):
     """ArduPilot gives up an upload 8 s after the last item; a station's round trips do not speed
     up with the simulation, so sped up 60 times the vehicle waits 8 real seconds, 480 of its own."""
