@@ -7,7 +7,6 @@ import asyncio
 import json
 from collections import defaultdict
 from contextlib import AsyncExitStack
-from pathlib import Path
 
 import aiomqtt
 
@@ -20,8 +19,6 @@ from gcs.plans.plan_folder import load_plan_dir
 from gcs.telemetry.status import Stage
 from sim.plan_fleet import fleet_for_plan
 from tests.gcs.flight.conftest import SPEEDUP, fast_options
-
-ROOT = Path(__file__).resolve().parents[3]
 
 
 def test_a_flight_is_published_and_obeys_a_return_order_from_the_bus(broker, fleet_name, tmp_path, flight_area):

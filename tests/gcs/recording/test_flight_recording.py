@@ -19,8 +19,6 @@ from gcs.recording.flight import FLIGHT_TIME
 from gcs.recording.plan import read_recording
 from tests.peers.process import CLOCK_WORKER
 
-ROOT = Path(__file__).resolve().parents[3]
-
 
 def _metres(plan: FleetPlan, a: tuple[float, float], b: tuple[float, float]) -> float:
     ea, na = plan.local_m(*a)
