@@ -18,7 +18,7 @@ from tests.gcs.autopilots.fleets import RESERVE_PCT, WIND, FleetFlight, Vehicle,
 from tests.peers.ardupilot import require_ardupilot
 from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import require_px4
-from tests.peers.site import FIELD_COPTERS, FIELD_PLANES
+from tests.peers.site import FIELD_COPTERS, FIELD_COPTERS_SHORT, FIELD_PLANES
 
 #: each flies a fleet of three to its end (several minutes of vehicle time); one at a time, in
 #: the real autopilots' worker (tests/peers/process.py)
@@ -74,7 +74,7 @@ def test_three_copters_one_with_a_small_pack_spend_their_batteries_on_the_search
 
 @pytest.mark.parametrize("fleet, site, extra, wind, crew_wind", [
     pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), False, False, id="still air-3 ArduPlane"),
-    pytest.param(MIXED, FIELD_COPTERS, (), False, False, id="still air-ArduCopter and 2 PX4"),
+    pytest.param(MIXED, FIELD_COPTERS_SHORT, (), False, False, id="still air-ArduCopter and 2 PX4"),
     pytest.param(COPTERS, FIELD_COPTERS, (), True, True, id="8 m/s wind-3 ArduCopter, one small pack"),
     pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), True, True, id="8 m/s wind-3 ArduPlane"),
     # no crew's figure: the wind only the copters read in the air, from their lean
@@ -143,7 +143,7 @@ def test_a_range_cut_to_the_charge_that_cannot_fly_its_shortest_way_out_and_home
     step and the way home from it: UAV 2's 1800 mAh would fly a loop its charge does not pay for."""
     require_ardupilot()
     fleet = [Vehicle(), Vehicle(params={"BATT_CAPACITY": 1800}), Vehicle()]
-    flight = fly_fleet(tmp_path, FIELD_COPTERS, fleet, "--fit-charge")
+    flight = fly_fleet(tmp_path, FIELD_COPTERS_SHORT, fleet, "--fit-charge")
     out = flight.stdout
     assert re.search(r"UAV 2: failed - not armed: charge 100% = 1800 mAh pays for \d+ m of its plan's \d+ m .*, less "
                      r"than its shortest way out and home \(\d+ m\)", out), out[-3000:]
@@ -155,7 +155,7 @@ def test_a_copter_that_comes_down_away_from_its_airport_is_reported_for_its_crew
     """Its GPS fails once it is 250 m from its airport, searching: ArduCopter's EKF failsafe lands
     it where it is."""
     require_ardupilot()
-    flight = fly_fleet(tmp_path, FIELD_COPTERS, [Vehicle()] * 3, "--fit-charge",
+    flight = fly_fleet(tmp_path, FIELD_COPTERS_SHORT, [Vehicle()] * 3, "--fit-charge",
                        inject=(1, 250.0, {"SIM_GPS1_ENABLE": 0.0}))
     out = flight.stdout
     assert "UAV 1: landed away - LANDED AWAY at" in out and "fetch it" in out, out[-3000:]

@@ -126,10 +126,10 @@ def test_a_px4_that_fails_its_pre_arm_checks_stays_on_the_ground_with_its_reason
     with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=20), \
             Px4Sitl(home=_px4_home(COPTERS, 1), sysid=2, params={**STEADY_BATTERY, "COM_ARMABLE": 0}) as px4:
         done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], "--no-rrd",
-                   "--ready-timeout", "30")
+                   "--ready-timeout", "15")
     assert done.returncode == 1, done.stdout[-3000:] + done.stderr
     out = done.stdout
-    assert re.search(r"UAV 2: failed - not ready after 30 s: no PX4's pre-arm checks \(.*safety configuration",
+    assert re.search(r"UAV 2: failed - not ready after 15 s: no PX4's pre-arm checks \(.*safety configuration",
                      out), out
     assert "UAV 2: arming" not in out
     assert "UAV 1: landed" in out and "1/2 landed" in out
