@@ -31,6 +31,7 @@ async def launch(vehicle: VehicleFlight) -> bool:
     from arming to MISSION_START, half a second at speed-up 20) is armed and started again."""
     st = vehicle.status
     autopilot = st.autopilot or Autopilot.GENERIC
+    await preflight.battery_report(vehicle)
     if not preflight.charge_covers_plan(vehicle):
         return False
     vehicle.set_stage(Stage.ARMING)

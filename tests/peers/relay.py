@@ -5,16 +5,19 @@ from __future__ import annotations
 
 import socket
 import threading
+from collections.abc import Callable
 
 
 class UdpRelay:
     """Listens on `port` (where the vehicle sends), forwards to the station at `station_port` from
     its own socket, and sends the station's replies back to the vehicle. `silence()` drops
     everything both ways until `restore()`. The roles turn round for a vehicle the station calls
-    first (PX4's GCS port): the station sends to `port`, and `station_port` is the vehicle's."""
+    first (PX4's GCS port): the station sends to `port`, and `station_port` is the vehicle's.
+    `forward(datagram, to_station_port)`, when given, drops the datagrams it returns False for."""
 
-    def __init__(self, station_port: int) -> None:
+    def __init__(self, station_port: int, forward: Callable[[bytes, bool], bool] | None = None) -> None:
         self.station = ("127.0.0.1", station_port)
+        self._forward = forward
         self._vehicle_side = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._vehicle_side.bind(("127.0.0.1", 0))
         self._station_side = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -36,7 +39,7 @@ class UdpRelay:
                 continue
             if from_vehicle:
                 self._vehicle = addr
-            if self._silent.is_set():
+            if self._silent.is_set() or (self._forward is not None and not self._forward(data, from_vehicle)):
                 self.dropped += 1
                 continue
             if from_vehicle:
