@@ -29,7 +29,7 @@ __all__ = ["BATTERY_REPORT_WAIT_S", "battery_report", "battery_setup", "charge_c
 #: How long a vehicle that has sent no battery report yet is given for one before its charge is
 #: checked, once asked for it (MAV_CMD_REQUEST_MESSAGE). A vehicle booted before the station is
 #: ready at once, and its upload takes a tenth of a second: its first BATTERY_STATUS can come
-#: after that (ArduCopter SITL, one flight of three), and the check was then skipped.
+#: after that (ArduCopter SITL, one run of four), and the check was then skipped.
 BATTERY_REPORT_WAIT_S = 3.0
 
 
@@ -178,19 +178,19 @@ async def set_params_before_arming(vehicle: VehicleFlight) -> None:
             vehicle.say(f"warning: {name} not confirmed; the autopilot may refuse to arm")
 
 
-async def battery_report(vehicle: VehicleFlight) -> bool:
-    """Whether the vehicle's charge is known: when it has reported none yet, its BATTERY_STATUS
-    is asked for and awaited for up to `BATTERY_REPORT_WAIT_S` (one the autopilot does not
-    answer is still awaited: its stream may bring it)."""
+async def battery_report(vehicle: VehicleFlight) -> None:
+    """When the vehicle has reported no charge yet, ask for its BATTERY_STATUS and wait for it
+    up to `BATTERY_REPORT_WAIT_S` (a request the autopilot does not answer still waits: its
+    stream may bring it)."""
     fuel = vehicle.energy.fuel
     if fuel.remaining_mah is not None:
-        return True
+        return
     try:
         await vehicle.commands.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_BATTERY_STATUS,
                                        retries=1)
     except CommandError:
         pass
-    return await wait_until(lambda: fuel.remaining_mah is not None, BATTERY_REPORT_WAIT_S)
+    await wait_until(lambda: fuel.remaining_mah is not None, BATTERY_REPORT_WAIT_S)
 
 
 def charge_covers_plan(vehicle: VehicleFlight) -> bool:
