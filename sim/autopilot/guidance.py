@@ -20,6 +20,7 @@ from sim.autopilot import telemetry
 from sim.autopilot.ardupilot import MISSION_TEXT_NAMES
 from sim.autopilot.modes import Mode
 from sim.physics.airframe import Airframe, Goal
+from sim.physics.kinematics import corner_fraction
 
 if TYPE_CHECKING:
     from planner.georef import LocalFrame
@@ -117,6 +118,7 @@ class Guidance:
         self._hold_until_s: float | None = None
         self._nav_item: WireItem | None = None  # ArduPlane finishes the nav item it started
         self._land_from: tuple[float, float, float] | None = None  # plane: where its glide began
+        self._passing: tuple[WireItem, float] | None = None  # a waypoint and what is kept past it
         self._points_en: dict[tuple[int, int], tuple[float, float]] = {}  # mission points (degE7) in the frame
 
     @property
@@ -241,7 +243,28 @@ class Guidance:
             if self.landing or math.dist(target, self.airframe.position_en) <= self._radius(item):
                 return Goal(self._touchdown_point(target), -1.0, landing=True)
             return Goal(target, self.airframe.kin.alt_m)
-        return Goal(self._item_en(item), alt)
+        return Goal(self._item_en(item), alt, pass_fraction=self._pass_fraction(item))
+
+    def _pass_fraction(self, item: WireItem) -> float:
+        """What an accelerating copter keeps of its speed past waypoint `item`: as its turn onto
+        the next waypoint allows (`corner_fraction`); 0 (it stops) before anything else, or at a
+        waypoint it holds at (param1). Worked out once per item flown to."""
+        if self.airframe.limits.accel_m_s2 is None:
+            return 0.0
+        if self._passing is not None and self._passing[0] is item:
+            return self._passing[1]
+        fraction = 0.0
+        items = self.mission.items()
+        after = next((it for it in items[self.mission_seq + 1:] if it.command in NAV_COMMANDS), None)
+        if item.command == mavlink.MAV_CMD_NAV_WAYPOINT and item.param1 <= 0 and after is not None \
+                and after.command == mavlink.MAV_CMD_NAV_WAYPOINT and (after.x, after.y) != (0, 0):
+            here = self._item_en(item)
+            start = self._previous_nav_en(self.airframe.position_en)
+            end = self._item_en(after)
+            leg = math.atan2(here[0] - start[0], here[1] - start[1])
+            fraction = corner_fraction(math.atan2(end[0] - here[0], end[1] - here[1]) - leg)
+        self._passing = (item, fraction)
+        return fraction
 
     def _previous_nav_en(self, fallback: tuple[float, float]) -> tuple[float, float]:
         """Where the nav item before the current one is (the approach before NAV_LAND)."""

@@ -40,7 +40,7 @@ from sim.autopilot.px4 import BOOT_TIMES as PX4_BOOT_TIMES, Px4BootTimes
 from sim.autopilot.telemetry import reading_message, reading_text
 from sim.physics.airframe import Airframe, HomePose
 from sim.physics.battery import Battery, BatteryConfig, Load, SihBattery, draw_for
-from sim.physics.kinematics import KinematicLimits
+from sim.physics.kinematics import COPTER_ACCEL_M_S2, KinematicLimits
 from sim.physics.sensor import DownwardSensor, Observation, SensorConfig
 
 MAVMessage = mavlink.MAVLink_message
@@ -56,7 +56,8 @@ _COPTER_SPOOL_S, _PLANE_ROLL_S = 3.25, 3.0
 _COPTER_MAX_SPEED_M_S = 10.3
 _TYPE_DEFAULTS = {
     # cruise m/s, turn deg/s, climb m/s, descent m/s, acceptance m, RTL altitude m
-    ("ardupilot", "copter"): (10.0, 90.0, 2.5, 1.5, 2.0, 15.0),
+    # (the copter's turn: the direction it moves in, fitted with sim.physics.kinematics's corners)
+    ("ardupilot", "copter"): (10.0, 360.0, 2.5, 1.5, 2.0, 15.0),
     ("ardupilot", "plane"): (20.0, 20.0, 5.0, 3.0, 90.0, 100.0),
     # PX4 (px4 §4, §6): MPC_XY_CRUISE 5, 29 m climbed in 14.6 s, 20 m descended in 15 s (then
     # MPC_LAND_SPEED below 10 m), NAV_ACC_RAD 2, RTL_RETURN_ALT 30; the plane was not flown
@@ -113,6 +114,7 @@ class VehicleConfig:
             cruise_speed_m_s=self.cruise_speed_m_s, turn_rate_rad_s=math.radians(self.turn_rate_deg_s),
             climb_rate_m_s=self.climb_rate_m_s, descent_rate_m_s=self.descent_rate_m_s,
             can_hover=self.vehicle_type == "copter",
+            accel_m_s2=COPTER_ACCEL_M_S2 if (self.profile, self.vehicle_type) == ("ardupilot", "copter") else None,
         )
 
     @property

@@ -34,12 +34,15 @@ class HomePose:
 class Goal:
     """Where the airframe is flown this step: toward `target_en` (None: hold where it is; a
     plane circles) at `alt_m` above home; `landing`: descending to touch down; `climb_rate_m_s`:
-    a climb rate other than the limits' (ArduPlane's take-off climbs twice as fast)."""
+    a climb rate other than the limits' (ArduPlane's take-off climbs twice as fast);
+    `pass_fraction`: of its speed, what an accelerating copter keeps as it passes the target (a
+    waypoint with a turn after it, `sim.physics.kinematics.corner_fraction`; 0: it stops there)."""
 
     target_en: tuple[float, float] | None
     alt_m: float
     landing: bool = False
     climb_rate_m_s: float | None = None
+    pass_fraction: float = 0.0
 
 
 class Airframe:
@@ -76,7 +79,7 @@ class Airframe:
         """Move for dt toward the goal: turn-rate limited, at cruise speed (or `speed_m_s`),
         climbing or descending at the limits' rates."""
         step_toward(self.kin, self.limits, dt_s, target_en=goal.target_en, target_alt_m=goal.alt_m,
-                    speed_m_s=speed_m_s, climb_rate_m_s=goal.climb_rate_m_s)
+                    speed_m_s=speed_m_s, climb_rate_m_s=goal.climb_rate_m_s, pass_fraction=goal.pass_fraction)
 
     def stop(self) -> None:
         """Standing still (on the ground, or disarmed)."""

@@ -17,7 +17,14 @@ from sim.autopilot.failsafe import FailsafeLevel, failsafe_level, failsafe_to_tr
 from sim.autopilot.modes import Mode, custom_mode_of, mode_from_custom
 from sim.physics.airframe import Airframe, Goal, HomePose
 from sim.physics.battery import Battery, BatteryConfig, CopterDraw, Load, PlaneDraw, SihBattery
-from sim.physics.kinematics import KinematicLimits, KinematicState, step_toward, wrap_pi
+from sim.physics.kinematics import (
+    COPTER_ACCEL_M_S2,
+    KinematicLimits,
+    KinematicState,
+    corner_fraction,
+    step_toward,
+    wrap_pi,
+)
 from sim.physics.sensor import DownwardSensor, SensorConfig
 
 PLANE = KinematicLimits(cruise_speed_m_s=20, turn_rate_rad_s=math.radians(20), climb_rate_m_s=5,
@@ -48,6 +55,44 @@ def test_copter_reaches_and_stops_on_a_point_inside_its_turn_circle():
         step_toward(s, COPTER, 0.05, target_en=(3.0, 0.0), target_alt_m=10.0)
     assert math.hypot(s.east_m - 3.0, s.north_m) < 0.05
     assert s.speed_m_s < 0.1
+
+
+ARDUCOPTER = KinematicLimits(cruise_speed_m_s=10, turn_rate_rad_s=math.radians(360), climb_rate_m_s=2.5,
+                             descent_rate_m_s=1.5, can_hover=True, accel_m_s2=COPTER_ACCEL_M_S2)
+
+
+def _speed_at(s: KinematicState, target: tuple[float, float], pass_fraction: float, within_m: float) -> float:
+    """Steps toward `target` (0.01 s each); its speed once within `within_m` of it."""
+    for _ in range(12000):
+        step_toward(s, ARDUCOPTER, 0.01, target_en=target, target_alt_m=s.alt_m, pass_fraction=pass_fraction)
+        if math.hypot(s.east_m - target[0], s.north_m - target[1]) <= within_m:
+            return s.speed_m_s
+    raise AssertionError("never got there")
+
+
+def test_an_accelerating_copter_speeds_up_and_brakes_at_its_limit_from_a_stop_to_a_stop():
+    """400 m at 10 m/s from a stop to a stop: 40 s, and v/a more (ArduCopter SITL: 47.2 s)."""
+    s = KinematicState(0.0, 0.0, 30.0, 0.0)
+    speeds = []
+    t = 0.0
+    while math.hypot(s.east_m, s.north_m - 400.0) > 1e-6:
+        step_toward(s, ARDUCOPTER, 0.01, target_en=(0.0, 400.0), target_alt_m=30.0)
+        speeds.append(s.speed_m_s)
+        t += 0.01
+    assert t == pytest.approx(400.0 / 10.0 + 10.0 / COPTER_ACCEL_M_S2, abs=0.2)
+    assert max(b - a for a, b in zip(speeds, speeds[1:])) <= COPTER_ACCEL_M_S2 * 0.01 + 1e-9
+    assert max(speeds) == pytest.approx(10.0)
+
+
+def test_an_accelerating_copter_passes_a_corner_at_the_speed_its_turn_allows():
+    """It arrives at a waypoint with a 90-degree turn after it at 42 % of its speed, one with 45
+    at 45 %, and keeps its speed through a straight one."""
+    assert corner_fraction(0.0) == 1.0 and corner_fraction(math.pi) == 0.0
+    assert corner_fraction(math.radians(90)) == pytest.approx(0.42)
+    assert corner_fraction(math.radians(-45)) == pytest.approx(0.45)
+    for fraction in (0.42, 0.45, 1.0):
+        s = KinematicState(0.0, 0.0, 30.0, 0.0)
+        assert _speed_at(s, (0.0, 200.0), fraction, within_m=0.1) == pytest.approx(10.0 * fraction, abs=0.1)
 
 
 def test_plane_holding_circles_at_its_turn_radius():

@@ -197,7 +197,7 @@ def test_a_torn_last_line_is_skipped_and_a_damaged_journal_refused(finished, tmp
 
 def _searching(state) -> bool:
     counts = readings(state)
-    return len(counts) == 4 and min(counts.values()) >= 12
+    return len(counts) == 4 and min(counts.values()) >= 9
 
 
 def _preparing(state) -> bool:

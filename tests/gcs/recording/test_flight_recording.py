@@ -28,7 +28,7 @@ def _metres(plan: FleetPlan, a: tuple[float, float], b: tuple[float, float]) -> 
 
 @pytest.fixture(scope="module")
 def flown(tmp_path_factory, flight_area) -> Path:
-    """One real flight of the paper area (at the test flights' range): UAV 1's battery drains 6x
+    """One real flight of the paper area (at the test flights' range): UAV 1's battery drains 5x
     faster, so it is sent home early by the return trigger; the others fly their plans. At 30 times
     real time, as the other simulated flights with a battery spent by the clock: at 60, a CI run's
     loaded station took 2 s to hold UAV 1 and send its way home, two minutes of a 4x drain, and it
@@ -36,7 +36,7 @@ def flown(tmp_path_factory, flight_area) -> Path:
     Its tests run among the flights whose battery is spent by the clock."""
     out = tmp_path_factory.mktemp("flight") / "paper"
     assert main(["fly", "--area", str(flight_area), "--sim", "--speedup", "30", "--out", str(out), "--seed", "0",
-                 "--sim-drain", "1:6"]) == 0
+                 "--sim-drain", "1:5"]) == 0
     return out
 
 
