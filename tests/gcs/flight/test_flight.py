@@ -378,8 +378,7 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     lost, late or misplaced reading, or a step decided from a stale position, breaks that. The
     horizon value (the default for area plans) weighs what lies within the range left, and online
     the range is the live battery's, so decisions may rightly part from the precomputed plan's:
-    there only the finds are compared. (Seed 4: one UAV's search ends on its airport, with no
-    return leg.)"""
+    there only the finds are compared. (Seed 4: other targets and other sensor noise.)"""
     from gcs.display.status_table import targets_found
     from gcs.flight.fly import fly_async
     from gcs.plans.plan_folder import load_plan_dir
@@ -394,8 +393,8 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     # lock step: the vehicles hover while the station decides each step, so a station slowed by a
     # loaded machine costs them battery in proportion to the speed-up (at 20 in CI, on the paper's
     # 3.7 km range, a copter's own battery failsafe brought it home early and the others found 4
-    # targets, not 6; at half that range a step's hover at 15 costs less of the flight than at 10)
-    fleet = fleet_for_plan(plan, speedup=15.0, seed=seed).start()
+    # targets, not 6; on the 1.4 km of the test flights they land with 71-75 % at 20)
+    fleet = fleet_for_plan(plan, speedup=20.0, seed=seed).start()
     try:
         online = asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
                                                         online=search), 280))

@@ -57,7 +57,7 @@ def test_a_flight_is_recorded_in_the_plan_folder(flown):
         stages = [s[0] for s in stages]
         assert "search" in stages and stages[-1] == "landed"
         _, items = rec.column(f"uav/{uid}/mission", "Scalars:scalars")
-        assert max(v[0] for v in items) > 10  # mission progress went through the items
+        assert max(v[0] for v in items) > 5  # mission progress went through the items
         _, left = rec.column(f"uav/{uid}/range/left", "Scalars:scalars")
         assert left and all(math.isfinite(v[0]) for v in left)
 
