@@ -152,11 +152,11 @@ def test_a_range_cut_to_the_charge_that_cannot_fly_its_shortest_way_out_and_home
 
 
 def test_a_copter_that_comes_down_away_from_its_airport_is_reported_for_its_crew(tmp_path):
-    """Its GPS fails once it is 250 m from its airport, searching: ArduCopter's EKF failsafe lands
+    """Its GPS fails once it is 150 m from its airport, searching: ArduCopter's EKF failsafe lands
     it where it is."""
     require_ardupilot()
     flight = fly_fleet(tmp_path, FIELD_COPTERS_SHORT, [Vehicle()] * 3, "--fit-charge",
-                       inject=(1, 250.0, {"SIM_GPS1_ENABLE": 0.0}))
+                       inject=(1, 150.0, {"SIM_GPS1_ENABLE": 0.0}))
     out = flight.stdout
     assert "UAV 1: landed away - LANDED AWAY at" in out and "fetch it" in out, out[-3000:]
     assert flight.returncode == 1 and "LANDED AWAY: UAV 1" in out

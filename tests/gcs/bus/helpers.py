@@ -108,7 +108,7 @@ class ScriptedFleet:
     commands: list[Command] = field(default_factory=list)
     raised: dict[int, list[dict]] = field(default_factory=dict)
     last_sample: dict[int, Telemetry] = field(default_factory=dict)
-    step: int = 0
+    step: float = 0  # ticks so far (a test may set it from the clock)
 
     def __post_init__(self) -> None:
         rng = np.random.default_rng(self.seed)
