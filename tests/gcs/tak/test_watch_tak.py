@@ -33,7 +33,7 @@ def test_a_second_station_puts_the_fleet_on_the_bus_on_tak(tak_server, square_pl
             async def feed():
                 began = time.time()
                 while True:  # the UAVs move with the clock: a late turn of a busy loop is not a slow UAV
-                    fleet.step = (time.time() - began) / 0.05
+                    fleet.step = round((time.time() - began) / 0.05, 1)  # (positions in whole 1e-6 degrees)
                     fleet.tick()
                     await asyncio.sleep(0.05)
 
