@@ -83,8 +83,8 @@ def arducopter() -> tuple[Phases, Phases]:
     def real() -> Phases:
         with ArduPilotSitl("copter", home=(*CENTRE, GROUND_AMSL_M, 0.0), speedup=SPEEDUP) as sitl:
             return _fly(sitl.udp_connection, COPTER, vehicle="copter", px4=False, speedup=SPEEDUP, setup=COPTER_PACK)
-    return _side_by_side(lambda: _sim(VehicleConfig(battery=BatteryConfig(capacity_mah=5000.0), boot_scale=0.05),
-                                      COPTER, setup=COPTER_PACK), real)
+    pack = BatteryConfig(capacity_mah=COPTER_PACK["BATT_CAPACITY"])
+    return _side_by_side(lambda: _sim(VehicleConfig(battery=pack, boot_scale=0.05), COPTER, setup=COPTER_PACK), real)
 
 
 @pytest.fixture(scope="module")
