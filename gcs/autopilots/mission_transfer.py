@@ -216,13 +216,16 @@ class Upload(_Machine):
 
 
 class Download(_Machine):
-    """Read the vehicle's list: REQUEST_LIST, COUNT, then REQUEST_INT / ITEM_INT per item."""
+    """Read the vehicle's list: REQUEST_LIST, COUNT, then REQUEST_INT / ITEM_INT per item. A
+    vehicle busy receiving an upload answers MISSION_ACK DENIED (ArduPilot, for up to 8 s after the
+    uploader's last item): asked again on timeout, or, with `busy_is_final`, failed at once."""
 
     operation = "read-back"
 
     def __init__(self, target: tuple[int, int], mission_type: int = MissionType.MISSION, *,
-                 timeout_s: float = 0.5, max_retries: int = 10) -> None:
+                 timeout_s: float = 0.5, max_retries: int = 10, busy_is_final: bool = False) -> None:
         super().__init__(target, mission_type, timeout_s, max_retries)
+        self.busy_is_final = busy_is_final
         self.count: int | None = None
         self.items: list[WireItem] = []
 
@@ -257,6 +260,8 @@ class Download(_Machine):
             return []  # a read-back never ends in ERROR: the answer to an upload's stale last item
         if kind == "MISSION_ACK" and msg.type != mavlink.MAV_MISSION_ACCEPTED:
             if msg.type == mavlink.MAV_MISSION_DENIED and self.count is None:
+                if self.busy_is_final:
+                    return self._fail(msg.type, "the vehicle is receiving an upload")
                 return []  # busy with another transfer: our timeout asks again
             return self._fail(msg.type, "refused by the vehicle")
         return []
@@ -301,8 +306,9 @@ def _text(msg: MAVMessage) -> str:
 
 
 async def download(link: MavLink, sysid: int, mission_type: int = MissionType.MISSION, *,
-                   timeout_s: float = 0.5) -> list[WireItem]:
-    machine = Download((sysid, AUTOPILOT_COMPONENT_ID), mission_type, timeout_s=timeout_s)
+                   timeout_s: float = 0.5, busy_is_final: bool = False) -> list[WireItem]:
+    machine = Download((sysid, AUTOPILOT_COMPONENT_ID), mission_type, timeout_s=timeout_s,
+                       busy_is_final=busy_is_final)
     await transfer(link, machine)
     return machine.items
 

@@ -214,11 +214,14 @@ class Resumption:
 
     async def _on_board(self, c: FlightController, uid: int, record: VehicleRecord) -> str | None:
         """Which mission the vehicle holds: "search", "return" (the leg the journal has), "other",
-        or None when it could not be downloaded."""
+        or None when it could not be downloaded. A vehicle still receiving an upload (the killed
+        station's return leg, which the autopilot waits for until its own timeout) is not asked
+        again: every second it holds in the air costs charge, and the journal says what it was sent."""
         st, task = c.status[uid], self.plan.uavs[uid]
         autopilot = st.autopilot or Autopilot.GENERIC
         try:
-            got = await download(c.vehicles[uid].link, uid, MissionType.MISSION, timeout_s=c.options.transfer_timeout_s)
+            got = await download(c.vehicles[uid].link, uid, MissionType.MISSION, timeout_s=c.options.transfer_timeout_s,
+                                 busy_is_final=True)
         except (MissionTransferError, LinkError) as exc:
             c.say(uid, f"its mission could not be read back ({exc}); going by the journal")
             return None

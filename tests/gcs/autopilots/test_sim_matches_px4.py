@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import socket
 import time
+import warnings
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
@@ -71,6 +72,7 @@ class Transcript:
     texts: list[str] = field(default_factory=list)
     params: dict[str, tuple[float, int]] = field(default_factory=dict)
     ready_vt_s: float | None = None
+    before_navigator_vt_s: float | None = None
     prearm_fields: tuple[bool, bool, bool] | None = None
 
 
@@ -290,6 +292,7 @@ def exercise(st: Station, plan_dir: Path) -> Transcript:
     for msg_id in INTERVALS:
         out.results[f"interval {msg_id}"] = st.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6)
     out.results["request 193"] = st.command(mavlink.MAV_CMD_REQUEST_MESSAGE, 193)
+    out.before_navigator_vt_s = st.vt_s
     out.results["before the navigator"] = int(st.vt_s < 33.0)  # PX4's navigator starts at 34.6 s
 
     ready = st.wait_prearm(90.0)
@@ -385,14 +388,17 @@ def _px4_transcript(plan_dir: Path) -> Transcript:
 
 @pytest.fixture(scope="module")
 def transcripts(plan_dir) -> tuple[Transcript, Transcript]:
-    """(simulator, PX4), one after the other; each about 10 s. PX4 is asked once more, on a fresh
-    instance, when its answers differ from the simulator's: in full-suite runs on the loaded
-    2-core CI machine a PX4 SITL now and then lost a STATUSTEXT or took up a list too late for
-    the 3 s wait (twice in two runs, never in isolation); the comparison itself is unchanged and
-    must hold exactly for the second PX4 run."""
+    """(simulator, PX4), one after the other; each about 10 s. Both are asked once more, PX4 on a
+    fresh instance, when their answers differ: in full-suite runs on the loaded 2-core CI machine
+    a PX4 SITL now and then lost a STATUSTEXT or took up a list too late for the 3 s wait (twice in
+    two runs, never in isolation), and the real CI of 7288668 failed on a difference that asking
+    PX4 again did not mend (its text was cut from the log: the simulator's side, which was not asked
+    again, is the suspect). The comparison itself is unchanged and must hold exactly for the second
+    pair; the first pair's differences are reported as a warning, so a passing run still shows them."""
     sim, real = _sim_transcript(plan_dir), _px4_transcript(plan_dir)
-    if differences(sim, real):
-        real = _px4_transcript(plan_dir)
+    if first := differences(sim, real):
+        warnings.warn(f"the first simulator/PX4 pair differed, asked both again: {first}", stacklevel=1)
+        sim, real = _sim_transcript(plan_dir), _px4_transcript(plan_dir)
     return sim, real
 
 
@@ -401,6 +407,8 @@ def test_the_sim_answers_uploads_read_backs_and_commands_as_px4_does(transcripts
     assert real.requests["planned"][:2] == [("MISSION_REQUEST", 0), ("MISSION_REQUEST_INT", 1)]
     assert real.results["terrain frame"] == mavlink.MAV_MISSION_UNSUPPORTED_FRAME
     assert real.results["mission over capacity"] == mavlink.MAV_MISSION_NO_SPACE
+    print(f"the exchange before the navigator ended at {sim.before_navigator_vt_s} s of the simulator's time, "
+          f"{real.before_navigator_vt_s} s of PX4's")
     assert real.results["before the navigator"] == 1, "the SITL was too slow to finish before its navigator ran"
     assert real.current["planned"] == 65535 and real.current["varied"] == 4
     assert len(real.lists["after refusals"]) == len(real.lists["planned again"])  # the old list, whole

@@ -134,6 +134,16 @@ def test_download_sequence_duplicates_and_busy_vehicle():
     assert abs(dl.items[1].x - i.x) <= 20 and dl.items[1].z == i.z
 
 
+def test_a_download_that_must_not_wait_fails_at_once_on_a_busy_vehicle():
+    """A restarted station asks a vehicle still receiving the killed station's upload: DENIED ends
+    the read-back (no 10 re-sends while the vehicle holds in the air)."""
+    dl = Download(VEHICLE, timeout_s=0.5, busy_is_final=True)
+    dl.start(0.0)
+    assert dl.handle(_ack(mavlink.MAV_MISSION_DENIED), 0.1) == []
+    assert dl.error is not None and dl.error.result == mavlink.MAV_MISSION_DENIED
+    assert "receiving an upload" in str(dl.error)
+
+
 def _with(item: WireItem, **changes) -> WireItem:
     return WireItem(**{**{f: getattr(item, f) for f in WireItem.__slots__}, **changes})
 
