@@ -24,6 +24,8 @@ from enum import Enum
 import numpy as np
 from numpy.typing import ArrayLike
 
+from planner.path_time import Cornering, path_time_s
+
 __all__ = ["Airframe", "EnergyProfile", "MAX_WIND_FACTOR", "wind_factor"]
 
 #: A direction the vehicle can barely make headway in costs at most this many times its still-air metre.
@@ -41,12 +43,17 @@ class EnergyProfile:
 
     `capacity_mah`: the pack's capacity as the autopilot counts it (BATT_CAPACITY, BAT1_CAPACITY);
     `cruise_speed_m_s`: the speed its missions fly at; `cruise_mah_per_m`: level flight at that
-    speed, per ground metre in still air, turns included as a search path makes them;
+    speed, per ground metre in still air, turns included as the search path it was measured on
+    made them (what a path not yet planned is priced at);
     `loiter_mah_per_s`: hover (copter) or loiter circle (plane); `launch_mah` + `climb_mah_per_m`
     per metre of climb: from arming to the mission altitude; `landing_mah` + `descent_mah_per_m`
     per metre of descent: from the mission altitude to disarmed on the ground;
     `lean_tan_at_10_m_s` (multicopters): the tangent of the tilt it holds against 10 m/s of air
-    speed, its drag against its weight (None: unknown, its wind is not read from its lean)."""
+    speed, its drag against its weight (None: unknown, its wind is not read from its lean);
+    `cornering` and `moving_mah_per_s` (multicopters whose current hardly changes with their
+    speed): how it speeds up and brakes into corners, and what a second of flying a path costs,
+    so that a known path is priced by its time (`path_mah_per_m`): a search path on small cells
+    turns more often per metre than the one `cruise_mah_per_m` was measured on, and costs more."""
 
     airframe: Airframe
     capacity_mah: float
@@ -58,6 +65,8 @@ class EnergyProfile:
     landing_mah: float
     descent_mah_per_m: float
     lean_tan_at_10_m_s: float | None = None
+    cornering: Cornering | None = None
+    moving_mah_per_s: float | None = None
 
     def __post_init__(self) -> None:
         positive = ("capacity_mah", "cruise_speed_m_s", "cruise_mah_per_m")
@@ -72,6 +81,11 @@ class EnergyProfile:
         lean = self.lean_tan_at_10_m_s
         if lean is not None and not (math.isfinite(lean) and lean > 0):
             raise ValueError(f"lean_tan_at_10_m_s must be a positive number or None, got {lean}")
+        moving = self.moving_mah_per_s
+        if (self.cornering is None) != (moving is None):
+            raise ValueError("cornering and moving_mah_per_s come together (or neither)")
+        if moving is not None and not (math.isfinite(moving) and moving > 0):
+            raise ValueError(f"moving_mah_per_s must be a positive number or None, got {moving}")
 
     def launch_cost_mah(self, altitude_m: float) -> float:
         """Arming, take-off and the climb to `altitude_m` above the airport."""
@@ -99,6 +113,22 @@ class EnergyProfile:
         left = (self.capacity_mah * (charge_pct - reserve_pct) / 100.0 - self.launch_cost_mah(altitude_m)
                 - self.landing_cost_mah(altitude_m))
         return max(0.0, left / self.cruise_mah_per_m)
+
+    def path_mah_per_m(self, points_en: ArrayLike) -> float:
+        """What a still-air metre of the path `points_en` ((east, north) metres, from a stop to a
+        stop) costs on average: with `cornering`, `moving_mah_per_s` times its seconds
+        (`planner.path_time.path_time_s`) over its metres; else `cruise_mah_per_m`."""
+        if self.cornering is None or self.moving_mah_per_s is None:
+            return self.cruise_mah_per_m
+        legs = np.diff(np.asarray(points_en, dtype=float).reshape(-1, 2), axis=0)
+        length = float(np.hypot(legs[:, 0], legs[:, 1]).sum())
+        if length <= 0:
+            return self.cruise_mah_per_m
+        return self.moving_mah_per_s * path_time_s(points_en, self.cruise_speed_m_s, self.cornering) / length
+
+    def along(self, points_en: ArrayLike) -> EnergyProfile:
+        """This profile for one path: a cruise metre at that path's average (`path_mah_per_m`)."""
+        return replace(self, cruise_mah_per_m=self.path_mah_per_m(points_en))
 
     def with_capacity(self, capacity_mah: float) -> EnergyProfile:
         """The same airframe with another pack."""

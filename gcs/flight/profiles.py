@@ -4,7 +4,8 @@ into the file given with `--vehicles` (`save_learned`).
 
 Each part of the profile moves to what the flight showed where it showed enough of it: the cost
 of a cruise metre is what the whole cruise cost where the autopilot counts the charge it consumed
-(`whole_cruise_mah_per_m`), else the fuel gauge's still-air estimate at touch-down (the profile's figure
+(`whole_cruise_mah_per_m`; a profile that prices a path by its time, `EnergyProfile.cornering`,
+moves its cost of a second as far), else the fuel gauge's still-air estimate at touch-down (the profile's figure
 weighed against the level flight sampled, `gcs.flight.fuel`: a percentage read off the voltage
 is still recovering from the climb in the first seconds of cruise), the launch and the landing are scaled to the charge
 they took (their split between a fixed cost and a cost per metre of climb or descent kept), and
@@ -63,6 +64,10 @@ def learned_profile(vehicle: VehicleEnergy) -> EnergyProfile | None:
         changes["cruise_mah_per_m"] = cruise
     elif fuel.cruise_m >= MIN_CRUISE_M:
         changes["cruise_mah_per_m"] = fuel.still_air_mah_per_m
+    if "cruise_mah_per_m" in changes and prior.moving_mah_per_s is not None and vehicle.path_en is not None:
+        # the metre of this plan's path the prior predicted moves to the one learned, its second with it
+        changes["moving_mah_per_s"] = (prior.moving_mah_per_s * changes["cruise_mah_per_m"]
+                                       / prior.path_mah_per_m(vehicle.path_en))
     launch = _scaled(fuel.phase_mah[FlightPhase.LAUNCH], prior.launch_cost_mah(altitude))
     if launch is not None:
         changes.update(launch_mah=prior.launch_mah * launch, climb_mah_per_m=prior.climb_mah_per_m * launch)

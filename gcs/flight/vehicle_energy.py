@@ -12,6 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from gcs.flight.fuel import FlightPhase, FuelGauge
 from gcs.flight.lean_wind import LeanWind, thrust_lean
 from gcs.flight.return_trigger import FuelDecision, confirmed, fuel_decision
@@ -105,10 +107,12 @@ class VehicleEnergy:
     """One vehicle's energy (see the module docstring); `status` is its telemetry, read here."""
 
     def __init__(self, task: UavTask, status: VehicleStatus, profile: EnergyProfile, *, reserve_pct: float,
-                 confirm_s: float = 3.0, wind_m_s: tuple[float, float] | None = None) -> None:
+                 confirm_s: float = 3.0, wind_m_s: tuple[float, float] | None = None,
+                 path_en: np.ndarray | None = None) -> None:
         self.task = task
         self.status = status
         self.profile = profile
+        self.path_en = path_en  # the plan's path in metres: a profile with cornering predicts a metre of it
         self.crew_wind = wind_m_s  # the wind the crew measured at launch (`gcs fly --wind`)
         self.fuel = self._gauge(profile)
         self.reserve_pct = reserve_pct
@@ -315,7 +319,10 @@ class VehicleEnergy:
 
     def plan_charge(self, path_m: float, track: PlanTrack) -> PlanCharge | None:
         """What the charge reported now pays for against a plan of `path_m` metres along `track`,
-        a metre priced along its legs in the wind known; None while no charge has been reported."""
+        a metre priced along its legs in the wind known; None while no charge has been reported.
+        A metre costs what the plan's range was sized with (the profile's `cruise_mah_per_m`, not
+        the plan's own path with its corners): the check is whether the charge is what the plan
+        was made for."""
         fuel, profile = self.fuel, self.profile
         have = fuel.remaining_mah
         if have is None:
@@ -337,14 +344,16 @@ class VehicleEnergy:
 
     def energy_account(self) -> EnergyAccount | None:
         """Predicted (by the profile at launch) against used, for what was flown (the cruise metres,
-        each priced in the wind known as it was flown, the seconds it held in the air, the launch
-        to its altitude, the landing from where it starts); None when the vehicle never launched
-        or its charge was never read."""
+        each priced in the wind known as it was flown, at a metre of the plan's path where the
+        profile prices a path by its time, `EnergyProfile.along`; the seconds it held in the air,
+        the launch to its altitude, the landing from where it starts); None when the vehicle never
+        launched or its charge was never read."""
         fuel, profile = self.fuel, self.launch_profile
         if profile is None or fuel.used_mah is None or fuel.used_at_launch is None:
             return None
         altitude = self.task.altitude_m
-        predicted = (profile.launch_cost_mah(altitude) + profile.cruise_cost_mah(fuel.cruise_priced_m)
+        cruise = profile if self.path_en is None else profile.along(self.path_en)
+        predicted = (profile.launch_cost_mah(altitude) + cruise.cruise_cost_mah(fuel.cruise_priced_m)
                      + profile.loiter_mah_per_s * self.hover_s + profile.landing_cost_mah(self.landing_altitude_m))
         return EnergyAccount(predicted, fuel.used_mah - fuel.used_at_launch, fuel.phase_m[FlightPhase.CRUISE],
                              self.status.battery_pct)

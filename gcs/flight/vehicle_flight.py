@@ -94,7 +94,7 @@ class VehicleFlight:
         profile = options.profiles.get(uid) or stock_profile("ardupilot", task.vehicle.value)
         self.status = VehicleStatus(uid)
         self.energy = VehicleEnergy(task, self.status, profile, reserve_pct=options.reserve_pct,
-                                    confirm_s=options.confirm_s, wind_m_s=options.wind_m_s)
+                                    confirm_s=options.confirm_s, wind_m_s=options.wind_m_s, path_en=self.track.track_m)
         self.commands = VehicleCommands(uid, self.status, self.say, command_timeout_s=options.command_timeout_s)
         self.reading_component: int | None = None  # where its readings came from (`reading_from`)
         self.operator_range: float | None = None   # metres along its plan from take-off, set by the operator

@@ -5,14 +5,17 @@ battery reports and steps as the station reads them, no vehicle."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
 from gcs.flight.fuel import FlightPhase, FuelGauge
 from gcs.flight.profiles import learned_profile, whole_cruise_mah_per_m
 from gcs.flight.vehicle_energy import VehicleEnergy
+from gcs.flight.vehicle_track import PlanTrack
 from gcs.telemetry.status import VehicleStatus
 from planner.energy import Airframe, EnergyProfile, wind_factor
+from planner.path_time import ARDUCOPTER_CORNERING
 
 PROFILE = EnergyProfile(airframe=Airframe.COPTER, capacity_mah=5000.0, cruise_speed_m_s=10.0, cruise_mah_per_m=1.0,
                         loiter_mah_per_s=6.0, launch_mah=40.0, climb_mah_per_m=3.0, landing_mah=20.0,
@@ -111,3 +114,31 @@ def test_a_flight_too_short_to_show_its_cruise_leaves_the_profiles_figure(plan):
     assert whole_cruise_mah_per_m(flight.energy) is None
     learned = learned_profile(flight.energy)
     assert learned is not None and learned.cruise_mah_per_m == PROFILE.cruise_mah_per_m
+
+
+def test_a_profile_that_prices_a_path_by_its_time_learns_its_second_and_predicts_its_plan(plan):
+    """A profile with ArduCopter's cornering: the energy account predicts a cruise metre at the
+    plan's own path (its corners spread over it), the return trigger's gauge still at the metre
+    the plan was sized with; the learned profile's second moves as its metre did, so that priced
+    along the same plan it costs what the flight learned."""
+    timed = replace(PROFILE, cornering=ARDUCOPTER_CORNERING, moving_mah_per_s=8.0)
+    track = PlanTrack(plan, 1).track_m
+    per_m = timed.path_mah_per_m(track)
+    assert per_m != pytest.approx(timed.cruise_mah_per_m, rel=0.02)
+    flight = Flight(plan)
+    energy = flight.energy = VehicleEnergy(plan.uavs[1], VehicleStatus(1), timed, reserve_pct=30.0, path_en=track)
+    assert energy.fuel.profile.cruise_mah_per_m == timed.cruise_mah_per_m
+    flight.fuel = energy.fuel
+    energy.launch_profile = timed
+    flight.fuel.battery(0.0, FlightPhase.GROUND, 0.0, 100.0)
+    flight.fly()
+    account = energy.energy_account()
+    assert account is not None
+    assert account.predicted_mah == pytest.approx(
+        timed.launch_cost_mah(energy.task.altitude_m) + per_m * energy.fuel.cruise_priced_m
+        + timed.loiter_mah_per_s * energy.hover_s + timed.landing_cost_mah(energy.landing_altitude_m))
+    learned = learned_profile(energy)
+    assert learned is not None and learned.cornering == ARDUCOPTER_CORNERING
+    assert learned.cruise_mah_per_m == pytest.approx(whole_cruise_mah_per_m(energy))
+    assert learned.moving_mah_per_s == pytest.approx(8.0 * learned.cruise_mah_per_m / per_m)
+    assert learned.path_mah_per_m(track) == pytest.approx(learned.cruise_mah_per_m)

@@ -29,6 +29,27 @@ def record(key: str, uav: int, updated: str = "2026-11-27T10:00:00+00:00", capac
     return VehicleRecord(key, uav, uav, "ardupilot", flights, updated, COPTER.with_capacity(capacity))
 
 
+def _with_profile(**changes) -> dict:
+    """A file of one stock ArduCopter whose profile has `changes` (None: the key left out)."""
+    data = vehicles_to_dict({"sysid:1": record("sysid:1", 1)})
+    profile = data["vehicles"]["sysid:1"]["profile"]
+    for key, value in changes.items():
+        if value is None:
+            profile.pop(key)
+        else:
+            profile[key] = value
+    return data
+
+
+def test_a_file_from_before_cornering_prices_every_path_by_its_metres(tmp_path):
+    """A profile written before profiles priced a path by its time: its figure per metre, as then."""
+    path = tmp_path / "vehicles.json"
+    path.write_text(json.dumps(_with_profile(cornering=None, moving_mah_per_s=None)))
+    profile = load_vehicles(path)["sysid:1"].profile
+    assert profile.cornering is None and profile.moving_mah_per_s is None
+    assert profile.path_mah_per_m([(0, 0), (0, 20), (20, 40), (20, 60)]) == COPTER.cruise_mah_per_m
+
+
 def test_keys_name_the_board_else_the_system():
     assert vehicle_key(0x0123456789ABCDEF, 3) == "uid:0123456789abcdef"
     assert vehicle_key(0, 3) == vehicle_key(None, 3) == "sysid:3"
@@ -57,6 +78,10 @@ def test_stock_profiles_cover_every_family():
     ('{"schema_version": 1, "vehicles": {"bad key": {}}}', "bad key"),
     ('{"schema_version": 1, "vehicles": {"sysid:1": {"uav_id": 1, "system_id": 1, "autopilot": "ardupilot", '
      '"flights": 1, "updated": "x", "profile": {"airframe": "copter"}}}}', "capacity_mah"),
+    (json.dumps(_with_profile(cornering={"accel_m_s2": 1.5, "corner_fractions": [[10, 1.0]]})), "start at 0 degrees"),
+    (json.dumps(_with_profile(cornering={"accel_m_s2": 1.5, "corner_fractions": [[0, 1.0]]}, moving_mah_per_s=None)),
+     "together"),
+    (json.dumps(_with_profile(cornering={"accel_m_s2": 1.5, "corner_fractions": [[0, 1.0, 3]]})), "cornering"),
 ])
 def test_a_bad_file_is_one_line_naming_what_is_wrong(tmp_path, text, says):
     path = tmp_path / "vehicles.json"
