@@ -27,8 +27,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gcs.experiments import EXPERIMENTS, ExperimentSettings
-
     if args.runs is not None and args.runs < 1:
         raise UserError(f"--runs must be at least 1, got {args.runs}")
     if args.footprint < 0:
@@ -38,6 +36,8 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out} is a file, not a folder")
+    from gcs.experiments import EXPERIMENTS, ExperimentSettings  # the planner and numba: after the checks
+
     figures: list = []
     settings = ExperimentSettings(out, args.runs, args.seed, args.footprint, args.range_steps, args.quiet,
                                   on_figure=None if args.no_rrd else lambda name, fig: figures.append((name, fig)))

@@ -100,11 +100,14 @@ def arduplane() -> tuple[Phases, Phases]:
 
 @pytest.fixture(scope="module")
 def px4_quad() -> tuple[Phases, Phases]:
-    """10 s of the simulator at 30x, then about 35 s of SITL at PX4's speed-up: one after the
-    other, as beside PX4 SITL one local run in ten failed (2026-11-29, not understood)."""
-    sim = _sim(VehicleConfig(profile="px4", boot_scale=0.05), PX4)
-    with Px4Sitl(home=(*CENTRE, GROUND_AMSL_M), speedup=PX4_SPEEDUP) as sitl:
-        return sim, _fly(sitl.gcs_connection, PX4, vehicle="copter", px4=True, speedup=PX4_SPEEDUP)
+    """About 35 s of SITL at PX4's speed-up, and beside it 10 s of the simulator at 30x. (One
+    after the other from ci51 until 2026-11-29: beside PX4 SITL one local run in ten read the
+    simulator at 96 % "3 s after the disarm"; that reading was PX4's 1 s voltage filter at 3 s,
+    97.5 % by itself, and is now taken 5 s after, `tests.peers.energy.AFTER_DISARM_S`.)"""
+    def real() -> Phases:
+        with Px4Sitl(home=(*CENTRE, GROUND_AMSL_M), speedup=PX4_SPEEDUP) as sitl:
+            return _fly(sitl.gcs_connection, PX4, vehicle="copter", px4=True, speedup=PX4_SPEEDUP)
+    return _side_by_side(lambda: _sim(VehicleConfig(profile="px4", boot_scale=0.05), PX4), real)
 
 
 def _close(sim: float, real: float, rel: float, what: str) -> str | None:

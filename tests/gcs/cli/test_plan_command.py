@@ -7,6 +7,7 @@ import sys
 import numpy as np
 import pytest
 
+from gcs.cli import main
 from gcs.plans.plan_file import validate_plan_dict
 
 
@@ -49,10 +50,23 @@ def test_a_folder_out_gets_plan_json_and_same_seed_same_file(tmp_path):
     (["--oc", "6"], "unknown orientation constraint"),
     (["--strategy", "magic"], "unknown search strategy"),
     (["--return", "teleport"], "unknown return planner"),
+])
+def test_bad_arguments_give_one_line_exit_2_and_no_file(tmp_path, capsys, args, message):
+    """In this process (each a planner start-up in a process of its own took 4-9 s in CI); the
+    process itself below."""
+    out = tmp_path / "plan.json"
+    assert main(["plan", *args, "--out", str(out)]) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and message in lines[0]
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("args, message", [
     (["--np", "five"], "invalid int value"),
     (["--pc", "0.05", "--pf", "0.1"], "pf < pc"),
 ])
-def test_bad_arguments_give_one_line_exit_2_and_no_file(tmp_path, args, message):
+def test_a_bad_argument_ends_the_process_with_one_line_exit_2_and_no_file(tmp_path, args, message):
+    """One refused by the argument parser, one by the planner's set-up: the process's own exit."""
     out = tmp_path / "plan.json"
     run = gcs("plan", *args, "--out", str(out))
     assert run.returncode == 2

@@ -39,7 +39,7 @@ def test_a_second_station_puts_the_fleet_on_the_bus_on_tak(tak_server, square_pl
 
             feeder = asyncio.create_task(feed())
             watch = await asyncio.create_subprocess_exec(
-                GCS, "watch", "--mqtt", broker.url, "--fleet", "watchtak", "--duration-s", "12", "--tak", tak_url,
+                GCS, "watch", "--mqtt", broker.url, "--fleet", "watchtak", "--duration-s", "20", "--tak", tak_url,
                 "--tak-every-s", "0.5", "--tak-stale-s", "3", "--plan", str(square_plan_dir),
                 stdout=subprocess.PIPE, stderr=subprocess.PIPE)
             # three updates of every UAV before UAV 4 lands (a loaded machine may be slow to relay them)
@@ -51,6 +51,9 @@ def test_a_second_station_puts_the_fleet_on_the_bus_on_tak(tak_server, square_pl
             fleet.raise_event(3, "return", reason="range", text="going home")
             fleet.stage[4] = "landed"
             fleet.raise_event(4, "landed", text="battery 40%")
+            # the watch lives 20 s: a UAV 4 track after the landing comes within it (at 12 s, the real
+            # CI of edc4c3d's slow relay let the watch end before it sent one)
+            await client.wait_for(lambda: any("stage landed" in e.remarks for e in client.of("gcs.watchtak.uav.4")), 15)
             out, err = await asyncio.wait_for(watch.communicate(), 60)
             feeder.cancel()
             # FreeTAKServer relays markers and routes through its slower path: let them all through
