@@ -47,6 +47,14 @@ PX4_SPEEDUP = 8.0
 KIND = "px4"
 
 
+class _NoPorts(Exception):
+    """PX4 ran but did not open its MAVLink ports; `log` is the tail of its output."""
+
+    def __init__(self, log: str) -> None:
+        super().__init__(log)
+        self.log = log
+
+
 def px4_dir() -> Path:
     return peers_dir() / "px4"
 
@@ -157,6 +165,21 @@ class Px4Sitl(SitlProcess):
         return f"udpout:127.0.0.1:{14280 + self.instance}"
 
     def start(self) -> Px4Sitl:
+        """Start PX4 and wait for its MAVLink ports; once more, on a fresh instance, when they do
+        not open in 90 s (the real CI of 1118e4d: a fleet's second PX4 never opened them, its log
+        not kept), and then fail with the tail of both logs."""
+        requested = self.instance
+        try:
+            return self._start()
+        except _NoPorts as first:
+            self.instance = requested
+            try:
+                return self._start()
+            except _NoPorts as second:
+                raise AssertionError(f"PX4 did not open its MAVLink ports, twice: {first.log}\n---\n{second.log}") \
+                    from None
+
+    def _start(self) -> Px4Sitl:
         bundle = _bundle()
         self._udp_14550 = _hold_udp_14550(self.alone)
         self.claim = claim_instance(self.instance)
@@ -178,8 +201,9 @@ class Px4Sitl(SitlProcess):
                 self.stop()
                 raise RuntimeError(f"PX4 exited at start: {log_text}")
             if time.monotonic() > deadline:
+                log_text = (self.workdir / "px4.log").read_text(errors="replace")[-2000:]
                 self.stop()  # PX4 does not end with its parent
-                raise AssertionError("PX4 did not open its MAVLink ports")
+                raise _NoPorts(log_text)
             time.sleep(0.05)
         if self.params:
             self._set_params()
