@@ -1,7 +1,7 @@
 """Fit `planner.path_time`'s ArduCopter cornering (acceleration, corner speed shares at 45 and 90
 degrees) to ArduCopter SITL's seconds on the stretches of `benchmarks/sim_corners.py`, each from a
 stop to a stop at 10 m/s: a zig-zag of eight 50 m legs turning 90 degrees, one turning 45, and a
-400 m straight (docs/energy.md, "The simulator": 68.4, 60.2 and 46.8 s). A grid search; prints the
+400 m straight (`tests/planner/corner_stretches.py`: 68.4, 60.2 and 46.8 s). A grid search; prints the
 best fit and each stretch's modelled seconds against SITL's.
 
     .venv/bin/python benchmarks/path_time_fit.py
@@ -10,23 +10,15 @@ best fit and each stretch's modelled seconds against SITL's.
 from __future__ import annotations
 
 import itertools
-import math
+import sys
+from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
 from planner.path_time import ARDUCOPTER_CORNERING, Cornering, path_time_s
-
-SITL_S = {"zig90": 68.4, "zig45": 60.2, "straight": 46.8}
-SPEED_M_S = 10.0
-
-
-def stretches() -> dict[str, np.ndarray]:
-    z90 = [(0.0, 0.0)] + [(50.0 * ((i + 1) // 2), 50.0 * ((i + 2) // 2)) for i in range(8)]
-    here, z45 = (0.0, 0.0), [(0.0, 0.0)]
-    for i in range(8):
-        here = (here[0], here[1] + 50.0) if i % 2 == 0 else (here[0] + 50 / math.sqrt(2), here[1] + 50 / math.sqrt(2))
-        z45.append(here)
-    return {"zig90": np.array(z90), "zig45": np.array(z45), "straight": np.array([(0.0, 0.0), (0.0, 400.0)])}
+from tests.planner.corner_stretches import SITL_S, SPEED_M_S, stretches
 
 
 def cornering(accel: float, f45: float, f90: float) -> Cornering:

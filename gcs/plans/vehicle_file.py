@@ -107,9 +107,6 @@ def vehicle_key(board_uid: int | None, system_id: int) -> str:
 def profile_to_dict(profile: EnergyProfile) -> dict:
     out = asdict(profile)
     out["airframe"] = profile.airframe.value
-    if profile.cornering is not None:
-        out["cornering"] = {"accel_m_s2": profile.cornering.accel_m_s2,
-                            "corner_fractions": [list(pair) for pair in profile.cornering.corner_fractions]}
     return {k: round(v, 6) if isinstance(v, float) else v for k, v in out.items()}
 
 

@@ -12,6 +12,7 @@ from hypothesis import given, settings, strategies as st
 
 from planner.energy import Airframe, EnergyProfile
 from planner.path_time import ARDUCOPTER_CORNERING, Cornering, path_time_s, turn_angles_deg
+from tests.planner.corner_stretches import SITL_S, SPEED_M_S, stretches
 
 SIMPLE = Cornering(accel_m_s2=2.0, corner_fractions=((0.0, 1.0), (90.0, 0.5), (180.0, 0.0)))
 
@@ -89,15 +90,10 @@ def test_what_a_time_must_be(cells, cell_m):
 
 
 def test_ardupilots_cornering_gives_sitls_seconds():
-    """ArduCopter SITL at 10 m/s (docs/energy.md, "The simulator"; `benchmarks/path_time_fit.py`):
+    """ArduCopter SITL at 10 m/s (`tests/planner/corner_stretches.py`, `benchmarks/path_time_fit.py`):
     zig-zags of eight 50 m legs turning 90 and 45 degrees, and a 400 m straight, from a stop to a stop."""
-    z90 = [(0.0, 0.0)] + [(50.0 * ((i + 1) // 2), 50.0 * ((i + 2) // 2)) for i in range(8)]
-    z45, here = [(0.0, 0.0)], (0.0, 0.0)
-    for i in range(8):
-        here = (here[0], here[1] + 50.0) if i % 2 == 0 else (here[0] + 50 / math.sqrt(2), here[1] + 50 / math.sqrt(2))
-        z45.append(here)
-    for points, sitl_s in ((z90, 68.4), (z45, 60.2), ([(0.0, 0.0), (0.0, 400.0)], 46.8)):
-        assert path_time_s(points, 10.0, ARDUCOPTER_CORNERING) == pytest.approx(sitl_s, rel=0.01)
+    for name, points in stretches().items():
+        assert path_time_s(points, SPEED_M_S, ARDUCOPTER_CORNERING) == pytest.approx(SITL_S[name], rel=0.01), name
 
 
 def test_a_profile_prices_a_known_path_by_its_time():
