@@ -8,6 +8,7 @@ Use it as an async context manager inside a running loop, or `start()` / `stop()
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 import math
 import threading
@@ -153,10 +154,9 @@ class SimFleet:
     async def serve(self, stop: asyncio.Event, duration_s: float | None = None) -> None:
         """Run until `stop` is set or `duration_s` (real seconds) has passed."""
         async with self:
-            try:
-                await asyncio.wait_for(stop.wait(), duration_s)
-            except TimeoutError:
-                pass
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(duration_s):
+                    await stop.wait()
 
     def start(self, timeout_s: float = 5.0) -> SimFleet:
         """Run on a background thread with its own event loop; returns once bound."""

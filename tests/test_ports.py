@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from tests.peers.ports import _end, free_ports
-from tests.peers.process import port_free, tcp_listening
+from tests.peers.process import port_free, tcp_listening, udp_bound
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -40,3 +40,13 @@ def test_a_port_listens_only_once_its_socket_listens():
         s.listen()
         assert tcp_listening(port)
     assert not tcp_listening(port)
+
+
+def test_a_udp_port_is_seen_bound_without_binding_it():
+    port = free_ports(1)
+    assert not udp_bound(port)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", port))
+        assert udp_bound(port)
+        assert not port_free(port, udp=True)
+    assert not udp_bound(port)

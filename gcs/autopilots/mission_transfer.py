@@ -277,7 +277,8 @@ async def transfer(link: MavLink, machine: Upload | Download) -> None:
         while not machine.finished:
             wait = max(0.0, machine.deadline - time.monotonic())
             try:
-                msg = await asyncio.wait_for(queue.get(), wait)
+                async with asyncio.timeout(wait):
+                    msg = await queue.get()
             except TimeoutError:
                 out = machine.poll(time.monotonic())
             else:
@@ -321,7 +322,8 @@ async def clear(link: MavLink, sysid: int, mission_type: int = MissionType.MISSI
             link.send(mavlink.MAVLink_mission_clear_all_message(sysid, AUTOPILOT_COMPONENT_ID, mission_type))
             try:
                 while True:
-                    ack = await asyncio.wait_for(queue.get(), timeout_s)
+                    async with asyncio.timeout(timeout_s):
+                        ack = await queue.get()
                     if getattr(ack, "mission_type", 0) == mission_type:
                         return ack.type == mavlink.MAV_MISSION_ACCEPTED
             except TimeoutError:

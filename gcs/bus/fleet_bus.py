@@ -167,14 +167,14 @@ class FleetBus:
         return len(self._outgoing)
 
     async def wait_connected(self, timeout_s: float | None = None) -> None:
-        await asyncio.wait_for(self._connected.wait(), timeout_s)
+        async with asyncio.timeout(timeout_s):
+            await self._connected.wait()
 
     async def drain(self, timeout_s: float | None = None) -> None:
         """Wait until every queued event and reply has been acknowledged by the broker."""
-        async def empty() -> None:
+        async with asyncio.timeout(timeout_s):
             while self._outgoing:
                 await asyncio.sleep(0.01)
-        await asyncio.wait_for(empty(), timeout_s)
 
     # ---- lifecycle ------------------------------------------------------------------------------
 
@@ -303,7 +303,8 @@ class FleetBus:
         last_full = 0.0
         while not self._closing:
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._state_ready.wait(), self.state_period_s)
+                async with asyncio.timeout(self.state_period_s):
+                    await self._state_ready.wait()
             self._state_ready.clear()
             now = time.monotonic()
             full = now - last_full >= self.state_period_s
@@ -333,7 +334,8 @@ class FleetBus:
         try:
             command = parse_command(raw)
             request_id = command.request_id
-            reason = await asyncio.wait_for(self.handler(command), self.handler_timeout_s)
+            async with asyncio.timeout(self.handler_timeout_s):
+                reason = await self.handler(command)
             if reason is not None and not isinstance(reason, str):
                 reason = f"handler returned {reason!r} instead of None or a reason"
         except InvalidCommand as exc:

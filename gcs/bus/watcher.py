@@ -167,7 +167,8 @@ class FleetWatcher:
                 await self._client.publish(self.topics.command, json.dumps(command.payload()), qos=1)
             except aiomqtt.MqttError as exc:
                 raise ConnectionError(f"cannot send to {self.broker}: {exc}") from None
-            return await asyncio.wait_for(future, timeout_s)
+            async with asyncio.timeout(timeout_s):
+                return await future
         finally:
             self._replies.pop(command.request_id, None)
 

@@ -34,7 +34,11 @@ from gcs.links import LinkStatus, MavLink
 from gcs.plans.plan_folder import FleetPlan
 from gcs.telemetry.status import FINAL_STAGES, Stage, VehicleStatus
 
-__all__ = ["LANDED_AWAY_M", "FlightAborted", "FlightController", "FlyOptions"]
+__all__ = ["LANDED_AWAY_M", "STOP_WAIT_S", "FlightAborted", "FlightController", "FlyOptions"]
+
+#: How long a stopped flight waits for its cancelled tasks (uploads, launches) to end before it
+#: secures the vehicles
+STOP_WAIT_S = 5.0
 
 
 class FlightAborted(UserError):
@@ -54,6 +58,7 @@ class FlightController:
         self.out = out or (lambda line: print(line, flush=True))
         self._listeners: list[FlightListener] = []
         self._interrupted = False
+        self._stopping = False
         self.t0 = time.monotonic()
         self.vehicles = {uid: VehicleFlight(plan, uid, options, self) for uid in plan.uavs}
         self.status: dict[int, VehicleStatus] = {uid: v.status for uid, v in self.vehicles.items()}
@@ -149,6 +154,12 @@ class FlightController:
         and loops driving vehicles beside the controller stop."""
         return self._interrupted
 
+    @property
+    def stopping(self) -> bool:
+        """The flight is being stopped (`bring_everyone_home`: Ctrl-C, or the controller failed): no
+        vehicle is armed or launched from now on."""
+        return self._stopping or self._interrupted
+
     # ---- tasks ---------------------------------------------------------------------------
 
     wait_until = staticmethod(wait_until)
@@ -232,8 +243,12 @@ class FlightController:
         """Ctrl-C, or the controller failed: RTL for every vehicle in the air, disarm every one
         armed on the ground; then say where each vehicle was left."""
         self.say(None, "stopping: every vehicle in the air is sent home (RTL), every armed one on the ground disarmed")
-        for task in list(self._tasks):
+        self._stopping = True
+        tasks = list(self._tasks)
+        for task in tasks:
             task.cancel()
+        if tasks:  # what they were doing (an upload, an arming) is over before the vehicles are secured
+            await asyncio.wait(tasks, timeout=STOP_WAIT_S)
         for st in self.status.values():
             if st.stage not in FINAL_STAGES and (st.airborne or st.armed):
                 st.return_reason = st.return_reason or "stop"

@@ -26,11 +26,14 @@ LAUNCH_TRIES = 3
 async def launch(vehicle: VehicleFlight) -> bool:
     """Arm `vehicle` and start its mission as its autopilot wants it (ArduPlane takes off by
     itself once armed in AUTO), once its charge pays for its plan; one armed but not started is
-    disarmed again, one ordered home meanwhile kept on the ground. One its autopilot
-    disarmed on the ground before the start took (ArduCopter's DISARM_DELAY: 10 s of its time
-    from arming to MISSION_START, half a second at speed-up 20) is armed and started again."""
+    disarmed again, one ordered home meanwhile, or of a flight being stopped, kept on the ground.
+    One its autopilot disarmed on the ground before the start took (ArduCopter's DISARM_DELAY:
+    10 s of its time from arming to MISSION_START, half a second at speed-up 20) is armed and
+    started again."""
     st = vehicle.status
     autopilot = st.autopilot or Autopilot.GENERIC
+    if vehicle.station.stopping:
+        return _not_armed(vehicle)
     await preflight.battery_report(vehicle)
     if not preflight.charge_covers_plan(vehicle):
         return False
@@ -45,8 +48,7 @@ async def launch(vehicle: VehicleFlight) -> bool:
             return False
         try:
             if not await vehicle.arm(give_up=vehicle.ordered_home):
-                vehicle.set_stage(Stage.LANDED, "kept on the ground: return ordered before take-off")
-                return False
+                return _not_armed(vehicle)
         except CommandError as exc:
             vehicle.set_stage(Stage.FAILED, f"cannot arm: {exc}{_said(vehicle)}; left on the ground")
             return False
@@ -91,6 +93,13 @@ async def _started_unanswered(vehicle: VehicleFlight) -> bool | None:
     if armed is None or (armed and vehicle.status.mode_name not in MISSION_MODES):
         return None
     return armed
+
+
+def _not_armed(vehicle: VehicleFlight) -> bool:
+    """Kept on the ground, never armed: ordered home, or the flight is stopping. False."""
+    why = "the flight is stopping" if vehicle.station.stopping else "return ordered before take-off"
+    vehicle.set_stage(Stage.LANDED, f"kept on the ground: {why}")
+    return False
 
 
 def _said(vehicle: VehicleFlight) -> str:

@@ -208,7 +208,8 @@ class OnlineFlight:
                     self._steer(uid)
             self._reading.clear()
             with contextlib.suppress(TimeoutError):  # woken by the reading itself, not the next tick
-                await asyncio.wait_for(self._reading.wait(), c.options.tick_s)
+                async with asyncio.timeout(c.options.tick_s):
+                    await self._reading.wait()
             now = time.monotonic()
         self.reported = {}
         for uid in uids:

@@ -203,7 +203,8 @@ class Resumption:
         async with link.listen(uid, wanted) as queue:
             while wanted and (left := end - time.monotonic()) > 0:
                 try:
-                    msg = await asyncio.wait_for(queue.get(), left)
+                    async with asyncio.timeout(left):
+                        msg = await queue.get()
                 except TimeoutError:
                     break
                 if msg.get_srcComponent() == mavlink.MAV_COMP_ID_AUTOPILOT1:

@@ -71,7 +71,8 @@ class VehicleCommands:
                 end = time.monotonic() + timeout_s
                 while (left := end - time.monotonic()) > 0:
                     try:
-                        reply = await asyncio.wait_for(queue.get(), left)
+                        async with asyncio.timeout(left):
+                            reply = await queue.get()
                     except TimeoutError:
                         break
                     param_id = reply.param_id if isinstance(reply.param_id, str) \

@@ -22,6 +22,7 @@ meanwhile. Every change goes through `set_stage`, which refuses one `TRANSITIONS
 
 from __future__ import annotations
 
+import asyncio
 import math
 import time
 from collections.abc import Callable
@@ -106,6 +107,7 @@ class VehicleFlight:
         self.stage_before_loss: Stage | None = None
         self.upload_reports: dict | None = None  # the verified uploads, by kind ("mission", "fence", "rally")
         self.return_latency_s: float | None = None  # from its return's decision to its leg flying
+        self.return_cut_short = False  # its return stopped before its leg flew: it holds where it is
 
     @property
     def link(self) -> MavLink | None:  # the link it was first heard on
@@ -231,7 +233,7 @@ class VehicleFlight:
         return True
 
     def ordered_home(self) -> bool:
-        return self.station.interrupted or self.stay_on_ground or bool(self.orders)
+        return self.station.stopping or self.stay_on_ground or bool(self.orders)
 
     # ---- preparing and launching ---------------------------------------------------------
 
@@ -327,6 +329,9 @@ class VehicleFlight:
                      "flies straight home and ignores the planned path")
             await self.rtl()
             return None
+        except asyncio.CancelledError:  # the flight is stopping: `secure` sends it home by RTL
+            self.return_cut_short = True
+            raise
         finally:
             self.energy.holding = False
             self.release()
@@ -367,7 +372,8 @@ class VehicleFlight:
         """Disarm it when armed on the ground; with `rtl_airborne`, RTL when in the air and not going
         home. Stopped mid-launch: an arming already sent is given `LIFT_OFF_S` to take (then
         disarmed), and one whose disarm its autopilot refuses (lifting off, its take-off roll) or
-        leaves unanswered while it is seen to lift off within `LIFT_OFF_S` is sent home."""
+        leaves unanswered while it is seen to lift off within `LIFT_OFF_S` is sent home, as is one
+        whose return was stopped before its leg flew (holding where it was)."""
         st = self.status
         if self.link is None or st.stage is Stage.LOST:
             return
@@ -384,7 +390,8 @@ class VehicleFlight:
             if not lifting:
                 self.say("ARMED ON THE GROUND: disarm did not confirm, check it")
                 return
-        if rtl_airborne and (st.airborne or lifting) and st.stage not in (Stage.RETURN, Stage.RTL, Stage.LANDED):
+        going_home = st.stage in (Stage.RTL, Stage.LANDED) or (st.stage is Stage.RETURN and not self.return_cut_short)
+        if rtl_airborne and (st.airborne or lifting) and not going_home:
             if not await self.rtl():
                 self.say("in the air and did not confirm RTL: check it yourself")
 

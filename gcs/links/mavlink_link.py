@@ -264,7 +264,8 @@ class MavLink:
         fut = asyncio.get_running_loop().create_future()
         self._waiters[(sysid, kind, key)].append(fut)
         try:
-            return await asyncio.wait_for(fut, timeout_s)
+            async with asyncio.timeout(timeout_s):
+                return await fut
         except TimeoutError:
             return None
         finally:

@@ -106,7 +106,8 @@ class TakSender:
     async def close(self, flush_s: float = 2.0) -> None:
         if self.connected:
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._queue.join(), flush_s)
+                async with asyncio.timeout(flush_s):
+                    await self._queue.join()
         self._ended_up = self._state == "up" and self.connected
         if self._task is not None:
             self._task.cancel()
@@ -152,7 +153,8 @@ class TakSender:
             try:
                 with warnings.catch_warnings():  # pytak warns when the host name check is off
                     warnings.simplefilter("ignore")
-                    reader, writer = await asyncio.wait_for(pytak.protocol_factory(config), CONNECT_TIMEOUT_S)
+                    async with asyncio.timeout(CONNECT_TIMEOUT_S):
+                        reader, writer = await pytak.protocol_factory(config)
             except asyncio.CancelledError:
                 raise
             except Exception as exc:
@@ -210,7 +212,8 @@ class TakSender:
         if self.hello is not None:
             await worker.send_data(self.hello())
             with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(heard.wait(), HELLO_WAIT_S)
+                async with asyncio.timeout(HELLO_WAIT_S):
+                    await heard.wait()
         for data in list(self._kept.values()):
             await self._send_one(worker, data)
         while True:
@@ -278,4 +281,5 @@ async def _close(writer) -> None:
     with contextlib.suppress(Exception):
         writer.close()
         if hasattr(writer, "wait_closed"):
-            await asyncio.wait_for(writer.wait_closed(), 1.0)
+            async with asyncio.timeout(1.0):
+                await writer.wait_closed()

@@ -58,6 +58,15 @@ def tcp_listening(port: int) -> bool:
         return any(fields[1].endswith(wanted) and fields[3] == "0A" for fields in map(str.split, table))
 
 
+def udp_bound(port: int) -> bool:
+    """Whether a UDP socket is bound to `port` now, read from /proc/net/udp: a probe that binds
+    takes the port for a moment, and a PX4 whose MAVLink module binds it then never opens it."""
+    wanted = f":{port:04X}"
+    with open("/proc/net/udp") as table:
+        next(table)
+        return any(fields[1].endswith(wanted) for fields in map(str.split, table))
+
+
 def stop_process(process: subprocess.Popen) -> None:
     """Terminate, and kill what does not end within 10 s."""
     if process.poll() is None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import ipaddress
 import signal
 import sys
@@ -187,10 +188,9 @@ async def _serve(fleet, duration_s: float | None) -> None:
                   f"(MAVSDK: udpout://{host}:{port})", flush=True)
         for host, port in opts.out:
             print(f"pushing to ground station udp:{host}:{port}", flush=True)
-        try:
-            await asyncio.wait_for(stop.wait(), duration_s)
-        except TimeoutError:
-            pass
+        with contextlib.suppress(TimeoutError):
+            async with asyncio.timeout(duration_s):
+                await stop.wait()
     print("gcs sim: stopped", file=sys.stderr, flush=True)
 
 

@@ -583,6 +583,101 @@ def test_a_controller_failing_as_a_vehicle_lifts_off_sends_it_home_too(plan, mon
                                                                              for u, s in states.items()}
 
 
+def test_a_vehicle_still_uploading_when_the_flight_stops_is_never_launched(plan, monkeypatch):
+    """The controller fails while UAV 1's mission is still being uploaded, and that upload lets
+    the cancellation go by (as Python 3.11's `asyncio.wait_for` did when a reply came in at that
+    moment) and finishes: UAV 1 is not armed, it is kept on the ground, saying why."""
+    from gcs.flight import preflight
+    from gcs.flight.controller import FlightAborted
+    from gcs.flight.fly import fly_async
+    from gcs.flight.vehicle_flight import VehicleFlight
+    from sim.plan_fleet import fleet_for_plan
+
+    real_upload, real_watch = preflight.upload_verified, VehicleFlight.watch
+    cancellations_lost: list[int] = []
+
+    async def upload_that_loses_a_cancellation(link, uid, *args, **kwargs):
+        if uid != 1:
+            return await real_upload(link, uid, *args, **kwargs)
+
+        async def slow():
+            await asyncio.sleep(1.0)
+            return await real_upload(link, uid, *args, **kwargs)
+
+        upload = asyncio.ensure_future(slow())
+        while True:
+            try:
+                return await asyncio.shield(upload)
+            except asyncio.CancelledError:
+                cancellations_lost.append(uid)
+
+    def watch(self):
+        if self.uid == 2 and self.station.vehicles[1].status.stage is Stage.UPLOADING:
+            raise ZeroDivisionError("injected bug")
+        return real_watch(self)
+
+    monkeypatch.setattr(preflight, "upload_verified", upload_that_loses_a_cancellation)
+    monkeypatch.setattr(VehicleFlight, "watch", watch)
+    lines: list[str] = []
+    fleet = fleet_for_plan(plan, speedup=SPEEDUP).start()
+    try:
+        with pytest.raises(FlightAborted, match="injected bug"):
+            asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
+                                                   out=lines.append), 120))
+        armed = {uid: fleet.vehicle(uid).state.armed for uid in plan.uavs}
+    finally:
+        fleet.stop()
+    assert cancellations_lost == [1], "\n".join(lines)
+    assert any("UAV 1: mission verified" in line for line in lines), "\n".join(lines)
+    assert not armed[1] and not any("UAV 1: arming" in line for line in lines), "\n".join(lines)
+    assert any("UAV 1: landed - kept on the ground: the flight is stopping" in line for line in lines), "\n".join(lines)
+
+
+def test_a_vehicle_whose_return_upload_the_stop_cuts_short_is_sent_home_by_rtl(plan, monkeypatch):
+    """UAV 1 is ordered home; it holds while its return leg uploads, and the controller fails
+    meanwhile: the upload is cancelled, and UAV 1, holding in the air, is sent RTL (not left
+    holding as a vehicle already on its way home)."""
+    from gcs.flight import vehicle_commands
+    from gcs.flight.controller import FlightAborted
+    from gcs.flight.fly import fly_async
+    from gcs.flight.vehicle_flight import VehicleFlight
+    from sim import Mode
+    from sim.plan_fleet import fleet_for_plan
+
+    real_upload, real_watch = vehicle_commands.upload_verified, VehicleFlight.watch
+
+    async def slow_return_upload(link, uid, *args, **kwargs):
+        await asyncio.sleep(2.0)
+        return await real_upload(link, uid, *args, **kwargs)
+
+    ordered: list[int] = []
+
+    def watch(self):
+        one = self.station.vehicles[1]
+        if self.uid == 1 and self.status.stage is Stage.SEARCH and self.status.track_index >= 2 and not ordered:
+            ordered.append(1)
+            self.station.order_return(1, "test")
+        if one.energy.holding and one.status.stage is Stage.RETURN:
+            raise ZeroDivisionError("injected bug")
+        return real_watch(self)
+
+    monkeypatch.setattr(vehicle_commands, "upload_verified", slow_return_upload)
+    monkeypatch.setattr(VehicleFlight, "watch", watch)
+    lines: list[str] = []
+    fleet = fleet_for_plan(plan, speedup=SPEEDUP).start()
+    try:
+        with pytest.raises(FlightAborted, match="injected bug"):
+            asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
+                                                   out=lines.append), 120))
+        modes = {uid: fleet.vehicle(uid).state.mode for uid in plan.uavs}
+    finally:
+        fleet.stop()
+    assert any("UAV 1: return - going home (test)" in line for line in lines), "\n".join(lines)
+    assert not any("UAV 1: return leg of" in line for line in lines), "\n".join(lines)
+    assert modes[1] is Mode.RTL, ("\n".join(lines), modes)
+    assert any("UAV 1: rtl - autopilot RTL" in line for line in lines), "\n".join(lines)
+
+
 def test_fly_plan_from_python_keeps_the_journal_and_the_sortie_record(plan_dir, tmp_path):
     """`gcs.flight.fly.fly_plan`, what `gcs fly` calls: a Python caller gets the flight, its
     journal, its sortie record and its recording without the command line."""
