@@ -12,12 +12,10 @@ from pathlib import Path
 
 import pytest
 
-import gcs.recording.plan_rules
 from gcs.background import Background
-from gcs.recording.background import BackgroundPlanRecorder
-from gcs.recording.plan import PlanRecorder, read_recording
-from planner.dtscs import ClosedSearch, MissionConfig
-from planner.scenario import paper_scenario
+
+# The recording's and the planner's modules are imported by the checks that use them: each check
+# runs in a fresh interpreter, and the others need not pay for importing Rerun and numba.
 
 
 def pid_and(value):
@@ -187,13 +185,22 @@ def test_a_killed_parent_leaves_the_helper_to_close_its_objects(tmp_path):
 
 
 def columns(path: Path) -> dict[str, str]:
+    from gcs.recording.plan import read_recording
+
     tables = read_recording(path)
     return {f"{entity} {name}": str(table.column(name).to_pylist())
             for entity, table in tables.temporal.items() for name in table.column_names if "log_time" not in name}
 
 
 def check_the_recording_made_in_the_helper_equals_the_one_made_here(tmp_path: Path, cells_per_map: str) -> None:
-    gcs.recording.plan_rules.MAP_CELLS_EVERY_STEP = int(cells_per_map)
+    import gcs.recording.plan_rules
+    from gcs.recording.background import BackgroundPlanRecorder
+    from gcs.recording.plan import PlanRecorder, read_recording
+    from planner.dtscs import ClosedSearch, MissionConfig
+    from planner.scenario import paper_scenario
+
+    if cells_per_map != "default":
+        gcs.recording.plan_rules.MAP_CELLS_EVERY_STEP = int(cells_per_map)
     scenario = paper_scenario(2, range_steps=50)
 
     def record(make):
@@ -210,18 +217,24 @@ def check_the_recording_made_in_the_helper_equals_the_one_made_here(tmp_path: Pa
         record(lambda: BackgroundPlanRecorder(helper, there, scenario, name="paper"))
         helper.results()
     map_steps = read_recording(there).column("maps/tep", "Image:buffer")[0]
-    assert map_steps == sorted({*range(0, steps + 1, 3 if int(cells_per_map) == 1000 else 1), steps})
+    assert map_steps == sorted({*range(0, steps + 1, 3 if cells_per_map == "1000" else 1), steps})
     assert columns(here) == columns(there)
 
 
-@pytest.mark.parametrize("cells_per_map", [gcs.recording.plan_rules.MAP_CELLS_EVERY_STEP, 1000])
+@pytest.mark.parametrize("cells_per_map", ["default", "1000"])
 def test_the_recording_made_in_the_helper_equals_the_one_made_here(tmp_path, cells_per_map):
-    """With maps every step and (on the 50 x 50 paper grid, 1000 cells a map) every 3rd step:
-    the helper's recording holds the same rows, the last step's maps included."""
+    """With maps every step (the default, `gcs.recording.plan_rules.MAP_CELLS_EVERY_STEP`) and
+    (on the 50 x 50 paper grid, 1000 cells a map) every 3rd step: the helper's recording holds
+    the same rows, the last step's maps included."""
     in_fresh_process("check_the_recording_made_in_the_helper_equals_the_one_made_here", tmp_path, str(cells_per_map))
 
 
 def check_ctrl_c_keeps_the_background_recording_up_to_the_last_step(tmp_path: Path) -> None:
+    from gcs.recording.background import BackgroundPlanRecorder
+    from gcs.recording.plan import read_recording
+    from planner.dtscs import ClosedSearch, MissionConfig
+    from planner.scenario import paper_scenario
+
     scenario = paper_scenario(2, range_steps=50)
     search = ClosedSearch(scenario, MissionConfig(np_steps=2), seed=2)
     rrd = tmp_path / "cut.rrd"
