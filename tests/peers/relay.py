@@ -64,3 +64,26 @@ class UdpRelay:
             t.join(2)
         self._vehicle_side.close()
         self._station_side.close()
+
+
+#: MISSION_COUNT, MISSION_ITEM, MISSION_ITEM_INT: what a station sends to upload a mission
+UPLOAD_MESSAGES = frozenset({44, 39, 73})
+
+
+def first_message_id(datagram: bytes) -> int | None:
+    """The id of the first MAVLink message in a UDP datagram (v2 or v1)."""
+    if datagram[:1] == b"\xfd" and len(datagram) >= 10:
+        return int.from_bytes(datagram[7:10], "little")
+    if datagram[:1] == b"\xfe" and len(datagram) >= 6:
+        return datagram[5]
+    return None
+
+
+def losing_uploads(lost: threading.Event, station_calls_first: bool = False) -> Callable[[bytes, bool], bool]:
+    """A `UdpRelay` `forward` that drops the station's mission uploads while `lost` is set and
+    passes everything else (the vehicle stays heard, its commands answered).
+    `station_calls_first`: the relay's roles turned round (PX4's GCS port)."""
+    def forward(datagram: bytes, to_station_port: bool) -> bool:
+        from_station = to_station_port == station_calls_first
+        return not (from_station and lost.is_set() and first_message_id(datagram) in UPLOAD_MESSAGES)
+    return forward

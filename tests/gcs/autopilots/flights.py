@@ -8,6 +8,7 @@ from __future__ import annotations
 import asyncio
 import json
 import math
+import signal
 import subprocess
 import sys
 import threading
@@ -17,15 +18,18 @@ from pathlib import Path
 from gcs.plans.plan_folder import FleetPlan, load_plan_dir
 from gcs.recording.flight import FLIGHT_TIME
 from gcs.recording.plan import read_recording
+from tests.peers.recorder import SpareRecorder
 
 STAGES = ["preparing", "uploading", "arming", "search"]
 
 
 def fly(plan: Path, connections: list[str] | int, *extra: str, timeout: float = 600,
-        on_line=None, orders: tuple[tuple[str, str, float], ...] = ()) -> subprocess.CompletedProcess:
+        on_line=None, orders: tuple[tuple[str, str, float], ...] = (),
+        ctrl_c_on: tuple[str, float] | None = None) -> subprocess.CompletedProcess:
     """`gcs fly` on the plan over the links given (a port number: `udpin:127.0.0.1:PORT`);
     `on_line(line)` sees its output as it comes; `orders`: (text, order, after_s), the operator
-    typing `order` `after_s` seconds after a line with `text` was printed."""
+    typing `order` `after_s` seconds after a line with `text` was printed; `ctrl_c_on`: (text,
+    after_s), the operator's Ctrl-C (SIGINT) `after_s` seconds after a line with `text`."""
     if isinstance(connections, int):
         connections = [f"udpin:127.0.0.1:{connections}"]
     args = [sys.executable, "-m", "gcs.cli", "fly", "--plan", str(plan), "--rrd", str(plan / "flight.rrd"),
@@ -48,6 +52,19 @@ def fly(plan: Path, connections: list[str] | int, *extra: str, timeout: float = 
                 user(line)
 
         on_line = type_orders
+    if ctrl_c_on is not None:
+        def ctrl_c() -> None:
+            if process.poll() is None:
+                process.send_signal(signal.SIGINT)
+
+        def press_ctrl_c(line: str, user=on_line, pressed=[]) -> None:  # noqa: B006 (the one press)
+            if ctrl_c_on[0] in line and not pressed:
+                pressed.append(threading.Timer(ctrl_c_on[1], ctrl_c))
+                pressed[0].start()
+            if user is not None:
+                user(line)
+
+        on_line = press_ctrl_c
     process = subprocess.Popen(args, stdin=subprocess.PIPE if orders else None, stdout=subprocess.PIPE,
                                stderr=subprocess.PIPE, text=True)
     # killed at the deadline even when it falls silent, and whatever ends the test (pytest-timeout
@@ -98,6 +115,37 @@ def fly_with_a_dropout(plan: Path, connections: list[str] | int, relay, uav_id: 
     done = fly(plan, connections, *extra, on_line=on_line)
     thread.join(5)
     return done
+
+
+def ctrl_c_while_its_way_home_is_lost(plan: Path, connection: str, recorder: SpareRecorder,
+                                      uploads_lost: threading.Event, order_after_s: float,
+                                      home: tuple[float, float], within_m: float = 5.0) -> None:
+    """`gcs fly` on a one-vehicle plan whose uploads the radio loses (`uploads_lost`, set here as
+    the search starts: a relay's `tests.peers.relay.losing_uploads`): the operator orders UAV 1
+    home `order_after_s` seconds into its search and presses Ctrl-C a second after it turned
+    home, its return leg not uploaded. The station must end (exit 130) with it commanded to the
+    autopilot's RTL, not holding; `recorder` (its spare port) must see it land within `within_m`
+    of `home`."""
+    def on_line(line: str) -> None:
+        if "UAV 1: search - mission started" in line:
+            uploads_lost.set()
+
+    done = fly(plan, [connection], orders=(("UAV 1: search", "r 1", order_after_s),), on_line=on_line,
+               ctrl_c_on=("UAV 1: return - going home", 1.0))
+    for _ in range(900):  # 90 s of wall time
+        if recorder.flown.landed:
+            break
+        time.sleep(0.1)
+    out = done.stdout
+    assert done.returncode == 130, out[-3000:] + done.stderr
+    stop = out.index("stopping: every vehicle in the air is sent home")
+    assert "UAV 1: return - going home (order)" in out[:stop] and "UAV 1: return leg of" not in out, out[-3000:]
+    assert "UAV 1: rtl - autopilot RTL" in out[stop:], out[-3000:]
+    flown = recorder.flown
+    assert flown.landed, f"still in the air 90 s after the station ended: {flown.positions[-1:]}"
+    lat, lon, _alt = flown.positions[-1]
+    away = math.hypot((lat - home[0]) * 111_319.49, (lon - home[1]) * 111_319.49 * math.cos(math.radians(lat)))
+    assert away <= within_m, f"landed {away:.1f} m from its airport"
 
 
 def bus_events(port: int, fleet: str, events: list, stop: threading.Event) -> threading.Thread:

@@ -19,6 +19,7 @@ import shapely
 from tests.gcs.autopilots.flights import (
     assert_landed_home_and_clear_of_no_fly,
     bus_events,
+    ctrl_c_while_its_way_home_is_lost,
     fly,
     fly_with_a_dropout,
     recorded,
@@ -27,7 +28,8 @@ from tests.gcs.bus.helpers import Mosquitto
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.ports import free_udp_port
 from tests.peers.process import SITL_WORKER
-from tests.peers.relay import UdpRelay
+from tests.peers.recorder import SpareRecorder
+from tests.peers.relay import UdpRelay, losing_uploads
 from tests.peers.site import COPTERS, MEADOW, PLANE, Site
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
@@ -72,6 +74,27 @@ def test_the_operators_return_order_brings_the_copter_home_along_its_planned_way
     assert "RTL" not in out.split("UAV 1: return ordered", 1)[1]
     row = next(line.split() for line in out.splitlines() if line.startswith("  1 west"))
     assert row[2] == "landed" and row[5] == "order" and float(row[3]) <= 3.0
+
+
+@pytest.mark.parametrize("vehicle", ["copter", "plane"])
+def test_ctrl_c_while_a_vehicle_waits_for_its_way_home_sends_it_home_by_rtl(tmp_path, vehicle):
+    """The operator orders the vehicle home; the radio loses the station's upload of its return
+    leg (it holds meanwhile, heard all along), and the operator presses Ctrl-C: the station cuts
+    the upload short and, the vehicle holding in the air and not on any way home, commands
+    ArduPilot's RTL before it ends (exit 130). Read on its spare port, it lands at its airport:
+    the copter at its home, the plane through its mission's landing sequence (RTL_AUTOLAND 2,
+    which the station set) on its runway, within the 60 m issue 23 allows a plane."""
+    site = Site(COPTERS.airports[:1]) if vehicle == "copter" else PLANE
+    plan_dir = site.plan(tmp_path) if vehicle == "copter" else site.plan(tmp_path, "--vehicle", "plane",
+                                                                          "--approach-m", "400")
+    uploads_lost = threading.Event()
+    port = free_udp_port()
+    with UdpRelay(port, losing_uploads(uploads_lost)) as relay, \
+            ArduPilotSitl(vehicle, home=site.home(0), gcs_port=relay.port, speedup=SPEEDUP) as sitl, \
+            SpareRecorder(f"tcp:127.0.0.1:{sitl.tcp_port_2}", 1) as recorder:
+        ctrl_c_while_its_way_home_is_lost(plan_dir, f"udpin:127.0.0.1:{port}", recorder, uploads_lost,
+                                          60.0 / SPEEDUP, site.home(0)[:2], 5.0 if vehicle == "copter" else 60.0)
+    assert relay.dropped > 0
 
 
 def test_a_plane_takes_off_along_its_runway_searches_and_lands_on_it(tmp_path):
