@@ -14,6 +14,9 @@ PX4 = {"MANUAL": (1, 0), "OFFBOARD": (6, 0), "TAKEOFF": (4, 2), "HOLD": (4, 3), 
        "LAND": (4, 6)}
 PX4_ALIASES = {"AUTO": "MISSION", "LOITER": "HOLD", "GUIDED": "HOLD"}
 MISSION_MODES = frozenset({"AUTO", "MISSION", "TAKEOFF"})  # a vehicle flying its mission list, by either name
+#: a vehicle held or steered by its station (`Autopilot.hold_mode`, the online search's GUIDED and
+#: DO_REPOSITION targets): where it stays if the station goes away
+STATION_HELD_MODES = frozenset({"GUIDED", "LOITER", "HOLD"})
 
 
 def ardupilot_table(mav_type: int | None) -> dict[str, int]:

@@ -248,7 +248,9 @@ class FlightController:
         for task in tasks:
             task.cancel()
         if tasks:  # what they were doing (an upload, an arming) is over before the vehicles are secured
-            await asyncio.wait(tasks, timeout=STOP_WAIT_S)
+            _, pending = await asyncio.wait(tasks, timeout=STOP_WAIT_S)
+            if pending:
+                self.say(None, f"{len(pending)} of the flight's tasks still running {STOP_WAIT_S:g} s after the stop")
         for st in self.status.values():
             if st.stage not in FINAL_STAGES and (st.airborne or st.armed):
                 st.return_reason = st.return_reason or "stop"

@@ -33,7 +33,7 @@ async def launch(vehicle: VehicleFlight) -> bool:
     st = vehicle.status
     autopilot = st.autopilot or Autopilot.GENERIC
     if vehicle.station.stopping:
-        return _not_armed(vehicle)
+        return vehicle.kept_down()
     await preflight.battery_report(vehicle)
     if not preflight.charge_covers_plan(vehicle):
         return False
@@ -48,7 +48,7 @@ async def launch(vehicle: VehicleFlight) -> bool:
             return False
         try:
             if not await vehicle.arm(give_up=vehicle.ordered_home):
-                return _not_armed(vehicle)
+                return vehicle.kept_down()
         except CommandError as exc:
             vehicle.set_stage(Stage.FAILED, f"cannot arm: {exc}{_said(vehicle)}; left on the ground")
             return False
@@ -93,13 +93,6 @@ async def _started_unanswered(vehicle: VehicleFlight) -> bool | None:
     if armed is None or (armed and vehicle.status.mode_name not in MISSION_MODES):
         return None
     return armed
-
-
-def _not_armed(vehicle: VehicleFlight) -> bool:
-    """Kept on the ground, never armed: ordered home, or the flight is stopping. False."""
-    why = "the flight is stopping" if vehicle.station.stopping else "return ordered before take-off"
-    vehicle.set_stage(Stage.LANDED, f"kept on the ground: {why}")
-    return False
 
 
 def _said(vehicle: VehicleFlight) -> str:

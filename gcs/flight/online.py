@@ -101,7 +101,8 @@ class OnlineFlight:
         vehicle.set_stage(Stage.ARMING)
         try:
             await commands.set_mode("GUIDED")
-            await vehicle.arm()
+            if not await vehicle.arm(give_up=lambda: c.stopping):
+                return vehicle.kept_down()
             _, takeoff_alt = st.autopilot.command_altitude(task.altitude_m, st.home[2] if st.home else 0.0)
             await commands.command(mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, takeoff_alt)
         except LinkError as exc:

@@ -270,6 +270,7 @@ class Resumption:
                                                           st.track_index)
             st.steps_flown = float(st.track_index)
         st.stage = decision.stage
+        vehicle.return_leg_flying = decision.stage is Stage.RETURN  # FOLLOW: flying its return leg
         c.emit(Reattached(uid, decision.stage, found))
         if action is Action.SEND_HOME:
             vehicle.release()

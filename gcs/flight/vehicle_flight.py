@@ -22,7 +22,6 @@ meanwhile. Every change goes through `set_stage`, which refuses one `TRANSITIONS
 
 from __future__ import annotations
 
-import asyncio
 import math
 import time
 from collections.abc import Callable
@@ -30,7 +29,7 @@ from typing import TYPE_CHECKING
 
 from gcs.autopilots import Autopilot
 from gcs.autopilots.mission_transfer import MissionTransferError
-from gcs.autopilots.modes import MISSION_MODES
+from gcs.autopilots.modes import MISSION_MODES, STATION_HELD_MODES
 from gcs.flight import launch, preflight
 from gcs.flight.events import MissionUploaded, ModeChanged, ReadingReceived, StageChanged, TookOff
 from gcs.flight.options import FlyOptions
@@ -107,7 +106,7 @@ class VehicleFlight:
         self.stage_before_loss: Stage | None = None
         self.upload_reports: dict | None = None  # the verified uploads, by kind ("mission", "fence", "rally")
         self.return_latency_s: float | None = None  # from its return's decision to its leg flying
-        self.return_cut_short = False  # its return stopped before its leg flew: it holds where it is
+        self.return_leg_flying = False  # its planned return leg uploaded and started: it flies home by itself
 
     @property
     def link(self) -> MavLink | None:  # the link it was first heard on
@@ -266,8 +265,15 @@ class VehicleFlight:
         False when it would not disarm (lifting off: it comes home like any other)."""
         if not await self.commands.disarm():
             return False
-        self.set_stage(Stage.LANDED, "kept on the ground: return ordered before take-off")
+        self.kept_down()
         return True
+
+    def kept_down(self) -> bool:
+        """LANDED without flying: ordered home before take-off, or the flight is stopping (said
+        which). False, for a launch that ends here."""
+        why = "the flight is stopping" if self.station.stopping else "return ordered before take-off"
+        self.set_stage(Stage.LANDED, f"kept on the ground: {why}")
+        return False
 
     # ---- searching: the return trigger -----------------------------------------------------
 
@@ -321,6 +327,7 @@ class VehicleFlight:
                                                 self.options.transfer_timeout_s,
                                                 lambda: self.station.emit(MissionUploaded(uid, "return", tuple(leg))))
             self.energy.holding = False
+            self.return_leg_flying = True
             self.return_latency_s = time.monotonic() - started
             self.say(f"return leg of {len(leg)} waypoints uploaded and started")
             return st.time_boot_s - held_from  # what a return's hold takes, in the vehicles' time
@@ -329,9 +336,6 @@ class VehicleFlight:
                      "flies straight home and ignores the planned path")
             await self.rtl()
             return None
-        except asyncio.CancelledError:  # the flight is stopping: `secure` sends it home by RTL
-            self.return_cut_short = True
-            raise
         finally:
             self.energy.holding = False
             self.release()
@@ -373,7 +377,9 @@ class VehicleFlight:
         home. Stopped mid-launch: an arming already sent is given `LIFT_OFF_S` to take (then
         disarmed), and one whose disarm its autopilot refuses (lifting off, its take-off roll) or
         leaves unanswered while it is seen to lift off within `LIFT_OFF_S` is sent home, as is one
-        whose return was stopped before its leg flew (holding where it was)."""
+        going home but not on its started return leg (its upload cut short by the stop, the online
+        search's way home, steered cell by cell), or held on it (`STATION_HELD_MODES`): it would
+        stay where it is."""
         st = self.status
         if self.link is None or st.stage is Stage.LOST:
             return
@@ -390,8 +396,9 @@ class VehicleFlight:
             if not lifting:
                 self.say("ARMED ON THE GROUND: disarm did not confirm, check it")
                 return
-        going_home = st.stage in (Stage.RTL, Stage.LANDED) or (st.stage is Stage.RETURN and not self.return_cut_short)
-        if rtl_airborne and (st.airborne or lifting) and not going_home:
+        on_its_way = st.stage in (Stage.RTL, Stage.LANDED) or (
+            st.stage is Stage.RETURN and self.return_leg_flying and st.mode_name not in STATION_HELD_MODES)
+        if rtl_airborne and (st.airborne or lifting) and not on_its_way:
             if not await self.rtl():
                 self.say("in the air and did not confirm RTL: check it yourself")
 

@@ -4,6 +4,7 @@ loopback UDP (ArduPilot and PX4 profiles), with battery drain, operator orders, 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 import re
 from pathlib import Path
@@ -461,6 +462,46 @@ def test_online_mode_flies_on_without_a_vehicle_its_autopilot_brought_home(plan_
         assert controller.status[uid].return_reason in (None, "range"), controller.status[uid]  # as planned
 
 
+def test_ctrl_c_in_online_mode_sends_a_vehicle_on_its_way_home_by_rtl(plan_dir, flight_area):
+    """Online, the station steers a returning vehicle cell by cell (GUIDED): Ctrl-C as UAV 1 turns
+    home must not leave it at its last target when the station ends; it is sent RTL, and the
+    vehicles still searching too."""
+    from gcs.flight.events import StageChanged
+    from gcs.flight.fly import fly_async
+    from sim import Mode
+    from sim.plan_fleet import fleet_for_plan
+
+    plan = load_plan_dir(plan_dir)
+    search = _observed_paper_search(flight_area, 0)
+    fleet = fleet_for_plan(plan, speedup=SPEEDUP).start()
+    controllers: list = []
+
+    def on_event(event, _now) -> None:
+        if isinstance(event, StageChanged) and event.uav_id == 1 and controllers:
+            if event.after is Stage.SEARCH:
+                controllers[0].order_return(1)
+            elif event.after is Stage.RETURN:
+                controllers[0].interrupt()
+
+    class Catch:  # the controller, as soon as the flight has one
+        def attach(self, controller):
+            controllers.append(controller)
+            return contextlib.nullcontext()
+
+    lines: list[str] = []
+    try:
+        controller = asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
+                                                            online=search, out=lines.append, listeners=[on_event],
+                                                            watchers=[Catch()]), 120))
+        modes = {uid: fleet.vehicle(uid).state.mode for uid in plan.uavs}
+    finally:
+        fleet.stop()
+    out = "\n".join(lines)
+    assert controller.interrupted and "UAV 1: return - going home" in out, out[-3000:]
+    assert "UAV 1: rtl - autopilot RTL" in out.split("stopping:", 1)[1], out[-3000:]
+    assert all(mode is Mode.RTL for mode in modes.values()), f"{modes}\n{out[-3000:]}"
+
+
 def test_fly_area_with_operator_orders_on_stdin(tmp_path, flight_area):
     """`gcs fly --area ... --sim` plans through the plan command into runs/<area name>, then flies;
     `r ID` on stdin sends that UAV home; an unknown UAV is one error line and the flight goes on."""
@@ -617,6 +658,7 @@ def test_a_vehicle_still_uploading_when_the_flight_stops_is_never_launched(plan,
         return real_watch(self)
 
     monkeypatch.setattr(preflight, "upload_verified", upload_that_loses_a_cancellation)
+    monkeypatch.setattr("gcs.flight.controller.STOP_WAIT_S", 60.0)  # its late preparation, however loaded the machine
     monkeypatch.setattr(VehicleFlight, "watch", watch)
     lines: list[str] = []
     fleet = fleet_for_plan(plan, speedup=SPEEDUP).start()
@@ -674,7 +716,7 @@ def test_a_vehicle_whose_return_upload_the_stop_cuts_short_is_sent_home_by_rtl(p
         fleet.stop()
     assert any("UAV 1: return - going home (test)" in line for line in lines), "\n".join(lines)
     assert not any("UAV 1: return leg of" in line for line in lines), "\n".join(lines)
-    assert modes[1] is Mode.RTL, ("\n".join(lines), modes)
+    assert modes[1] is Mode.RTL, f"{modes}\n" + "\n".join(lines)
     assert any("UAV 1: rtl - autopilot RTL" in line for line in lines), "\n".join(lines)
 
 
