@@ -24,7 +24,7 @@ from enum import Enum
 import numpy as np
 from numpy.typing import ArrayLike
 
-from planner.path_time import Cornering, path_time_s
+from planner.path_time import Cornering, path_length_m, path_time_s
 
 __all__ = ["Airframe", "EnergyProfile", "MAX_WIND_FACTOR", "wind_factor"]
 
@@ -120,8 +120,7 @@ class EnergyProfile:
         (`planner.path_time.path_time_s`) over its metres; else `cruise_mah_per_m`."""
         if self.cornering is None or self.moving_mah_per_s is None:
             return self.cruise_mah_per_m
-        legs = np.diff(np.asarray(points_en, dtype=float).reshape(-1, 2), axis=0)
-        length = float(np.hypot(legs[:, 0], legs[:, 1]).sum())
+        length = path_length_m(points_en)
         if length <= 0:
             return self.cruise_mah_per_m
         return self.moving_mah_per_s * path_time_s(points_en, self.cruise_speed_m_s, self.cornering) / length

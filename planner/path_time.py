@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["ARDUCOPTER_CORNERING", "Cornering", "path_time_s", "turn_angles_deg"]
+__all__ = ["ARDUCOPTER_CORNERING", "Cornering", "path_length_m", "path_time_s", "turn_angles_deg"]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -68,6 +68,12 @@ def _legs(points_en: ArrayLike) -> np.ndarray:
     points = np.asarray(points_en, dtype=float).reshape(-1, 2)
     legs = np.diff(points, axis=0)
     return legs[np.hypot(legs[:, 0], legs[:, 1]) > 1e-9]
+
+
+def path_length_m(points_en: ArrayLike) -> float:
+    """The length of the polyline `points_en` ((east, north) metres)."""
+    legs = _legs(points_en)
+    return float(np.hypot(legs[:, 0], legs[:, 1]).sum())
 
 
 def path_time_s(points_en: ArrayLike, cruise_speed_m_s: float, cornering: Cornering | None = None) -> float:

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from planner.energy import Airframe, EnergyProfile
-from planner.path_time import ARDUCOPTER_CORNERING, Cornering, path_time_s, turn_angles_deg
+from planner.path_time import ARDUCOPTER_CORNERING, Cornering, path_length_m, path_time_s, turn_angles_deg
 from tests.planner.corner_stretches import SITL_S, SPEED_M_S, stretches
 
 SIMPLE = Cornering(accel_m_s2=2.0, corner_fractions=((0.0, 1.0), (90.0, 0.5), (180.0, 0.0)))
@@ -34,6 +34,11 @@ def reference_time_s(points: np.ndarray, speed: float, c: Cornering, dt: float =
         v = v_next
         t += dt
     return t
+
+
+def test_a_path_is_as_long_as_its_legs_its_repeated_points_adding_nothing():
+    assert path_length_m([(0, 0), (3, 4), (3, 4), (3, 10)]) == pytest.approx(11.0)
+    assert path_length_m([(5, 5)]) == 0.0
 
 
 def test_a_straight_by_hand():

@@ -562,14 +562,31 @@ def test_a_uav_planned_without_flies_nothing_and_the_flight_says_why(tmp_path, c
     assert "1/1 landed at their airports; left on the ground by the plan: UAV 1;" in captured.out
 
 
+def _flown_until_the_controller_fails(plan, **fleet_options) -> tuple[list[str], dict]:
+    """Fly `plan` on the simulator (`fleet_options` for `fleet_for_plan`, speed-up `SPEEDUP` unless
+    given) until a bug injected by the test stops the controller: `FlightAborted`, every vehicle
+    secured. The station's lines, and each simulated vehicle's state at the end."""
+    from gcs.flight.controller import FlightAborted
+    from gcs.flight.fly import fly_async
+    from sim.plan_fleet import fleet_for_plan
+
+    lines: list[str] = []
+    fleet = fleet_for_plan(plan, **{"speedup": SPEEDUP, **fleet_options}).start()
+    try:
+        with pytest.raises(FlightAborted, match="injected bug.*commanded RTL"):
+            asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
+                                                   out=lines.append), 120))
+        states = {uid: fleet.vehicle(uid).state for uid in plan.uavs}
+    finally:
+        fleet.stop()
+    return lines, states
+
+
 def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch):
     """A bug in the GCS loop mid-flight: every vehicle in the air is commanded RTL before the
     command ends with one error (FlightAborted), never left flying unwatched."""
-    from gcs.flight.controller import FlightAborted
-    from gcs.flight.fly import fly_async
     from gcs.flight.vehicle_flight import VehicleFlight
     from sim import Mode
-    from sim.plan_fleet import fleet_for_plan
 
     real = VehicleFlight.watch
 
@@ -580,25 +597,16 @@ def test_a_failing_controller_sends_everyone_home_and_says_so(plan, monkeypatch)
         return real(self)
 
     monkeypatch.setattr(VehicleFlight, "watch", watch)
-    fleet = fleet_for_plan(plan, speedup=20.0).start()
-    try:
-        with pytest.raises(FlightAborted, match="injected bug.*commanded RTL"):
-            asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options()), 120))
-        modes = {uid: fleet.vehicle(uid).state.mode for uid in plan.uavs}
-    finally:
-        fleet.stop()
-    assert all(mode is Mode.RTL for mode in modes.values()), modes
+    lines, states = _flown_until_the_controller_fails(plan, speedup=20.0)
+    assert all(s.mode is Mode.RTL for s in states.values()), "\n".join(lines)
 
 
 def test_a_controller_failing_as_a_vehicle_lifts_off_sends_it_home_too(plan, monkeypatch):
     """The bug fires the moment a vehicle's mission has started and it is not yet seen in the air
     (armed, on the ground, its motors spinning up): it is disarmed while its autopilot still counts
     it landed, else sent home; no vehicle is left armed flying its mission unwatched."""
-    from gcs.flight.controller import FlightAborted
-    from gcs.flight.fly import fly_async
     from gcs.flight.vehicle_flight import VehicleFlight
     from sim import Mode
-    from sim.plan_fleet import fleet_for_plan
 
     real = VehicleFlight.watch
     lifting: list[int] = []
@@ -612,16 +620,10 @@ def test_a_controller_failing_as_a_vehicle_lifts_off_sends_it_home_too(plan, mon
     monkeypatch.setattr(VehicleFlight, "watch", watch)
     # a take-off of wall seconds, as SITL's at speed-up 1-5, after a start-up of two (not 42 s of
     # the simulated ArduPilot's time, 21 of wall time at this speed-up)
-    fleet = fleet_for_plan(plan, speedup=2.0, boot_scale=0.1).start()
-    try:
-        with pytest.raises(FlightAborted, match="injected bug"):
-            asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options()), 120))
-        states = {uid: fleet.vehicle(uid).state for uid in plan.uavs}
-    finally:
-        fleet.stop()
+    lines, states = _flown_until_the_controller_fails(plan, speedup=2.0, boot_scale=0.1)
     assert lifting  # sent home if its autopilot refused the disarm (lifting), else disarmed on the ground
-    assert all(s.mode is Mode.RTL or not s.armed for s in states.values()), {u: (s.mode, s.armed)
-                                                                             for u, s in states.items()}
+    assert all(s.mode is Mode.RTL or not s.armed for s in states.values()), \
+        f"{ {u: (s.mode, s.armed) for u, s in states.items()} }\n" + "\n".join(lines)
 
 
 def test_a_vehicle_still_uploading_when_the_flight_stops_is_never_launched(plan, monkeypatch):
@@ -629,10 +631,7 @@ def test_a_vehicle_still_uploading_when_the_flight_stops_is_never_launched(plan,
     the cancellation go by (as Python 3.11's `asyncio.wait_for` did when a reply came in at that
     moment) and finishes: UAV 1 is not armed, it is kept on the ground, saying why."""
     from gcs.flight import preflight
-    from gcs.flight.controller import FlightAborted
-    from gcs.flight.fly import fly_async
     from gcs.flight.vehicle_flight import VehicleFlight
-    from sim.plan_fleet import fleet_for_plan
 
     real_upload, real_watch = preflight.upload_verified, VehicleFlight.watch
     cancellations_lost: list[int] = []
@@ -660,18 +659,10 @@ def test_a_vehicle_still_uploading_when_the_flight_stops_is_never_launched(plan,
     monkeypatch.setattr(preflight, "upload_verified", upload_that_loses_a_cancellation)
     monkeypatch.setattr("gcs.flight.controller.STOP_WAIT_S", 60.0)  # its late preparation, however loaded the machine
     monkeypatch.setattr(VehicleFlight, "watch", watch)
-    lines: list[str] = []
-    fleet = fleet_for_plan(plan, speedup=SPEEDUP).start()
-    try:
-        with pytest.raises(FlightAborted, match="injected bug"):
-            asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
-                                                   out=lines.append), 120))
-        armed = {uid: fleet.vehicle(uid).state.armed for uid in plan.uavs}
-    finally:
-        fleet.stop()
+    lines, states = _flown_until_the_controller_fails(plan)
     assert cancellations_lost == [1], "\n".join(lines)
     assert any("UAV 1: mission verified" in line for line in lines), "\n".join(lines)
-    assert not armed[1] and not any("UAV 1: arming" in line for line in lines), "\n".join(lines)
+    assert not states[1].armed and not any("UAV 1: arming" in line for line in lines), "\n".join(lines)
     assert any("UAV 1: landed - kept on the ground: the flight is stopping" in line for line in lines), "\n".join(lines)
 
 
@@ -680,11 +671,8 @@ def test_a_vehicle_whose_return_upload_the_stop_cuts_short_is_sent_home_by_rtl(p
     meanwhile: the upload is cancelled, and UAV 1, holding in the air, is sent RTL (not left
     holding as a vehicle already on its way home)."""
     from gcs.flight import vehicle_commands
-    from gcs.flight.controller import FlightAborted
-    from gcs.flight.fly import fly_async
     from gcs.flight.vehicle_flight import VehicleFlight
     from sim import Mode
-    from sim.plan_fleet import fleet_for_plan
 
     real_upload, real_watch = vehicle_commands.upload_verified, VehicleFlight.watch
 
@@ -705,18 +693,10 @@ def test_a_vehicle_whose_return_upload_the_stop_cuts_short_is_sent_home_by_rtl(p
 
     monkeypatch.setattr(vehicle_commands, "upload_verified", slow_return_upload)
     monkeypatch.setattr(VehicleFlight, "watch", watch)
-    lines: list[str] = []
-    fleet = fleet_for_plan(plan, speedup=SPEEDUP).start()
-    try:
-        with pytest.raises(FlightAborted, match="injected bug"):
-            asyncio.run(asyncio.wait_for(fly_async(plan, fleet.connection_strings(), fast_options(),
-                                                   out=lines.append), 120))
-        modes = {uid: fleet.vehicle(uid).state.mode for uid in plan.uavs}
-    finally:
-        fleet.stop()
+    lines, states = _flown_until_the_controller_fails(plan)
     assert any("UAV 1: return - going home (test)" in line for line in lines), "\n".join(lines)
     assert not any("UAV 1: return leg of" in line for line in lines), "\n".join(lines)
-    assert modes[1] is Mode.RTL, f"{modes}\n" + "\n".join(lines)
+    assert states[1].mode is Mode.RTL, "\n".join(lines)
     assert any("UAV 1: rtl - autopilot RTL" in line for line in lines), "\n".join(lines)
 
 
