@@ -56,6 +56,9 @@ class AreaGrid:
     def to_local(self, geometry: BaseGeometry) -> BaseGeometry:
         return shapely.transform(geometry, self.frame.lonlat2local_coords)
 
+    def to_lonlat(self, geometry: BaseGeometry) -> BaseGeometry:
+        return shapely.transform(geometry, self.frame.local2lonlat_coords)
+
     def point_m(self, lon_deg: float, lat_deg: float) -> tuple[float, float]:
         east, north = self.frame.geodetic2local(lat_deg, lon_deg)
         return float(east), float(north)

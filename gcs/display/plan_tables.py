@@ -6,7 +6,9 @@ from __future__ import annotations
 import json
 from typing import TYPE_CHECKING
 
-from gcs.missions.items import AltitudeReference
+from gcs.autopilots.capacity import fleet_mission_capacity
+from gcs.missions.fence_fit import describe_fit
+from gcs.missions.items import AltitudeReference, Vehicle
 
 if TYPE_CHECKING:
     from gcs.plans.campaign import CampaignResult
@@ -70,10 +72,26 @@ def mission_table(setup: AreaSetup, files: dict[str, str]) -> str:
         rows.append(f"UAVs {', '.join(map(str, uavs))} share layer {level} ({layers.levels_m[level - 1]:g} m): "
                     "the plan keeps them out of each other's cells; raise --ceiling or lower --altitude-step to part "
                     "them")
+    fences: dict[str, list[int]] = {}
+    for u in data["uavs"]:
+        fence = u.get("fence")
+        if fence is not None:
+            fences.setdefault(describe_fit(**fence), []).append(u["id"])
+    for line, uids in fences.items():
+        rows.append(line if len(fences) == 1 else f"UAV {', '.join(map(str, uids))}: {line}")
+    rows += mission_capacity_lines(data, setup.vehicle)
     g = setup.area.grid
     rows.append(f"grid {g.nx}x{g.ny} cells of {g.cell_size_m:g} m, {int(setup.area.free.sum())} searchable, "
                 f"{setup.area.edge_blocked} blocked at edges")
     return "\n".join(rows)
+
+
+def mission_capacity_lines(data: dict, vehicle: Vehicle) -> list[str]:
+    """A warning per UAV whose mission has more items than an autopilot that flies `vehicle` holds."""
+    items, whose = fleet_mission_capacity(vehicle is Vehicle.PLANE)
+    return [f"warning: UAV {u['id']}'s mission has {u['mission_items']} items, more than {whose} holds ({items}): "
+            "fly it on a vehicle that holds more, or give it a larger cell size"
+            for u in data["uavs"] if u.get("mission_items", 0) > items]
 
 
 def campaign_table(rows: list[dict], available: float) -> str:

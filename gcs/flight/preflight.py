@@ -13,10 +13,14 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from gcs.autopilots import Autopilot
+from gcs.autopilots.capacity import fence_capacity
 from gcs.autopilots.mission_transfer import MissionTransferError, MissionType, upload_verified
 from gcs.flight.events import MissionUploaded
 from gcs.flight.vehicle_track import distance_m
 from gcs.links import CommandError, mavlink
+from gcs.missions.fence import Fence, FenceCapacity
+from gcs.missions.fence_fit import FenceDoesNotFit, fit_fence
+from gcs.plans.plan_folder import fence_wire
 from gcs.plans.vehicle_file import stock_profile
 from gcs.telemetry.status import Stage
 
@@ -24,7 +28,7 @@ if TYPE_CHECKING:
     from gcs.flight.vehicle_flight import VehicleFlight
 
 __all__ = ["BATTERY_REPORT_WAIT_S", "battery_report", "battery_setup", "charge_covers_plan", "home_matches", "prepare",
-           "set_params_before_arming", "wait_ready", "wait_until"]
+           "set_params_before_arming", "upload_fence", "wait_ready", "wait_until"]
 
 #: How long a vehicle that has sent no battery report yet is given for one before its charge is
 #: checked, once asked for it (MAV_CMD_REQUEST_MESSAGE). A vehicle booted before the station is
@@ -74,19 +78,75 @@ async def prepare(vehicle: VehicleFlight, mission: bool = True) -> bool:
     vehicle.upload_reports = reports = {"mission": report}
     vehicle.station.emit(MissionUploaded(uid, "search"))
     extra = []
-    for kind, items in ((MissionType.FENCE, task.fence_wire()), (MissionType.RALLY, task.rally_wire())):
-        if not opts.fence or not items:
-            continue
+    if opts.fence and task.fence:
+        fenced = await upload_fence(vehicle)
+        if fenced is None:
+            return False
+        extra.append(f"{fenced} fence")
+    rally = task.rally_wire()
+    if opts.fence and rally:
         try:
-            reports[kind.name.lower()] = await upload_verified(link, uid, items, autopilot, kind,
-                                                               timeout_s=opts.transfer_timeout_s)
-            extra.append(f"{len(items)} {kind.name.lower()}")
+            reports["rally"] = await upload_verified(link, uid, rally, autopilot, MissionType.RALLY,
+                                                     timeout_s=opts.transfer_timeout_s)
+            extra.append(f"{len(rally)} rally")
         except MissionTransferError as exc:
             vehicle.say(f"warning: {exc}; flying without it")
     vehicle.say(f"mission verified: {report.items} items{' + ' + ', '.join(extra) if extra else ''} in "
                 f"{report.elapsed_s:.2f} s ({report.resends} re-sends"
                 f"{', legacy MISSION_REQUEST used' if report.legacy_requests else ''})")
     return True
+
+
+async def upload_fence(vehicle: VehicleFlight) -> int | None:
+    """Upload and verify the plan's geofence, fitted first to what the vehicle's autopilot is
+    known to hold and, if it refuses it for want of room, to what it says it holds (the inclusion
+    grows; the no-fly zones are kept). The fence items uploaded; None, the vehicle FAILED, when
+    it cannot be had: no vehicle is launched without its fence but by the operator's --no-fence."""
+    st, task, opts = vehicle.status, vehicle.task, vehicle.options
+    fixed_wing = bool(st.fixed_wing)
+    rings = task.fence
+    known = fence_capacity(st.autopilot.value, fixed_wing) if st.autopilot else None
+    try:
+        if known is not None:
+            rings = _fitted(vehicle, rings, known)
+        for attempt in (1, 2):
+            items = fence_wire(rings)
+            try:
+                vehicle.upload_reports["fence"] = await upload_verified(
+                    vehicle.link, vehicle.uid, items, st.autopilot, MissionType.FENCE,
+                    timeout_s=opts.transfer_timeout_s)
+                return len(items)
+            except MissionTransferError as exc:
+                answered = _answered_capacity(exc, st.autopilot, fixed_wing)
+                if attempt == 2 or answered is None or answered.holds([len(r) for _, r in rings]):
+                    raise
+                rings = _fitted(vehicle, rings, answered)
+    except (MissionTransferError, FenceDoesNotFit) as exc:
+        vehicle.set_stage(Stage.FAILED, f"fence not uploaded: {exc}; not launched without it (--no-fence flies "
+                                        "without a geofence)")
+    return None
+
+
+def _fitted(vehicle: VehicleFlight, rings: list[tuple[bool, list[tuple[float, float]]]],
+            capacity: FenceCapacity) -> list[tuple[bool, list[tuple[float, float]]]]:
+    """`rings` (inclusion flag, open ring) fitted to `capacity`, said when simplified."""
+    closed = [(inclusion, ring + ring[:1]) for inclusion, ring in rings]
+    fence = Fence([r for inclusion, r in closed if inclusion], [r for inclusion, r in closed if not inclusion])
+    fitted = fit_fence(fence, capacity)
+    if fitted.simplified:
+        vehicle.say(f"{fitted.describe()}, to fit its {capacity.describe()}")
+    return [(True, r[:-1]) for r in fitted.fence.inclusion] + [(False, r[:-1]) for r in fitted.fence.exclusion]
+
+
+def _answered_capacity(exc: MissionTransferError, autopilot: Autopilot, fixed_wing: bool) -> FenceCapacity | None:
+    """What a vehicle that refused a fence says it holds: ArduPilot's "Only N items are
+    supported", else the autopilot's known capacity when it refused for want of room."""
+    if exc.capacity:
+        return FenceCapacity.ardupilot(exc.capacity) if autopilot is Autopilot.ARDUPILOT \
+            else FenceCapacity(exc.capacity)
+    if exc.result in (mavlink.MAV_MISSION_NO_SPACE, mavlink.MAV_MISSION_ERROR):
+        return fence_capacity(autopilot.value, fixed_wing)
+    return None
 
 
 async def wait_until(predicate: Callable[[], bool], timeout_s: float) -> bool:

@@ -96,14 +96,7 @@ class UavTask:
 
     def fence_wire(self) -> list[WireItem]:
         """Polygon fence vertices (param1 = vertex count), MAV_MISSION_TYPE_FENCE."""
-        out = []
-        for inclusion, ring in self.fence:
-            cmd = (mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION if inclusion
-                   else mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION)
-            out += [WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, cmd, lat, lon, 0.0, (len(ring), 0, 0, 0),
-                                MissionType.FENCE)
-                    for lat, lon in ring]
-        return out
+        return fence_wire(self.fence)
 
     def rally_wire(self) -> list[WireItem]:
         return [WireItem.at(0, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_CMD_NAV_RALLY_POINT, lat, lon, alt,
@@ -276,3 +269,15 @@ def _read_qgc_plan(path: Path, task: UavTask) -> None:
 # ---- live state ------------------------------------------------------------------------
 
 
+
+
+def fence_wire(rings: list[tuple[bool, list[tuple[float, float]]]]) -> list[WireItem]:
+    """Polygon fence vertices of (inclusion, open ring of (lat, lon)) pairs, param1 the vertex
+    count, MAV_MISSION_TYPE_FENCE."""
+    out = []
+    for inclusion, ring in rings:
+        cmd = (mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION if inclusion
+               else mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION)
+        out += [WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, cmd, lat, lon, 0.0, (len(ring), 0, 0, 0), MissionType.FENCE)
+                for lat, lon in ring]
+    return out

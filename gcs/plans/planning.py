@@ -14,14 +14,17 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+import shapely
 from shapely.geometry import Point, Polygon
 
 from gcs.atomic import staged_outputs
+from gcs.autopilots.capacity import fleet_fence_capacity
 from gcs.errors import UserError
 from gcs.missions.approach import ApproachOptions, landing_approach
-from gcs.missions.fence import Fence, uav_fence
+from gcs.missions.fence import CORRIDOR_VERTICES, FENCE_CLEARANCE_M, FENCE_GROWTH_CELLS, Fence, uav_fence
+from gcs.missions.fence_fit import FenceDoesNotFit, FittedFence, fit_fence
 from gcs.missions.from_plan import FlownPath, uav_mission
-from gcs.missions.items import AltitudeReference, UavMission, Vehicle
+from gcs.missions.items import AltitudeReference, UavMission, Vehicle, mission_items
 from gcs.missions.paths import paths_geojson, uav_label
 from gcs.missions.qgc_plan import qgc_plan
 from gcs.missions.wpl import wpl_text
@@ -36,6 +39,7 @@ from planner.area_grid import (
     airport_cell,
     area_scenario,
     build_area_grid,
+    local_frame_for,
     range_units,
     units_m,
 )
@@ -64,6 +68,7 @@ class AreaSetup:
     belief: Belief | None = None
     range_sources: dict[int, str] = field(default_factory=dict)
     grounded: dict[int, str] = field(default_factory=dict)  # UAV -> why its range cannot leave its airport
+    fence: FittedFence | None = None  # the area's fence as the vehicles hold it (`area_fence`)
 
     def __post_init__(self) -> None:
         if self.belief is None:
@@ -191,7 +196,9 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
         raise UserError(f"--reserve-pct must be in [0, 100), got {area.reserve_pct:g}")
     records = load_vehicles(area.vehicles) if area.vehicles else {}
     try:
-        grid = build_area_grid(source.area, list(source.no_fly), cell, area.margin_m, area.max_cells)
+        fence = area_fence(source, vehicle, cell)
+        grid = build_area_grid(source.area, [*source.no_fly, *grown_zones_lonlat(fence)], cell, area.margin_m,
+                               area.max_cells)
         layers = altitude_layers([ap.altitude_m for ap in source.airports], area.altitude_m, area.altitude_step_m,
                                  area.ceiling_m)
         uavs, ranges_m, overheads_m, sources = [], {}, {}, {}
@@ -247,16 +254,47 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
         raise UserError(f"{area_file}: {exc}") from None
     reference = AltitudeReference.TERRAIN if area.terrain_follow else AltitudeReference.HOME
     return AreaSetup(source, grid, closed, ranges_m, layers, overheads_m, vehicle, reference, approach, belief, sources,
-                     dict(sorted(grounded.items())))
+                     dict(sorted(grounded.items())), fence)
 
 
-def _fence(source: AreaFile, area: AreaGrid, flown: FlownPath) -> Fence:
-    """The UAV's geofence: the area and no-fly zones, and a plane's landing corridor."""
+def area_fence(source: AreaFile, vehicle: Vehicle, cell_size_m: float) -> FittedFence:
+    """The area's geofence (its rings, the area's holes and the no-fly zones) fitted, before the
+    grid is laid, to what every autopilot that flies `vehicle` holds, with room left for a
+    plane's landing corridor. A no-fly zone it grows is flown as one: the grid blocks the cells
+    it covers, so the plan never meets the fence. Zones grow at most FENCE_GROWTH_CELLS cells and
+    never onto an airport."""
+    capacity = fleet_fence_capacity(vehicle is Vehicle.PLANE)
+    if vehicle is Vehicle.PLANE:
+        capacity = capacity.less(CORRIDOR_VERTICES * len(shapely.get_parts(source.area)))
+    airports = shapely.union_all([Point(ap.lon_deg, ap.lat_deg) for ap in source.airports])
+    frame = local_frame_for(source.area)
+    clear_m = shapely.transform(airports, frame.lonlat2local_coords).buffer(cell_size_m + FENCE_CLEARANCE_M)
+    try:
+        return fit_fence(uav_fence(source.area, source.no_fly), capacity,
+                         shapely.transform(clear_m, frame.local2lonlat_coords), FENCE_GROWTH_CELLS * cell_size_m)
+    except FenceDoesNotFit as exc:
+        raise UserError(f"{source.name}: {exc}") from None
+
+
+def grown_zones_lonlat(fitted: FittedFence) -> list[Polygon]:
+    """The fence's exclusions that reach beyond their zones, as polygons the grid must keep out of."""
+    if fitted.grown_m <= 0:
+        return []
+    return [Polygon([(lon, lat) for lat, lon in ring]) for ring in fitted.fence.exclusion]
+
+
+def uav_fitted_fence(setup: AreaSetup, flown: FlownPath) -> FittedFence:
+    """The UAV's geofence: the area's fitted fence, its inclusion joined with a plane's landing
+    corridor (and simplified again if that no longer fits)."""
+    fitted = setup.fence
     if flown.corridor_m is None:
-        return uav_fence(source.area, source.no_fly)
-    east, north = np.asarray(flown.corridor_m.exterior.coords).T
-    lat, lon = area.frame.local2geodetic(east, north)
-    return uav_fence(source.area, source.no_fly, Polygon(np.column_stack([lon, lat])))
+        return fitted
+    source = setup.source
+    corridor = setup.area.to_lonlat(flown.corridor_m)
+    joined = uav_fence(source.area, [], corridor)
+    refit = fit_fence(Fence(joined.inclusion, fitted.fence.exclusion), fleet_fence_capacity(True))
+    return replace(refit, source_vertices=uav_fence(source.area, source.no_fly, corridor).vertices,
+                   grown_m=fitted.grown_m)
 
 
 def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, campaign: dict | None = None
@@ -266,7 +304,6 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
     source, area = setup.source, setup.area
     missions: list[UavMission] = []
     paths: dict[int, FlownPath] = {}
-    fences: dict[int, Fence] = {}
     extra: dict[int, dict] = {}
     airports = {ap.index + 1: ap for ap in source.airports}
     for u in plan.uavs:
@@ -279,7 +316,6 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
             raise UserError(f"{source.name}: {exc}") from None
         missions.append(mission)
         paths[u.uav_id] = flown
-        fences[u.uav_id] = _fence(source, area, flown)
         extra[u.uav_id] = {"name": ap.name, "vehicle": setup.vehicle.value, "altitude_m": mission.altitude_m,
                            "altitude_layer": setup.layers.layer[u.uav_id],
                            "altitude_reference": setup.altitude_reference.value,
@@ -294,7 +330,12 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
                               if u.uav_id in setup.range_sources else {}),
                            "airport_lat_lon": [ap.lat_deg, ap.lon_deg],
                            "waypoints": [[a, b] for a, b in mission.waypoints],
-                           "length_m": round(flown.length_m, 3)}
+                           "length_m": round(flown.length_m, 3),
+                           "mission_items": len(mission_items(mission)) + 1}
+    fences = {uid: uav_fitted_fence(setup, flown) for uid, flown in paths.items()}
+    for uid, fitted in fences.items():
+        extra[uid]["fence"] = {"vertices": fitted.fence.vertices, "source_vertices": fitted.source_vertices,
+                               "outside_m": round(fitted.outside_m, 1), "grown_m": round(fitted.grown_m, 1)}
     data = plan_to_dict(plan, seed=seed, area=area, uav_extra=extra)
     if setup.grounded:
         data["grounded"] = [{"id": uid, "name": airports[uid].name, "reason": why,
@@ -305,7 +346,7 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
     files = {"plan.json": json.dumps(data, indent=1) + "\n"}
     for m in missions:
         files[f"uav{m.uav_id}.waypoints"] = wpl_text(m)
-        fence = fences[m.uav_id]
+        fence = fences[m.uav_id].fence
         files[f"uav{m.uav_id}.plan"] = json.dumps(qgc_plan(m, fence.inclusion, fence.exclusion, speed_m_s),
                                                   indent=1) + "\n"
     lengths = {uid: p.length_m for uid, p in paths.items()}

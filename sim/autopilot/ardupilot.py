@@ -283,6 +283,20 @@ def fence_problems(items: list[WireItem], capacity: int) -> list[str]:
     return problems + ["Fence validation failed"] if problems else []
 
 
+def fence_leaves_no_end_marker(items: list[WireItem], capacity: int) -> bool:
+    """Whether a fence that passed its checks fills the storage to the last byte: ArduPilot then
+    cannot write its end-of-storage marker, and the upload is never answered (ArduCopter SITL,
+    a 69-vertex inclusion with a 28-vertex exclusion: 560 of 560 bytes)."""
+    storage, i = 4, 0
+    while i < len(items):
+        if items[i].command in _POLYGONS:
+            n = max(1, int(items[i].param1))
+            storage, i = storage + 2 + 8 * n, i + n
+        else:
+            storage, i = storage + (13 if items[i].command in _CIRCLES else 9), i + 1
+    return storage + 1 > 8 * capacity
+
+
 def fence_total(items: list[WireItem]) -> int:
     """FENCE_TOTAL after an upload: polygon vertices and circles, plus 2, if at least 3, else 0."""
     counted = sum(it.command in _POLYGONS or it.command in _CIRCLES for it in items)

@@ -31,7 +31,14 @@ from dataclasses import dataclass, field
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from gcs.autopilots.wire_item import MissionType, WireItem
-from sim.autopilot.ardupilot import fence_problems, fence_total, from_legacy_item, item_result, to_legacy_item
+from sim.autopilot.ardupilot import (
+    fence_leaves_no_end_marker,
+    fence_problems,
+    fence_total,
+    from_legacy_item,
+    item_result,
+    to_legacy_item,
+)
 from sim.autopilot.mission_protocol import MAVMessage, MissionProtocol, ProtocolConfig, _ack
 
 #: Seconds after the last item an upload is given up (ArduPilot's MissionItemProtocol, 8000 ms).
@@ -165,6 +172,8 @@ class ArduPilotMissionProtocol(MissionProtocol):
         if problems:
             return [_ack(up.partner, mavlink.MAV_MISSION_ERROR, MissionType.FENCE),
                     *(_text(p, mavlink.MAV_SEVERITY_WARNING) for p in problems)]
+        if fence_leaves_no_end_marker(up.staged, self.config.capacity[MissionType.FENCE]):
+            return []
         old_total = self._fence_total
         if self._fence_cleared_s is not None and now_s - self._fence_cleared_s >= _FENCE_CLEAR_SETTLE_S:
             old_total = 0

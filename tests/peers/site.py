@@ -38,6 +38,8 @@ class Site:
     no_fly: tuple[float, float, float, float] | None = (30.0, 30.0, 120.0, 120.0)
     centre: tuple[float, float] = CENTRE
     targets: tuple[tuple[float, float], ...] = ()
+    outline_vertices: int | None = None  # a traced outline of so many vertices inside the square, not the square
+    zone_vertices: int | None = None  # the no-fly box drawn as a round zone of so many vertices inside it
 
     @property
     def frame(self) -> LocalFrame:
@@ -61,17 +63,19 @@ class Site:
 
     def geojson(self) -> dict:
         h, v = self.half_m, self.half_m if self.half_n_m is None else self.half_n_m
+        outline = [(-h, -v), (h, -v), (h, v), (-h, v)] if self.outline_vertices is None \
+            else _traced(self.outline_vertices, (0.0, 0.0), h, v)
         features = [{"type": "Feature", "properties": {"role": "area", "name": "sitl square"},
-                     "geometry": {"type": "Polygon",
-                                  "coordinates": [self._ring([(-h, -v), (h, -v), (h, v), (-h, v)])]}},
+                     "geometry": {"type": "Polygon", "coordinates": [self._ring(outline)]}},
                     {"type": "Feature", "properties": {"role": "prior", "tep": 0.9, "eu": 0.9},
                      "geometry": {"type": "Polygon",
                                   "coordinates": [self._ring([(-h, 0), (0, 0), (0, v), (-h, v)])]}}]
         if self.no_fly is not None:
             x0, y0, x1, y1 = self.no_fly
+            zone = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)] if self.zone_vertices is None else _traced(
+                self.zone_vertices, (0.5 * (x0 + x1), 0.5 * (y0 + y1)), 0.5 * (x1 - x0), 0.5 * (y1 - y0), 0.0)
             features.append({"type": "Feature", "properties": {"role": "no_fly", "name": "box"},
-                             "geometry": {"type": "Polygon",
-                                          "coordinates": [self._ring([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])]}})
+                             "geometry": {"type": "Polygon", "coordinates": [self._ring(zone)]}})
         for ap in self.airports:
             lat, lon = self.lat_lon(ap.east_m, ap.north_m)
             features.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": [lon, lat]},
@@ -93,6 +97,15 @@ class Site:
                      *extra])
         assert code == 0
         return out
+
+
+def _traced(vertices: int, centre: tuple[float, float], half_e_m: float, half_n_m: float, wobble: float = 0.08
+            ) -> list[tuple[float, float]]:
+    """A boundary traced around `centre` as a GPS or a drawn circle gives it: `vertices` points on
+    an ellipse of the half-sides, its radius wobbling by `wobble` (a star shape: always valid)."""
+    angles = np.linspace(0.0, 2 * np.pi, vertices, endpoint=False)
+    scale = 1.0 - wobble * (1 + np.sin(5 * angles)) / 2
+    return [(centre[0] + half_e_m * r * np.cos(a), centre[1] + half_n_m * r * np.sin(a)) for a, r in zip(angles, scale)]
 
 
 #: The sites the autopilot tests and benchmarks fly: two copter airports on a 600 m square of 30 m
@@ -120,6 +133,11 @@ FIELD_PLANES = Site((Airport("west edge", -750.0, -200.0, "E", 2500.0),
                      Airport("south edge", 200.0, -600.0, "N", 2500.0),
                      Airport("east edge", 750.0, 200.0, "W", 2500.0)),
                     half_m=750.0, half_n_m=600.0, cell_m=50.0, no_fly=(-100.0, 150.0, 100.0, 350.0))
+#: COPTERS' west airport in a traced outline of 96 vertices (the issue's wildland) with a round
+#: no-fly zone of 28: 124 fence vertices, more than ArduCopter (69 in one polygon) or PX4 (64) holds.
+WILDLAND = replace(COPTERS, airports=COPTERS.airports[:1], half_m=400.0, outline_vertices=96, zone_vertices=28)
+PX4_WILDLAND = replace(WILDLAND, airports=PX4_SOLO.airports)
+
 #: The field with 800 m airports instead of 2500, for the fleets whose test is not about spending
 #: a whole battery (docs/tests.md, "Half-range fleets"): the mixed fleet, whose PX4 copters fly at
 #: 5 m/s (at 2500 m 122-153 s of wall time, at 1250 m 68-79 s, at 800 m 60 s, while the other

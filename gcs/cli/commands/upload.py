@@ -18,6 +18,7 @@ from gcs.flight.controller import FlyOptions
 from gcs.flight.fly import upload_plan
 from gcs.flight.journal import check_no_flight_in_progress
 from gcs.plans.plan_folder import load_plan_dir
+from gcs.telemetry.status import Stage
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -54,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     ok = 0
     for uid, st in sorted(controller.status.items()):
         reports = controller.vehicles[uid].upload_reports
-        if reports:
+        if reports and st.stage is not Stage.FAILED:
             ok += 1
             parts = [f"{kind} {r.items} items ({r.resends} re-sends)" for kind, r in reports.items()]
             print(f"UAV {uid}: verified: {', '.join(parts)}")

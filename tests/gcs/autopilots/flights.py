@@ -15,6 +15,11 @@ import threading
 import time
 from pathlib import Path
 
+from shapely.geometry import Polygon
+
+from gcs.autopilots.mission_transfer import MissionType, WireItem, download
+from gcs.links import MavLink, mavlink
+from gcs.plans.area_file import read_area_file
 from gcs.plans.plan_folder import FleetPlan, load_plan_dir
 from gcs.recording.flight import FLIGHT_TIME
 from gcs.recording.plan import read_recording
@@ -226,3 +231,44 @@ def assert_landed_home_and_clear_of_no_fly(plan_dir: Path, max_from_airport_m: f
         seen = stages[uid]
         assert seen[:len(STAGES)] == STAGES and seen[-1] == "landed", f"UAV {uid} stages {seen}"
     return landed
+
+
+#: How far a read-back fence vertex may sit from what was sent: the autopilots keep 1e-7 degree.
+FENCE_STORED_DEG = 1.5e-7
+
+
+def read_back_fence(connection: str, sysid: int = 1) -> list[tuple[bool, Polygon]]:
+    """The polygons of the fence a vehicle holds (inclusion flag, lon/lat polygon), downloaded."""
+    async def main() -> list[WireItem]:
+        async with MavLink(connection) as link:
+            await link.wait_for(sysid, "HEARTBEAT", timeout_s=30.0)
+            return await download(link, sysid, MissionType.FENCE, timeout_s=1.0)
+
+    items = asyncio.run(main())
+    polygons, k = [], 0
+    while k < len(items):
+        n = int(items[k].param1)
+        inclusion = items[k].command == mavlink.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+        polygons.append((inclusion, Polygon([(it.y / 1e7, it.x / 1e7) for it in items[k:k + n]])))
+        k += n
+    return polygons
+
+
+def planned_fence(plan_dir: Path, uav_id: int = 1) -> list[tuple[bool, Polygon]]:
+    """The polygons of a UAV's fence as its .plan carries them (and `gcs upload` sends them)."""
+    doc = json.loads((plan_dir / f"uav{uav_id}.plan").read_text())
+    return [(bool(p["inclusion"]), Polygon([(lon, lat) for lat, lon in p["polygon"]]))
+            for p in doc["geoFence"]["polygons"]]
+
+
+def assert_fence_holds_the_area(area_file: Path, fence: list[tuple[bool, Polygon]], capacity: int) -> None:
+    """One valid inclusion polygon around the whole area, every no-fly zone inside a valid
+    exclusion polygon, within the vehicle's `capacity` of vertices."""
+    source = read_area_file(area_file)
+    inclusions = [p for inclusion, p in fence if inclusion]
+    exclusions = [p for inclusion, p in fence if not inclusion]
+    assert sum(len(p.exterior.coords) - 1 for _, p in fence) <= capacity
+    assert len(inclusions) == 1 and inclusions[0].is_valid
+    assert inclusions[0].buffer(FENCE_STORED_DEG).covers(source.area)
+    for zone in source.no_fly:
+        assert any(p.is_valid and p.buffer(FENCE_STORED_DEG).covers(zone) for p in exclusions), zone.wkt

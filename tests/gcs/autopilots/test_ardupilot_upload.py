@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import re
 import subprocess
 import sys
 from collections.abc import Callable, Iterator
@@ -14,11 +15,15 @@ from pathlib import Path
 import pytest
 
 from gcs.autopilots import Autopilot
-from gcs.autopilots.mission_transfer import MissionTransferError, WireItem, download, upload_verified
+from gcs.autopilots.mission_transfer import MissionTransferError, MissionType, WireItem, download, upload_verified
 from gcs.links import MavLink, SigningKey, mavlink
+from gcs.missions.fence import uav_fence
+from gcs.plans.area_file import read_area_file
+from gcs.plans.plan_folder import fence_wire
+from tests.gcs.autopilots.flights import assert_fence_holds_the_area, read_back_fence
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.process import SITL_WORKER
-from tests.peers.site import COPTERS, PLANE, Site
+from tests.peers.site import COPTERS, PLANE, WILDLAND, Site
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
@@ -66,6 +71,7 @@ def test_planned_mission_uploads_and_reads_back(plans, shared_sitl, vehicle, tra
     plan = json.loads((plans[vehicle] / "plan.json").read_text())
     landing = 3 if vehicle == "plane" else 1  # DO_LAND_START, approach, NAV_LAND; or NAV_LAND
     items = 1 + 1 + len(plan["uavs"][0]["waypoints"]) + landing  # home, take-off, waypoints, landing
+    assert plan["uavs"][0]["mission_items"] == items  # what the plan tells the crew before any upload
     assert f"UAV 1: verified: mission {items} items" in done.stdout
     assert "fence" in done.stdout and "rally 1 items" in done.stdout
     assert "1/1 vehicles verified" in done.stdout
@@ -87,6 +93,46 @@ def test_signed_upload_after_provisioning_and_unsigned_station_told_why(plans, v
         assert unsigned.returncode == 1
         assert "signs its MAVLink messages" in unsigned.stdout and "--signing-key" in unsigned.stdout
     assert "UAV 1: verified: mission" in signed.stdout
+
+
+def test_a_wildland_fence_too_big_for_the_copter_is_fitted_and_read_back_around_the_area(tmp_path, shared_sitl):
+    """The issue's wildland: a traced outline of 96 vertices and a round no-fly zone of 28, 124
+    fence vertices where ArduCopter holds 69 in one polygon. As drawn, ArduCopter refuses it
+    (the station used to fly without a fence then); planned, it is fitted and uploaded whole, and
+    the fence the copter reads back holds the area and the zone. A plan folder made before the
+    fitting (its .plan carrying all 124) is fitted by the station at upload."""
+    plan = WILDLAND.plan(tmp_path / "wild")
+    area_file = tmp_path / "wild" / "site.geojson"
+    source = read_area_file(area_file)
+    drawn = uav_fence(source.area, source.no_fly)
+    assert drawn.vertices == 124
+    drawn_rings = [(True, r[:-1]) for r in drawn.inclusion] + [(False, r[:-1]) for r in drawn.exclusion]
+    sitl = shared_sitl("copter")
+
+    async def refused() -> MissionTransferError:
+        async with MavLink(sitl.tcp_connection) as link:
+            await _ready(link)
+            with pytest.raises(MissionTransferError) as full:
+                await upload_verified(link, 1, fence_wire(drawn_rings), Autopilot.ARDUPILOT, MissionType.FENCE)
+            return full.value
+
+    refusal = asyncio.run(refused())
+    assert refusal.result == mavlink.MAV_MISSION_NO_SPACE and refusal.capacity == 70
+
+    done = _gcs("upload", "--plan", str(plan), "--connect", sitl.tcp_connection, "--connect-timeout", "30")
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert re.search(r"UAV 1: verified: mission \d+ items \(0 re-sends\), fence 64 items", done.stdout), done.stdout
+    assert_fence_holds_the_area(area_file, read_back_fence(sitl.tcp_connection), 64)
+
+    doc = json.loads((plan / "uav1.plan").read_text())
+    doc["geoFence"]["polygons"] = [{"inclusion": inclusion, "polygon": [list(p) for p in ring], "version": 1}
+                                   for inclusion, ring in drawn_rings]
+    (plan / "uav1.plan").write_text(json.dumps(doc))
+    done = _gcs("upload", "--plan", str(plan), "--connect", sitl.tcp_connection, "--connect-timeout", "30")
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "UAV 1: fence: 124 vertices simplified to 68, at most" in done.stdout, done.stdout  # 28 + 40 in 560 bytes
+    assert "fence 68 items" in done.stdout
+    assert_fence_holds_the_area(area_file, read_back_fence(sitl.tcp_connection), 68)
 
 
 async def _ready(link: MavLink) -> None:

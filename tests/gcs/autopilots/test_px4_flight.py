@@ -14,11 +14,13 @@ import threading
 import pytest
 
 from tests.gcs.autopilots.flights import (
+    assert_fence_holds_the_area,
     assert_landed_home_and_clear_of_no_fly,
     bus_events,
     ctrl_c_while_its_way_home_is_lost,
     fly,
     fly_with_a_dropout,
+    planned_fence,
     recorded,
 )
 from tests.gcs.bus.helpers import Mosquitto
@@ -28,7 +30,7 @@ from tests.peers.process import SITL_WORKER
 from tests.peers.px4 import PX4_SPEEDUP, STEADY_BATTERY, Px4Sitl
 from tests.peers.recorder import SpareRecorder
 from tests.peers.relay import UdpRelay, losing_uploads
-from tests.peers.site import COPTERS, PX4_SOLO, Site
+from tests.peers.site import COPTERS, PX4_SOLO, PX4_WILDLAND, Site
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]
 
@@ -41,15 +43,24 @@ def _px4_home(site: Site, index: int) -> tuple[float, float, float]:
 @pytest.mark.parametrize("link", ["udpout", "udpin"])
 def test_a_planned_mission_uploads_to_px4_and_reads_back_as_px4_stores_it(tmp_path, link):
     """Over the instance's GCS port (`udpout:127.0.0.1:18570+I`), or listening where every PX4
-    SITL sends its telemetry (`udpin:127.0.0.1:14550`, vehicles told apart by system id)."""
-    plan_dir = PX4_SOLO.plan(tmp_path)
-    with Px4Sitl(home=_px4_home(PX4_SOLO, 0), alone=link == "udpin") as px4:
+    SITL sends its telemetry (`udpin:127.0.0.1:14550`, vehicles told apart by system id). Over
+    the GCS port the site is the issue's wildland (a traced outline of 96 vertices and a round
+    no-fly zone of 28: 124 fence vertices where PX4 holds 64), its fence fitted by the plan: PX4
+    accepts it and reads back what was sent (`upload_verified` compares them item by item; a
+    second link opened on the GCS port after the station left got no answer to a read-back, so
+    the test does not read it again), and that fence holds the area and the zone."""
+    site = PX4_WILDLAND if link == "udpout" else PX4_SOLO
+    plan_dir = site.plan(tmp_path)
+    with Px4Sitl(home=_px4_home(site, 0), alone=link == "udpin") as px4:
         connection = px4.gcs_connection if link == "udpout" else "udpin:127.0.0.1:14550"
         done = subprocess.run([sys.executable, "-m", "gcs.cli", "upload", "--plan", str(plan_dir), "--connect",
                                connection, "--connect-timeout", "30"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "UAV 1: ready: GPS fix" in done.stdout  # PX4's pre-arm checks passed
     assert re.search(r"UAV 1: verified: mission \d+ items \(0 re-sends\), fence \d+ items", done.stdout)
+    if link == "udpout":
+        assert "fence 64 items" in done.stdout and "simplified" not in done.stdout, done.stdout
+        assert_fence_holds_the_area(tmp_path / "site.geojson", planned_fence(plan_dir), 64)
 
 
 def test_a_mixed_fleet_brings_the_fast_draining_px4_home_first(tmp_path):

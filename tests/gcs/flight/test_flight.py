@@ -310,6 +310,46 @@ def test_upload_under_20_percent_packet_loss_still_verifies(plan):
     assert resends > 0  # the loss really hit the transfers
 
 
+def test_a_fence_the_vehicle_cannot_hold_is_fitted_or_keeps_the_vehicle_on_the_ground(plan):
+    """UAV 1's .plan carries the area's outline traced with 96 vertices: the station fits it to
+    what ArduCopter holds and uploads it, saying so. UAV 2's carries four no-fly zones of 20
+    vertices, which the station may not grow (it cannot see where the vehicle will fly): it fails
+    with the reason and no fence, and is not launched without one (only --no-fence does that)."""
+    from shapely.geometry import Polygon
+
+    from gcs.autopilots.mission_transfer import MissionType
+    from sim.plan_fleet import fleet_for_plan
+
+    inclusion, outline = plan.uavs[1].fence[0]
+    assert inclusion and len(outline) == 4
+    traced = [(a[0] + (b[0] - a[0]) * k / 24, a[1] + (b[1] - a[1]) * k / 24)
+              for a, b in zip(outline, outline[1:] + outline[:1]) for k in range(24)]
+    plan.uavs[1].fence[0] = (True, traced)
+    lat, lon = plan.uavs[2].airport_lat_lon
+    zones = [(False, [(lat + 0.001 * (z + 1) + 2e-4 * math.sin(a * math.pi / 10),
+                       lon + 2e-4 * math.cos(a * math.pi / 10)) for a in range(20)]) for z in range(4)]
+    plan.uavs[2].fence = plan.uavs[2].fence[:1] + zones
+    lines: list[str] = []
+    fleet = fleet_for_plan(plan, speedup=20.0).start()
+    try:
+        controller = asyncio.run(upload_plan(plan, fleet.connection_strings(), fast_options(fly=False),
+                                             out=lines.append))
+        stored = {uid: fleet.vehicle(uid).mission.items(MissionType.FENCE) for uid in (1, 2)}
+    finally:
+        fleet.stop()
+    said = "\n".join(lines)
+    # 96 + the paper area's two boxes in 560 bytes: 68 vertices, the straight outline's extra points dropped
+    assert "UAV 1: fence: 104 vertices simplified to 68, at most 0 m outside the area" in said, said
+    assert controller.vehicles[1].upload_reports["fence"].items == len(stored[1]) == 68
+    held = Polygon([(it.y / 1e7, it.x / 1e7) for it in stored[1][:int(stored[1][0].param1)]])
+    assert held.buffer(2e-7).covers(Polygon([(b, a) for a, b in traced]))
+    st = controller.status[2]
+    assert st.stage is Stage.FAILED and stored[2] == [], said
+    assert st.note.startswith("fence not uploaded: the fence (84 vertices in 5 polygons) does not fit the vehicle's "
+                              "fence storage (ArduCopter: 69 vertices in one polygon"), st.note
+    assert st.note.endswith("not launched without it (--no-fence flies without a geofence)"), st.note
+
+
 @pytest.mark.parametrize("profile", ["px4", "ardupilot"])
 def test_an_upload_the_vehicle_dropped_in_a_radio_dropout_starts_again(plan, profile):
     """The radio drops out mid-upload for longer than the vehicle waits for the station: PX4 drops
