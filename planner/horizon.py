@@ -46,6 +46,7 @@ Defaults (weight 1, length 1, radius Np) were chosen on random areas 100-115 and
 200-205 (`benchmarks/bench_success.py` reports on other ones)."""
 
 import math
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -269,19 +270,24 @@ def team_fields(reward: np.ndarray, blocked: np.ndarray, flyers: list[Flyer], ra
     return [np.repeat(np.repeat(f, block, axis=0), block, axis=1)[:nx, :ny] for f in fields]
 
 
-_POOLED_HOMES: list[tuple[np.ndarray, np.ndarray, int, np.ndarray]] = []
+#: id(home table) -> (a weak reference to it, the mask, the block, the pooled table). An entry
+#: lives as long as its table (a mission's), however many UAVs there are: a fixed number of
+#: entries would be recomputed at every update once the fleet outnumbers it.
+_POOLED_HOMES: dict[int, tuple[weakref.ref[np.ndarray], np.ndarray, int, np.ndarray]] = {}
 
 
 def _pooled_home(home_steps: np.ndarray, blocked: np.ndarray, block: int) -> np.ndarray:
     """The fewest steps home from each block (pooled once per table and kept: a mission's tables
     never change, and pooling a 400 x 400 one costs a few milliseconds every update)."""
-    for home, mask, b, pooled in _POOLED_HOMES:
-        if home is home_steps and mask is blocked and b == block:
-            return pooled
+    key = id(home_steps)
+    hit = _POOLED_HOMES.get(key)
+    if hit is not None and hit[0]() is home_steps and hit[1] is blocked and hit[2] == block:
+        return hit[3]
     far = np.iinfo(np.int64).max // 4
     pooled = _pooled(np.where(blocked, far, home_steps).astype(np.int64), block, far, np.min)
-    _POOLED_HOMES.insert(0, (home_steps, blocked, block, pooled))
-    del _POOLED_HOMES[16:]
+    if hit is None:
+        weakref.finalize(home_steps, _POOLED_HOMES.pop, key, None)
+    _POOLED_HOMES[key] = (weakref.ref(home_steps), blocked, block, pooled)
     return pooled
 
 

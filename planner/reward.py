@@ -51,6 +51,38 @@ def separation_reward(d_min: float) -> float:
 
 
 @njit
+def others_near(others: np.ndarray, x0: int, y0: int, np_steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of `others` that `score_paths` needs at each step q: `near[q, :n_near[q]]`, every
+    vehicle that could be the nearest one to (or share) some cell a path from (x0, y0) can reach
+    at step q (within q + 1 cells of it on each axis). A vehicle whose least squared distance to
+    that box exceeds the smallest greatest one of any vehicle is never the nearest, so F_r and the
+    hard-clash check read the same minimum from these rows as from all of them (squared distances
+    are integers: exact), while the work per path step no longer grows with the fleet."""
+    n_others = others.shape[0]
+    near = np.empty((np_steps, n_others), dtype=np.int64)
+    n_near = np.zeros(np_steps, dtype=np.int64)
+    for q in range(min(np_steps, others.shape[1])):
+        r = q + 1
+        bound = -1
+        for j in range(n_others):
+            if others[j, q, 0] < 0:
+                continue
+            ax = abs(others[j, q, 0] - x0) + r
+            ay = abs(others[j, q, 1] - y0) + r
+            if bound < 0 or ax * ax + ay * ay < bound:
+                bound = ax * ax + ay * ay
+        for j in range(n_others):
+            if others[j, q, 0] < 0:
+                continue
+            ax = max(abs(others[j, q, 0] - x0) - r, 0)
+            ay = max(abs(others[j, q, 1] - y0) - r, 0)
+            if ax * ax + ay * ay <= bound:
+                near[q, n_near[q]] = j
+                n_near[q] += 1
+    return near, n_near
+
+
+@njit
 def score_paths(choices: np.ndarray, x0: int, y0: int, h0: int, successors: np.ndarray, tep: np.ndarray,
                 eu: np.ndarray, blocked: np.ndarray, fa_map: np.ndarray, others: np.ndarray, others_hard: np.ndarray,
                 weights: np.ndarray, flown: int, budget: int, move_costs: np.ndarray, home_table: np.ndarray,
@@ -68,11 +100,11 @@ def score_paths(choices: np.ndarray, x0: int, y0: int, h0: int, successors: np.n
     With `tep_once`, a cell's TEP counts only at its first visit on the path (ST tracking)."""
     n, np_steps = choices.shape
     nx, ny = tep.shape
-    n_others = others.shape[0]
     w1 = weights[0]
     w2 = weights[1]
     w3 = weights[2]
     w4 = weights[3]
+    near, n_near = others_near(others, x0, y0, np_steps)
     for i in range(n):
         x = x0
         y = y0
@@ -111,7 +143,8 @@ def score_paths(choices: np.ndarray, x0: int, y0: int, h0: int, successors: np.n
                     break
             d2_min = -1
             clash = False
-            for j in range(n_others):
+            for k in range(n_near[q]):
+                j = near[q, k]
                 ox = others[j, q, 0]
                 if ox < 0:
                     continue

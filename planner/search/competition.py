@@ -69,6 +69,17 @@ def paths_conflict(a: np.ndarray, b: np.ndarray, proximity: float = 0.0) -> bool
     return False
 
 
+def conflicts_with_any(a: np.ndarray, kept: np.ndarray, proximity: float = 0.0) -> bool:
+    """`paths_conflict(a, b, proximity)` for any row b of `kept` (K x Np x 2, `a` Np x 2), in
+    one array operation (a fleet of N UAVs checks N paths against up to N kept ones each step)."""
+    if kept.shape[0] == 0:
+        return False
+    limit = proximity * proximity + 1e-9
+    dx = kept[:, :, 0] - a[None, :, 0]
+    dy = kept[:, :, 1] - a[None, :, 1]
+    return bool(np.any((a[None, :, 0] >= 0) & (kept[:, :, 0] >= 0) & (dx * dx + dy * dy <= limit)))
+
+
 def j1_or_none(decision: Decision | None) -> float:
     """A decision's J1; -inf without one (it competes last)."""
     return decision.j1 if decision is not None else -np.inf
@@ -93,12 +104,13 @@ def compete(problem: StepProblem, best_path: BestPath, first: dict[int, Decision
         first = independent_paths(problem, best_path)
     order = sorted(problem.searchers, key=lambda s: -j1_or_none(first[s.uav_id]))
     kept: dict[int, np.ndarray] = {}
+    kept_cells = np.empty((len(order), problem.np_steps, 2), dtype=np.int64)  # kept's values, in order
     decided: dict[int, Decision | None] = {}
     for s in order:
         d = first[s.uav_id]
         if d is not None:
             cells = padded_cells(d.path, problem.np_steps)
-            if any(paths_conflict(cells, w, proximity) for w in kept.values()):
+            if conflicts_with_any(cells, kept_cells[: len(kept)], proximity):
                 undecided = {uid: padded_cells(p.path, problem.np_steps) for uid, p in first.items()
                              if uid not in kept and uid != s.uav_id and p is not None} if undecided_soft else None
                 others, hard = fixed_others(problem, {s.uav_id}, kept, undecided)
@@ -108,5 +120,6 @@ def compete(problem: StepProblem, best_path: BestPath, first: dict[int, Decision
                 d = redo
         decided[s.uav_id] = d
         if d is not None:
-            kept[s.uav_id] = padded_cells(d.path, problem.np_steps)
+            kept_cells[len(kept)] = padded_cells(d.path, problem.np_steps)
+            kept[s.uav_id] = kept_cells[len(kept)]
     return decided

@@ -5,7 +5,7 @@ import pytest
 
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OC4, OC8, STEPS, cell_lengths
 from planner.return_exact import UNREACHABLE, return_table
-from planner.reward import airport_reward_map, best_two, score_paths
+from planner.reward import airport_reward_map, best_two, others_near, score_paths
 from planner.search.exhaustive import all_choices
 
 
@@ -65,6 +65,37 @@ def test_score_paths_matches_reference(oc, seed, costs):
                 assert depths[i] == ref_depth
                 assert scores[i] == pytest.approx(ref_total)
                 assert [tuple(c) for c in cells[i, :ref_depth]] == ref_cells
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_big_fleet_scores_as_if_every_vehicle_were_read(seed):
+    """`score_paths` reads only the vehicles `others_near` keeps at each step (those that can be
+    the nearest to a cell a path reaches): J1, depths and cells are still those of the reference,
+    which reads every vehicle, with 60 of them near and far, hard and soft, known and unknown."""
+    rng = np.random.default_rng(seed)
+    nx, ny, np_steps, x0, y0 = 40, 40, 5, 20, 20
+    blocked = np.zeros((nx, ny), dtype=np.bool_)
+    tep, eu = rng.random((nx, ny)), rng.random((nx, ny))
+    table = return_table(blocked, (0, 0), OC3, STEPS)
+    fa = airport_reward_map((nx, ny), np.array([[0, 0], [39, 39]]))
+    others = rng.integers(0, nx, size=(60, np_steps, 2))
+    others[:12] = rng.integers(x0 - 7, x0 + 8, size=(12, np_steps, 2))  # some close enough to matter
+    others[rng.random((60, np_steps)) < 0.2] = -1                       # some cells unknown
+    hard = rng.random(60) < 0.3
+    _, n_near = others_near(others, x0, y0, np_steps)
+    assert 0 < n_near.sum() < (others[:, :, 0] >= 0).sum()               # the pruning is exercised
+    w = np.array([0.3, 0.3, 0.3, 0.1])
+    choices = all_choices(OC3.successors.shape[1], np_steps)
+    n = len(choices)
+    scores, depths, cells = np.empty(n), np.empty(n, np.int64), np.zeros((n, np_steps, 3), np.int64)
+    score_paths(choices, x0, y0, 2, OC3.successors, tep, eu, blocked, fa, others, hard, w, 0, -1, STEPS.by_heading,
+                table, False, scores, depths, cells)
+    for i, choice in enumerate(choices):
+        ref_total, ref_depth, ref_cells = reference_score(choice, (x0, y0, 2), OC3.successors, tep, eu, blocked, fa,
+                                                         others, hard, w, 0, -1, STEPS, table, False)
+        assert depths[i] == ref_depth
+        assert scores[i] == pytest.approx(ref_total)
+        assert [tuple(c) for c in cells[i, :ref_depth]] == ref_cells
 
 
 def test_revisit_on_one_path_earns_halved_eu():
