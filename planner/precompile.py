@@ -3,12 +3,15 @@ plan needs it: short closed searches of the paper scenario with every strategy a
 planner, in the paper's unit steps and in metres with the horizon value (what `gcs plan --area`
 flies), reach every kernel with the argument types a plan gives it. A fresh install's first plan
 then loads the kernels instead of spending some 25 s compiling them (`tools/setup` runs this).
+Kernels compiled before any planner source changed are dropped first (`drop_stale_kernels`).
 
 `python -m planner.precompile`"""
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import replace
+from pathlib import Path
 
 from planner.area_grid import AREA_MOVE_COSTS
 from planner.dtscs import ClosedSearch, MissionConfig
@@ -27,6 +30,40 @@ def _in_metres(scenario: Scenario) -> Scenario:
     return replace(scenario, uavs=uavs, move_costs=AREA_MOVE_COSTS)
 
 
+PLANNER = Path(__file__).resolve().parent
+
+#: Where the planner's sources' digest is kept when its kernels are compiled (beside the caches).
+STAMP = Path("__pycache__") / "kernel-sources.sha256"
+
+
+def sources_digest(root: Path = PLANNER) -> str:
+    """SHA-256 of every source file under `root`, names and contents."""
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
+def drop_stale_kernels(root: Path = PLANNER) -> int:
+    """Remove the compiled kernels under `root` unless they were compiled from its sources as
+    they are (the digest `stamp_sources` left): numba checks a cached kernel against its own
+    file only, so a kernel whose callee in another file changed (pio's flocks calling reward's
+    scoring) would load the old code. The number of cache files removed."""
+    stamp = root / STAMP
+    if stamp.exists() and stamp.read_text().strip() == sources_digest(root):
+        return 0
+    stale = [p for pattern in ("*.nbi", "*.nbc") for p in root.rglob(f"__pycache__/{pattern}")]
+    for path in stale:
+        path.unlink(missing_ok=True)
+    return len(stale)
+
+
+def stamp_sources(root: Path = PLANNER) -> None:
+    """Record that the kernels under `root` are compiled from its sources as they are."""
+    (root / STAMP).parent.mkdir(exist_ok=True)
+    (root / STAMP).write_text(sources_digest(root) + "\n")
+
+
 def precompile(seed: int = 0) -> None:
     """Fly the short searches that reach every kernel (`planner.config.njit` compiles each on
     its first call and writes it to the cache)."""
@@ -42,4 +79,6 @@ def precompile(seed: int = 0) -> None:
 
 
 if __name__ == "__main__":
+    drop_stale_kernels()
     precompile()
+    stamp_sources()

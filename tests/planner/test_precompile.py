@@ -37,3 +37,27 @@ def test_precompiling_compiles_every_kernel_of_the_planner():
     found = json.loads(done.stdout)
     assert found["kernels"] >= 20  # planner.config.njit's kernels were found at all
     assert found["not reached"] == []
+
+
+def test_kernels_compiled_from_other_sources_are_dropped_before_precompiling(tmp_path):
+    """numba checks a cached kernel against its own file only: when any planner source changes
+    (a callee in another file), every cached kernel is dropped; while none does, none is."""
+    from planner.precompile import drop_stale_kernels, stamp_sources
+
+    (tmp_path / "search").mkdir()
+    (tmp_path / "reward.py").write_text("def score(): return 1\n")
+    (tmp_path / "search" / "pio.py").write_text("def flocks(): return 2\n")
+    cache = tmp_path / "search" / "__pycache__"
+    cache.mkdir()
+
+    def compiled() -> None:
+        for name in ("pio.flocks-1.py311.nbi", "pio.flocks-1.py311.1.nbc"):
+            (cache / name).write_text("kernel")
+
+    compiled()
+    assert drop_stale_kernels(tmp_path) == 2  # never stamped: compiled from unknown sources
+    compiled()
+    stamp_sources(tmp_path)
+    assert drop_stale_kernels(tmp_path) == 0 and len(list(cache.iterdir())) == 2
+    (tmp_path / "reward.py").write_text("def score(): return 3\n")  # the callee changes, not pio.py
+    assert drop_stale_kernels(tmp_path) == 2 and list(cache.iterdir()) == []
