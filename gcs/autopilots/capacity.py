@@ -6,7 +6,9 @@ test_sim_matches_px4.py): ArduCopter holds 70 fence items, packed in 560 bytes (
 69 vertices), ArduPlane 84 (83); PX4 64 fence items (its dataman's fence points). Missions:
 ArduCopter 650 items, ArduPlane 655 (home counted), PX4 65534. ArduPilot's storage is the
 board's: a vehicle that holds fewer says so ("Only N items are supported") and the station
-fits the fence to that (`gcs.flight.preflight`)."""
+fits the fence to that (`gcs.flight.preflight`). Our simulated autopilots hold what this table
+says (`sim.autopilot.ardupilot.CAPACITY`, `sim.autopilot.px4.CAPACITY`), and the SITL comparisons
+hold both to the real ones."""
 
 from __future__ import annotations
 
@@ -36,9 +38,9 @@ def fleet_fence_capacity(fixed_wing: bool) -> FenceCapacity:
     return (ARDUPLANE_FENCE if fixed_wing else ARDUCOPTER_FENCE).within(PX4_FENCE)
 
 
-def mission_capacity(autopilot: str, fixed_wing: bool) -> int | None:
-    """Mission items `autopilot` holds (ArduPilot's count includes home); None when unknown."""
-    return _MISSION_ITEMS.get((autopilot, fixed_wing))
+def mission_capacity(autopilot: str, fixed_wing: bool) -> int:
+    """Mission items `autopilot` ("ardupilot", "px4") holds (ArduPilot's count includes home)."""
+    return _MISSION_ITEMS[(autopilot, fixed_wing)]
 
 
 def fleet_mission_capacity(fixed_wing: bool) -> tuple[int, str]:

@@ -18,6 +18,7 @@ from dataclasses import dataclass, fields, replace
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from gcs.autopilots.capacity import ARDUCOPTER_FENCE, ARDUPLANE_FENCE, mission_capacity
 from gcs.autopilots.wire_item import GLOBAL_FRAMES, MissionType, WireItem
 
 # ---- readiness after boot (flight §1) ---------------------------------------------------------
@@ -87,9 +88,12 @@ def boot_refusals(vehicle_type: str, boot: BootTimes, t_s: float, *, needs_posit
 
 # ---- capacities (protocol Q3) ------------------------------------------------------------------
 
+#: the station's measured table (`gcs.autopilots.capacity`) for missions and fences; rally here only
 CAPACITY = {
-    "copter": {MissionType.MISSION: 650, MissionType.FENCE: 70, MissionType.RALLY: 46},
-    "plane": {MissionType.MISSION: 655, MissionType.FENCE: 84, MissionType.RALLY: 50},
+    "copter": {MissionType.MISSION: mission_capacity("ardupilot", False), MissionType.FENCE: ARDUCOPTER_FENCE.items,
+               MissionType.RALLY: 46},
+    "plane": {MissionType.MISSION: mission_capacity("ardupilot", True), MissionType.FENCE: ARDUPLANE_FENCE.items,
+              MissionType.RALLY: 50},
 }
 
 # ---- mission items (protocol Q1, Q4; AP_Mission::mavlink_int_to_mission_cmd) -------------------
@@ -247,7 +251,6 @@ def fence_problems(items: list[WireItem], capacity: int) -> list[str]:
     coordinates, and the storage of 8 bytes per COUNT of capacity."""
     problems: list[str] = []
     returns = 0
-    storage = 4
     i = 0
     while i < len(items) and not problems:
         it = items[i]
@@ -265,28 +268,24 @@ def fence_problems(items: list[WireItem], capacity: int) -> list[str]:
                                 f"got={_FENCE_TYPE.get(other.command, 0)})")
             elif len(run) < n or any(int(r.param1) != n for r in run):
                 problems.append("Incorrect item count")
-            storage += 2 + 8 * n
             i += n
             continue
         elif it.command in _CIRCLES:
             if not it.param1 > 0:
                 problems.append("Non-positive circle radius")
-            storage += 13
         else:
             returns += 1
             if returns > 1:
                 problems.append("Multiple return points")
-            storage += 9
         i += 1
-    if not problems and storage > 8 * capacity:
+    if not problems and fence_storage_bytes(items) > 8 * capacity:
         problems.append("Fence exceeds storage size")
     return problems + ["Fence validation failed"] if problems else []
 
 
-def fence_leaves_no_end_marker(items: list[WireItem], capacity: int) -> bool:
-    """Whether a fence that passed its checks fills the storage to the last byte: ArduPilot then
-    cannot write its end-of-storage marker, and the upload is never answered (ArduCopter SITL,
-    a 69-vertex inclusion with a 28-vertex exclusion: 560 of 560 bytes)."""
+def fence_storage_bytes(items: list[WireItem]) -> int:
+    """The bytes a valid fence list takes in ArduPilot's storage (`fence_storage_space_required`):
+    a 4-byte header, per polygon 2 and 8 a vertex, 13 a circle, 9 a return point."""
     storage, i = 4, 0
     while i < len(items):
         if items[i].command in _POLYGONS:
@@ -294,7 +293,14 @@ def fence_leaves_no_end_marker(items: list[WireItem], capacity: int) -> bool:
             storage, i = storage + 2 + 8 * n, i + n
         else:
             storage, i = storage + (13 if items[i].command in _CIRCLES else 9), i + 1
-    return storage + 1 > 8 * capacity
+    return storage
+
+
+def fence_leaves_no_end_marker(items: list[WireItem], capacity: int) -> bool:
+    """Whether a fence that passed its checks fills the storage to the last byte: ArduPilot then
+    cannot write its end-of-storage marker, and the upload is never answered (ArduCopter SITL,
+    a 41-vertex inclusion with a 28-vertex exclusion: 560 of 560 bytes)."""
+    return fence_storage_bytes(items) + 1 > 8 * capacity
 
 
 def fence_total(items: list[WireItem]) -> int:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, fields
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from gcs.autopilots.capacity import PX4_FENCE, mission_capacity
 from gcs.autopilots.px4_storage import stored_item
 from gcs.autopilots.wire_item import MissionType, WireItem
 from planner.georef import LocalFrame
@@ -85,7 +86,8 @@ NOT_SETTABLE = frozenset({mavlink.MAVLINK_MSG_ID_MISSION_CURRENT, mavlink.MAVLIN
 
 # ---- mission items (§1, §2) -------------------------------------------------------------------
 
-CAPACITY = {MissionType.MISSION: 65534, MissionType.FENCE: 64, MissionType.RALLY: 32}
+CAPACITY = {MissionType.MISSION: mission_capacity("px4", False), MissionType.FENCE: PX4_FENCE.items,
+            MissionType.RALLY: 32}  # missions and fences: the station's measured table (gcs.autopilots.capacity)
 MISSION_RETRY_S = 0.25  # re-request of an awaited item (MAVLINK_MISSION_RETRY_TIMEOUT_DEFAULT)
 MISSION_TIMEOUT_S = 5.0  # "Operation timeout" after this long without a message of the transfer
 
