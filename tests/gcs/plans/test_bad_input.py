@@ -168,3 +168,18 @@ def test_a_plane_approach_through_a_no_fly_zone(run_gcs, area_doc, shapes):
     assert "--approach-m" in line
     area_doc["features"].pop()
     assert run_gcs(area_doc, "--vehicle", "plane")[0] == 0  # without the zone, the approach outside the square flies
+
+
+def test_a_fence_no_autopilot_can_hold_is_refused_saying_what_it_needs(run_gcs):
+    """17 square no-fly zones: a square loses no vertex growing outward (its sides are parallel),
+    so 68 vertices stay where ArduCopter and PX4 hold 64: refused before anything is written."""
+    from tests.peers.site import WILDLAND
+
+    doc = WILDLAND.geojson()
+    for k in range(17):
+        x, y = -100.0 + 50.0 * (k % 5), -100.0 + 50.0 * (k // 5)
+        ring = WILDLAND._ring([(x, y), (x + 10, y), (x + 10, y + 10), (x, y + 10)])
+        doc["features"].append({"type": "Feature", "properties": {"role": "no_fly"},
+                                "geometry": {"type": "Polygon", "coordinates": [ring]}})
+    line = _fails(run_gcs, doc, "does not fit the vehicle's fence storage (ArduCopter and PX4: 64 vertices")
+    assert line.endswith("draw the zones with fewer vertices")
