@@ -134,22 +134,24 @@ class EnergyProfile:
         return replace(self, capacity_mah=capacity_mah)
 
 
-def wind_factor(profile: EnergyProfile, east: ArrayLike, north: ArrayLike, wind_m_s: tuple[float, float]
-                ) -> float | np.ndarray:
+def wind_factor(profile: EnergyProfile, east: ArrayLike, north: ArrayLike, wind_m_s: tuple[float, float],
+                air_speed_m_s: float | None = None) -> float | np.ndarray:
     """What a metre flown in the direction (east, north) costs in the wind `wind_m_s` (east, north
     m/s the air moves towards), against a still-air metre: the cruise speed over the ground in
     still air over the ground speed made good in that direction, its air speed the cruise speed
     (a multicopter's ground speed never above it: its autopilot holds that speed over the ground),
     at most MAX_WIND_FACTOR; 1 for no direction (a zero step). Directions may come as arrays:
-    one factor each."""
+    one factor each. `air_speed_m_s`: the most air speed a multicopter makes when its cruise
+    speed over the ground cannot be held (its tilt limit's; the cruise speed by default)."""
     east, north = np.asarray(east, dtype=float), np.asarray(north, dtype=float)
     length = np.hypot(east, north)
     speed = profile.cruise_speed_m_s
+    air = speed if air_speed_m_s is None else max(speed, air_speed_m_s)
     along = (east * wind_m_s[0] + north * wind_m_s[1]) / np.where(length > 0, length, 1.0)
     across2 = wind_m_s[0] ** 2 + wind_m_s[1] ** 2 - along * along
-    ground = along + np.sqrt(np.maximum(speed * speed - across2, 0.0))
+    ground = along + np.sqrt(np.maximum(air * air - across2, 0.0))
     if profile.airframe is Airframe.COPTER:
         ground = np.minimum(ground, speed)
-    blocked = (across2 >= speed * speed) | (ground * MAX_WIND_FACTOR <= speed)
+    blocked = (across2 >= air * air) | (ground * MAX_WIND_FACTOR <= speed)
     factor = np.where(length == 0, 1.0, np.where(blocked, MAX_WIND_FACTOR, speed / np.where(blocked, 1.0, ground)))
     return float(factor) if factor.ndim == 0 else factor

@@ -24,9 +24,11 @@ So the cost of a metre is learned as a function of the direction flown, from the
 
 (a is the still-air cost, b, c and the second harmonic's d, e how much dearer a metre is one way
 than the average, negative where it is cheaper; f is what the wind known does to a metre flown
-that way, `planner.energy.wind_factor`, 1 when no wind is known). The wind is the autopilot's
-(ArduPlane's WIND, PX4's WIND_COV), else the one a multicopter shows by leaning into it while it
-holds its place (`gcs.flight.lean_wind`). The coefficients are fitted by least squares over the
+that way: what the vehicle has made good over the ground that way where it has flown it,
+`gcs.flight.heading_speeds`, else `planner.energy.wind_factor` of the wind known, 1 in still
+air). The wind is the autopilot's (ArduPlane's WIND, PX4's WIND_COV), else the crew's, else the
+one a multicopter shows by leaning into it in steady flight (`gcs.flight.lean_wind`), with its
+uncertainty (`gcs.telemetry.wind.WindEstimate`). The coefficients are fitted by least squares over the
 settled cruise since take-off, each stretch weighted by the inverse of its length (charge
 variance grows with distance), starting from a prior that counts as `prior_weight_m` metres
 already flown: a at the profile's still-air figure, the harmonics at zero. A
@@ -38,6 +40,7 @@ failing pack down), and no direction under MIN_SHARE of the average."""
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 from enum import Enum
@@ -45,6 +48,8 @@ from enum import Enum
 import numpy as np
 from numpy.typing import ArrayLike
 
+from gcs.flight.heading_speeds import HeadingSpeeds
+from gcs.telemetry.wind import WindEstimate
 from planner.energy import EnergyProfile, wind_factor
 
 __all__ = ["FlightPhase", "FuelGauge", "LegCost", "MIN_SHARE", "PRIOR_WEIGHT_M", "SETTLE_S"]
@@ -64,6 +69,11 @@ MIN_SHARE = 0.4
 
 #: a, and the first and second harmonics' cosine and sine
 TERMS = 5
+
+#: Cruise metres are counted towards so many directions (5 degrees apart)
+DIRECTIONS = 72
+_DIRECTION_UNITS = np.array([(math.sin(2 * math.pi * k / DIRECTIONS), math.cos(2 * math.pi * k / DIRECTIONS))
+                             for k in range(DIRECTIONS)])
 
 #: unit steps (east, north) in 36 directions, to average a direction's cost over
 _COMPASS = np.array([(math.sin(math.radians(d)), math.cos(math.radians(d))) for d in range(0, 360, 10)])
@@ -111,6 +121,10 @@ class FuelGauge:
         self.prior_weight_m = prior_weight_m
         self.settle_s = settle_s
         self.wind_m_s: tuple[float, float] | None = None
+        self.wind: WindEstimate | None = None
+        self.headings = HeadingSpeeds(profile.cruise_speed_m_s)
+        self.max_air_speed_m_s: float | None = None  # a multicopter's at its tilt limit, where its lean shows it
+        self._cruise_by_direction = np.zeros(DIRECTIONS)  # cruise metres flown towards each of DIRECTIONS
         self.used_mah: float | None = None
         self.remaining_pct: float | None = None
         self.measures_current = False
@@ -118,11 +132,10 @@ class FuelGauge:
         self.cruise_m = 0.0          # ground metres of sampled cruise
         self.phase_mah: dict[FlightPhase, float] = dict.fromkeys(FlightPhase, 0.0)
         self.phase_m: dict[FlightPhase, float] = dict.fromkeys(FlightPhase, 0.0)
-        self.cruise_priced_m = 0.0   # cruise metres, each weighed by the wind known as it was flown
         self.used_at_launch: float | None = None
         self._stretches: list[tuple[np.ndarray, float]] = []  # (`_terms` of a sampled stretch, its mAh)
         self._summed = 0             # stretches in the sums below, each weighed in the wind `_summed_in`
-        self._summed_in: tuple[float, float] | None = None
+        self._summed_in: tuple[tuple[float, float] | None, int, float | None] | None = None
         self._normal = np.zeros((TERMS, TERMS))  # the least squares' normal matrix, prior left out
         self._rhs = np.zeros(TERMS)  # and its right-hand side
         self._flown = np.zeros(TERMS)  # the sum of the stretches' weighed terms
@@ -144,22 +157,53 @@ class FuelGauge:
             self.capacity_mah = float(capacity_mah)
             self.version += 1
 
-    def set_wind(self, east_m_s: float, north_m_s: float) -> None:
-        """The wind the autopilot estimates: the air moving towards (east, north). A wind of 0
-        is no report (ArduCopter sends 0 when it estimates none)."""
+    def set_wind(self, east_m_s: float, north_m_s: float, sigma_m_s: float = 0.0, source: str = "its autopilot"
+                 ) -> None:
+        """The wind known: the air moving towards (east, north), one standard deviation of each
+        component, where it came from. A wind of 0 is no report (ArduCopter sends 0 when it
+        estimates none)."""
         if math.isfinite(east_m_s) and math.isfinite(north_m_s) and (east_m_s or north_m_s):
-            self.wind_m_s = (float(east_m_s), float(north_m_s))
-            self._refit()
+            self.wind = WindEstimate(float(east_m_s), float(north_m_s), sigma_m_s, source)
+            if self.wind_m_s != self.wind.vector:
+                self.wind_m_s = self.wind.vector
+                self._refit()
 
     def clear_wind(self) -> None:
         """Still air after all (a vehicle's own reading replacing an earlier one)."""
-        self.wind_m_s = None
+        self.wind_m_s = self.wind = None
         self._refit()
 
+    def set_max_air_speed(self, speed_m_s: float) -> None:
+        """The most air speed a multicopter has been seen to make (at its tilt limit, the most
+        its lean shows): what the wind leaves it on a way it has not flown."""
+        if math.isfinite(speed_m_s) and speed_m_s > (self.max_air_speed_m_s or 0.0) + 0.2:
+            self.max_air_speed_m_s = speed_m_s
+            if self.wind_m_s is not None:
+                self._refit()
+
+    def in_wind(self, wind_m_s: tuple[float, float] | None) -> FuelGauge:
+        """This gauge as it would price a way in another wind (a copy: this one is unchanged)."""
+        other = copy.copy(self)
+        other.wind_m_s = wind_m_s if wind_m_s is None or any(wind_m_s) else None
+        other._fit = other._rate = None
+        return other
+
+    def steady(self, time_s: float, velocity_m_s: tuple[float, float], seconds: float, phase: FlightPhase) -> None:
+        """`seconds` of steady flight at `velocity_m_s` (east, north) over the ground, ending at
+        `time_s`: cruise teaches what the vehicle makes good in its direction."""
+        if phase is FlightPhase.CRUISE and self._settled(time_s):
+            version = self.headings.version
+            self.headings.add(*velocity_m_s, seconds)
+            if self.headings.version != version:
+                self._refit()
+
     def factor(self, east: ArrayLike, north: ArrayLike) -> float | np.ndarray:
-        """What the wind known does to a metre flown in the direction (east, north), or in each
-        of several."""
-        return 1.0 if self.wind_m_s is None else wind_factor(self.profile, east, north, self.wind_m_s)
+        """What a metre flown in the direction (east, north), or in each of several, costs against
+        a still-air one: what the vehicle made good that way where it flew it, else what the wind
+        known does to it."""
+        model = 1.0 if self.wind_m_s is None else wind_factor(self.profile, east, north, self.wind_m_s,
+                                                               self.max_air_speed_m_s)
+        return self.headings.factors(east, north, model) if self.headings.flown else model
 
     def moved(self, time_s: float, east_m: float, north_m: float, phase: FlightPhase) -> None:
         """A step of `(east_m, north_m)` over the ground, flown in `phase`, ending at `time_s`."""
@@ -171,7 +215,8 @@ class FuelGauge:
         metres = math.hypot(east_m, north_m)
         self.phase_m[phase] += metres
         if phase is FlightPhase.CRUISE and metres > 0:
-            self.cruise_priced_m += metres * self.factor(east_m, north_m)
+            direction = math.degrees(math.atan2(east_m, north_m)) % 360.0
+            self._cruise_by_direction[round(direction / (360.0 / DIRECTIONS)) % DIRECTIONS] += metres
         if phase is not self._last_phase and self._last_phase is not None:
             self._pure = False
         self._last_phase = phase
@@ -212,6 +257,15 @@ class FuelGauge:
         self._pending = np.zeros(TERMS)
         self.version += 1
 
+    @property
+    def cruise_priced_m(self) -> float:
+        """The cruise metres flown, each weighed by what a metre that way costs as now known (the
+        ground speed made good that way, else the wind known)."""
+        flown = self._cruise_by_direction
+        if not flown.any():
+            return 0.0
+        return float(flown @ np.asarray(self.factor(_DIRECTION_UNITS[:, 0], _DIRECTION_UNITS[:, 1])))
+
     def _settled(self, time_s: float) -> bool:
         return self._level_since is not None and time_s - self._level_since >= self.settle_s
 
@@ -225,8 +279,9 @@ class FuelGauge:
         """Add the stretches sampled since the last fit to the normal equations, or sum them all
         again when the wind known has changed (it weighs every stretch): a fit costs the same
         late in a long flight as early."""
-        if self._summed_in != self.wind_m_s:
-            self._summed, self._summed_in = 0, self.wind_m_s
+        weighed_in = (self.wind_m_s, self.headings.version, self.max_air_speed_m_s)
+        if self._summed_in != weighed_in:
+            self._summed, self._summed_in = 0, weighed_in
             self._normal, self._rhs, self._flown = np.zeros((TERMS, TERMS)), np.zeros(TERMS), np.zeros(TERMS)
         new = self._stretches[self._summed:]
         if not new:
@@ -275,7 +330,7 @@ class FuelGauge:
         """Charge per metre of cruise in the wind known, averaged over directions: the fit's, never
         under what level flight has shown (a pack draining faster than its profile says is priced
         as it drains, not pulled back towards the profile)."""
-        if self.wind_m_s is None:
+        if self.wind_m_s is None and not self.headings.flown:
             return self.still_air_mah_per_m
         if self._rate is None:
             self._rate = max(float(np.mean(self._rates_along(_COMPASS[:, 0], _COMPASS[:, 1]))), 1e-9)

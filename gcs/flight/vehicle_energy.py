@@ -10,20 +10,22 @@ between ticks."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections import deque
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from gcs.flight.fuel import FlightPhase, FuelGauge
-from gcs.flight.lean_wind import LeanWind, thrust_lean
+from gcs.flight.lean_wind import MAX_ACCELERATION_M_S2, LeanWind, is_calm, thrust_lean
 from gcs.flight.return_trigger import FuelDecision, confirmed, fuel_decision
 from gcs.flight.vehicle_track import Legs, PlanTrack
 from gcs.links import mavlink
 from gcs.plans.plan_folder import UavTask
 from gcs.telemetry.status import Stage, VehicleStatus, ground_distance_m
+from gcs.telemetry.wind import CREW_SIGMA_M_S, WindEstimate, wind_from_message
 from planner.energy import EnergyProfile
 
-__all__ = ["EnergyAccount", "PlanCharge", "VehicleEnergy", "wind_from_message"]
+__all__ = ["EnergyAccount", "PlanCharge", "VehicleEnergy"]
 
 MAVMessage = mavlink.MAVLink_message
 
@@ -41,8 +43,17 @@ REEVALUATE_M = 10.0
 LEVEL_SHARE = 0.9
 LEVEL_CLIMB_M_S = 0.7
 
-#: A wind read from a lean is said again when it moves this far (m/s, as a vector).
+#: A wind estimate is said again when it moves this far (m/s, as a vector).
 WIND_SAID_CHANGE_M_S = 2.0
+
+#: A vehicle's acceleration is its velocity's change over at least this many seconds
+STEADY_BASELINE_S = 1.0
+
+#: A multicopter slower than this share of its cruise speed in steady flight is held back by the
+#: wind only where its lean is at its limit: this share of the most it has leant (else it is on a
+#: leg too short to reach its speed, and what it makes there is the profile's cornering)
+CRUISE_SHARE = 0.9
+TILT_LIMIT_SHARE = 0.9
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,18 +102,6 @@ def _step_m(a: tuple[float, float], b: tuple[float, float]) -> tuple[float, floa
     return (b[1] - a[1]) * k * math.cos(math.radians(0.5 * (a[0] + b[0]))), (b[0] - a[0]) * k
 
 
-def wind_from_message(msg: MAVMessage) -> tuple[float, float] | None:
-    """(east, north) m/s the air moves towards, from ArduPilot's WIND (direction it comes from,
-    degrees) or PX4's WIND_COV (velocity, NED); None for other messages or unknown values."""
-    kind = msg.get_type()
-    if kind == "WIND":
-        rad = math.radians(msg.direction)
-        return -msg.speed * math.sin(rad), -msg.speed * math.cos(rad)
-    if kind == "WIND_COV" and math.isfinite(msg.wind_x) and math.isfinite(msg.wind_y):
-        return float(msg.wind_y), float(msg.wind_x)
-    return None
-
-
 class VehicleEnergy:
     """One vehicle's energy (see the module docstring); `status` is its telemetry, read here."""
 
@@ -134,9 +133,13 @@ class VehicleEnergy:
         self.lean_wind = LeanWind(profile.lean_tan_at_10_m_s) if profile.lean_tan_at_10_m_s else None
         self.notes: list[str] = []  # lines for the operator, taken by the vehicle's flight
         self._velocity: tuple[float, float] | None = None      # east, north m/s over the ground
-        self._acceleration: tuple[float, float] = (0.0, 0.0)  # and its change per second
+        self._acceleration: tuple[float, float] | None = None  # its change per second, over STEADY_BASELINE_S
+        self._velocities: deque[tuple[float, float, float]] = deque(maxlen=12)  # time, east, north
+        self._lean = 0.0      # tan of the last tilt
+        self._most_lean = 0.0  # and the most it has leant in steady flight
         self._climb_m_s = 0.0
         self._wind_said: tuple[float, float] | None = None
+        self.deferred_since: float | None = None  # a return the young wind estimate alone asked for, put off
 
     @property
     def uid(self) -> int:
@@ -156,7 +159,7 @@ class VehicleEnergy:
     def _gauge(self, profile: EnergyProfile) -> FuelGauge:
         gauge = FuelGauge(profile)
         if self.crew_wind is not None:
-            gauge.set_wind(*self.crew_wind)
+            gauge.set_wind(*self.crew_wind, sigma_m_s=CREW_SIGMA_M_S, source="the crew")
         return gauge
 
     # ---- telemetry ---------------------------------------------------------------------------
@@ -178,42 +181,52 @@ class VehicleEnergy:
             self._on_attitude(msg)
         else:
             wind = wind_from_message(msg)
-            if wind is not None and (wind[0] or wind[1]):
+            if wind is not None:
                 self.wind_reported = True
-                self.fuel.set_wind(*wind)
+                self._use_wind(wind)
 
     def _on_attitude(self, msg: MAVMessage) -> None:
-        """A multicopter's lean in level flight or a hover (not climbing or descending, where its
-        autopilot lets it drift): the wind its autopilot may not report (`gcs.flight.lean_wind`),
-        given to the fuel gauge and said when it first shows and when it changes."""
-        lean, st = self.lean_wind, self.status
+        """A multicopter's lean in steady level flight or a hover (not climbing or descending,
+        where its autopilot lets it drift): the wind its autopilot may not report
+        (`gcs.flight.lean_wind`)."""
+        tilt = thrust_lean(msg.roll, msg.pitch, msg.yaw)
+        self._lean = math.hypot(*tilt)
+        lean, st, acceleration = self.lean_wind, self.status, self._acceleration
         if lean is None or self.wind_reported or not st.airborne or st.rel_alt_m < 3.0 or self._velocity is None \
-                or abs(self._climb_m_s) > LEVEL_CLIMB_M_S:
+                or acceleration is None or abs(self._climb_m_s) > LEVEL_CLIMB_M_S:
             return
-        lean.sample(thrust_lean(msg.roll, msg.pitch, msg.yaw), self._velocity, self._acceleration)
-        wind = lean.wind_m_s
-        if wind is None or lean.samples % 2:
-            return
-        if wind == (0.0, 0.0):
+        if math.hypot(*acceleration) <= MAX_ACCELERATION_M_S2 and self._lean > self._most_lean:
+            self._most_lean = self._lean
+            self.fuel.set_max_air_speed(math.hypot(*lean.air_velocity(tilt)))
+        lean.sample(tilt, self._velocity, acceleration)
+        estimate = lean.estimate
+        if estimate is not None and not lean.samples % 2:
+            self._use_wind(estimate)
+
+    def _use_wind(self, estimate: WindEstimate) -> None:
+        """A wind estimate given to the fuel gauge (still air where it cannot be told from it,
+        unless the crew said otherwise) and to the status, and said when it first shows and when
+        it changes."""
+        st = self.status
+        st.wind = estimate
+        if is_calm(estimate):
             if self.fuel.wind_m_s is not None and self.crew_wind is None:
                 self.fuel.clear_wind()
+                self._wind_said = None
+                self.notes.append(f"still air after all ({estimate.text()})")
             return
-        self.fuel.set_wind(*wind)
+        self.fuel.set_wind(*estimate.vector, sigma_m_s=estimate.sigma_m_s, source=estimate.source)
         said = self._wind_said
-        if said is None or math.hypot(wind[0] - said[0], wind[1] - said[1]) > WIND_SAID_CHANGE_M_S:
-            self._wind_said = wind
-            source = math.degrees(math.atan2(-wind[0], -wind[1])) % 360.0
-            self.notes.append(f"wind {math.hypot(*wind):.1f} m/s from {source:03.0f} deg, read from its lean "
-                              f"(its way home is priced by the ground speed it can make into it)")
+        if said is None or math.dist(estimate.vector, said) > WIND_SAID_CHANGE_M_S:
+            self._wind_said = estimate.vector
+            self.notes.append(f"wind {estimate.text()}: a metre is priced by the ground speed it makes that way")
 
     def _on_position(self, msg: MAVMessage) -> None:
         st = self.status
         if not st.has_position:
             return
         velocity = (msg.vy / 100.0, msg.vx / 100.0)
-        if self._velocity is not None and self._last_s is not None and st.time_boot_s > self._last_s:
-            dt = st.time_boot_s - self._last_s
-            self._acceleration = ((velocity[0] - self._velocity[0]) / dt, (velocity[1] - self._velocity[1]) / dt)
+        self._steady(st.time_boot_s, velocity)
         self._velocity = velocity
         self._climb_m_s = -msg.vz / 100.0
         self.phase = self._phase(-msg.vz / 100.0)
@@ -225,6 +238,27 @@ class VehicleEnergy:
                 self.hover_s += max(0.0, st.time_boot_s - self._last_s)
         self._last_s = st.time_boot_s
         self._last_m = here
+
+    def _steady(self, now_s: float, velocity: tuple[float, float]) -> None:
+        """The acceleration over the last STEADY_BASELINE_S or more; in steady flight at its
+        cruise speed, or held back at its tilt limit (a multicopter), what the vehicle made good
+        since the last position teaches the fuel gauge its ground speed that way."""
+        history = self._velocities
+        while history and now_s < history[-1][0]:  # the vehicle's clock restarted
+            history.clear()
+        then = next((h for h in reversed(history) if now_s - h[0] >= STEADY_BASELINE_S), None)
+        self._acceleration = None if then is None else ((velocity[0] - then[1]) / (now_s - then[0]),
+                                                        (velocity[1] - then[2]) / (now_s - then[0]))
+        last_s = history[-1][0] if history else None
+        history.append((now_s, *velocity))
+        acceleration = self._acceleration
+        if acceleration is None or last_s is None or math.hypot(*acceleration) > MAX_ACCELERATION_M_S2:
+            return
+        cruise = self.profile.cruise_speed_m_s
+        if self.lean_wind is not None and math.hypot(*velocity) < CRUISE_SHARE * cruise \
+                and not (self._most_lean > 0 and self._lean >= TILT_LIMIT_SHARE * self._most_lean):
+            return
+        self.fuel.steady(now_s, velocity, now_s - last_s, self.phase)
 
     def _phase(self, climb_m_s: float) -> FlightPhase:
         st = self.status
@@ -283,7 +317,7 @@ class VehicleEnergy:
                     f"the way home needs {ordered.cost:.0f} m: returning")
         remaining = fuel.remaining_mah or 0.0
         pct = f"{st.battery_pct:.0f}%" if st.battery_pct is not None else f"{remaining:.0f} mAh"
-        air = "in still air" if fuel.wind_m_s is None else "in the wind"
+        air = "in still air" if fuel.wind is None else f"in the wind {fuel.wind.text()}"
         return (f"battery {pct} ({remaining:.0f} mAh) pays for {decision.range_left_m:.0f} m above the "
                 f"{self.reserve_pct:g}% reserve and the landing; the way home is {decision.home_m:.0f} m "
                 f"({decision.home_mah:.0f} mAh with the landing, at {fuel.rate_mah_per_m:.2f} mAh/m {air}): "
@@ -293,9 +327,18 @@ class VehicleEnergy:
                  ordered_left_m: float | None = None) -> FuelDecision | None:
         """The return trigger's check now (`gcs.flight.return_trigger.fuel_decision`), kept as
         `decision`; the status shows its range left and margin in metres."""
-        self.decision = fuel_decision(self.fuel, reserve_pct=self.reserve_pct, landing_mah=self.landing_mah(),
-                                      steps_ahead=steps_ahead, home_legs=home_legs, circuit_legs=circuit_legs,
-                                      ordered_left_m=ordered_left_m)
+        def decide(fuel: FuelGauge) -> FuelDecision | None:
+            return fuel_decision(fuel, reserve_pct=self.reserve_pct, landing_mah=self.landing_mah(),
+                                 steps_ahead=steps_ahead, home_legs=home_legs, circuit_legs=circuit_legs,
+                                 ordered_left_m=ordered_left_m)
+
+        self.decision = decide(self.fuel)
+        wind = self.fuel.wind
+        if self.decision is not None and self.decision.must_return and not self.decision.by_order \
+                and wind is not None and wind.young:
+            kinder = decide(self.fuel.in_wind(wind.weakened()))
+            if kinder is not None and not kinder.must_return:
+                self.decision = replace(self.decision, deferred=True)
         st = self.status
         st.range_left = math.inf if self.decision is None else self.decision.range_left_m
         st.margin = math.inf if self.decision is None else self.decision.margin_m

@@ -51,14 +51,15 @@ STOCK_PROFILES: dict[tuple[str, Airframe], EnergyProfile] = {
     # 30 m, 223 to 60 m; landing 262 mAh from 30 m, 411 from
     # 60 m; and in every sortie about 13 s in level flight below 2 m/s (the climb's end, the station's
     # hold, the arrival before the descent), 100 mAh: half on the launch, half on the landing; hovering
-    # it leans 0.288 into 8 m/s of wind (gcs.flight.lean_wind). Its current hardly changes with its speed
+    # it leans 0.288 into 6.5 m/s of wind (SIM_WIND_SPD 8 at 40 m, gcs.flight.lean_wind). Its current hardly
+    # changes with its speed
     # (8.1 mAh/s in zig-zags of 50 m legs, 8.3 on a straight): a known path costs 8.15 mAh a second of
     # its time with ArduCopter's corners (planner.path_time; 0.99-1.05 mAh/m on the field fleets' plans
     # of 50 m cells, 1.11-1.18 on the paper area's 20 m cells)
     ("ardupilot", Airframe.COPTER): EnergyProfile(
         airframe=Airframe.COPTER, capacity_mah=3300.0, cruise_speed_m_s=10.0, cruise_mah_per_m=1.03,
         loiter_mah_per_s=7.8, launch_mah=57.0, climb_mah_per_m=3.6, landing_mah=163.0, descent_mah_per_m=4.97,
-        lean_tan_at_10_m_s=0.387, cornering=ARDUCOPTER_CORNERING, moving_mah_per_s=8.15),
+        lean_tan_at_10_m_s=0.507, cornering=ARDUCOPTER_CORNERING, moving_mah_per_s=8.15),
     # ArduPlane, plane.parm: 3300 mAh; 11.3 A at 22 m/s air (0.134 mAh/m); 3.2 mAh/s loitering; its
     # full-throttle take-off 77 mAh to 30 m, 114 to 60 m; gliding in 27 mAh from 30 m, 82 from 60 m
     ("ardupilot", Airframe.PLANE): EnergyProfile(

@@ -15,6 +15,7 @@ from urllib.parse import parse_qs, urlsplit
 
 from gcs.autopilots import Autopilot
 from gcs.links import mavlink
+from gcs.telemetry.wind import WindEstimate
 
 __all__ = ["FINAL_STAGES", "Detection", "Stage", "VehicleStatus"]
 
@@ -84,6 +85,7 @@ class VehicleStatus:
     track_index: int = 0
     range_left: float = math.inf
     margin: float = math.inf
+    wind: WindEstimate | None = None  # the last wind estimate, still air included
     return_reason: str | None = None
     battery_at_landing: float | None = None
     landed_from_airport_m: float | None = None

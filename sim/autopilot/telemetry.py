@@ -213,7 +213,7 @@ def gps_global_origin(v: SimVehicle) -> mavlink.MAVLink_message | None:
 
 #: A multicopter's lean against 10 m/s of air speed and its growth with speed (ArduCopter SITL's
 #: quad: `benchmarks/lean_wind.py`): the simulated copter flies in still air, nose first.
-COPTER_LEAN_AT_10_M_S = 0.387
+COPTER_LEAN_AT_10_M_S = 0.507
 COPTER_LEAN_EXPONENT = 4.0 / 3.0
 
 

@@ -75,13 +75,14 @@ class FleetFlight:
 
 
 def fly_fleet(tmp_path: Path, site: Site, vehicles: list[Vehicle], *gcs_args: str, plan_args: tuple[str, ...] = (),
-              speedup: float = 10.0, plan_dir: Path | None = None, wind: bool = False,
+              speedup: float = 10.0, plan_dir: Path | None = None, wind: bool | dict[str, float] = False,
               inject: tuple[int, float, dict[str, float]] | None = None) -> FleetFlight:
     """Plan `site` (unless `plan_dir` is given), start one SITL per airport (ArduPilot instances
     push to one UDP port, PX4 ones are reached on their own), record each on its spare port, fly
     it with `gcs fly` and judge every vehicle. `inject` (uav, metres, params): set those
     parameters of an ArduPilot vehicle once it is that far from where it took off (a fault:
-    SIM_GPS1_ENABLE 0 fails its GPS), over its SERIAL0, which nobody else uses."""
+    SIM_GPS1_ENABLE 0 fails its GPS), over its SERIAL0, which nobody else uses. `wind`: True for
+    WIND, or ArduPilot's SIM_WIND_* parameters."""
     plan_dir = plan_dir or site.plan(tmp_path / "field", *plan_args)
     plan = json.loads((plan_dir / "plan.json").read_text())
     port = free_udp_port()
@@ -99,7 +100,7 @@ def fly_fleet(tmp_path: Path, site: Site, vehicles: list[Vehicle], *gcs_args: st
                 connections.append(px4.gcs_connection)
                 spare = f"udpin:127.0.0.1:{14030 + px4.instance}"  # its payload link: the API one sets its params
             else:
-                params = {**(WIND if wind else {}), **v.params}
+                params = {**(WIND if wind is True else wind or {}), **v.params}
                 sitl = stack.enter_context(ArduPilotSitl(v.airframe, home=site.home(i), sysid=sysid, gcs_port=port,
                                                          speedup=speedup, params=params))
                 spare = f"tcp:127.0.0.1:{sitl.tcp_port_2}"
