@@ -3,13 +3,42 @@ invariants every closed plan must satisfy."""
 
 from __future__ import annotations
 
+import os
+
+import numba
 import numpy as np
+from hypothesis import example
 
 from planner.environment import SearchMap, Sensor
 from planner.motion import HEADING_DX, HEADING_DY, STEPS, MoveCosts, OrientationConstraint
 from planner.plan import Plan
 from planner.return_exact import UNREACHABLE, return_table
 from planner.scenario import Scenario, UavSpec
+
+#: Whether the tests take the cases of `.ci/run`'s pass without the JIT (NUMBA_DISABLE_JIT=1), where
+#: every kernel runs as Python, 30-100 times slower than compiled; `GCS_JIT_OFF_CASES=1` takes them
+#: with the JIT on, where the kernel record checks that they reach the kernels the full cases reach.
+JIT_OFF = bool(numba.config.DISABLE_JIT) or os.environ.get("GCS_JIT_OFF_CASES") == "1"
+
+
+def without_jit(jit_on, jit_off):
+    """`jit_off` in the pass without the JIT, else `jit_on`: the cheaper case (fewer property
+    examples, a shorter range) that a test of whole plans runs there. Every kernel's Python body
+    still runs and is checked; the full case runs with the JIT on (docs/tests.md, "Tests without
+    the JIT")."""
+    return jit_off if JIT_OFF else jit_on
+
+
+def jit_off_examples(*cases: dict):
+    """Explicit Hypothesis examples (each the test's arguments) run only in the cases without the
+    JIT, above a `@given` whose `max_examples` is cut there: a few drawn examples need not reach
+    every kernel the full run reaches (every optimiser's, say); these do."""
+    def apply(test):
+        if JIT_OFF:
+            for case in reversed(cases):
+                test = example(**case)(test)
+        return test
+    return apply
 
 
 def random_scenario(seed: int, nx: int = 14, ny: int = 12, n_uavs: int = 3, range_steps: int = 40,

@@ -12,7 +12,7 @@ from planner.dtscs import ClosedSearch, MissionConfig
 from planner.environment import SearchMap
 from planner.motion import OC3, OC8
 from planner.success import expected_finds
-from tests.planner.helpers import assert_plan_safe, random_scenario
+from tests.planner.helpers import assert_plan_safe, random_scenario, without_jit
 
 probability = st.floats(0.0, 1.0, allow_nan=False)
 
@@ -101,7 +101,8 @@ def _sortie(scenario, belief: Belief, seed: int, oc, np_steps: int):
     return searched, search.plan()
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
+@settings(max_examples=without_jit(25, 8), deadline=None,
+          suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
 @given(seed=st.integers(0, 100_000), oc=st.sampled_from([OC3, OC8]), np_steps=st.integers(1, 3),
        sorties=st.integers(2, 4))
 def test_split_sorties_are_each_closed_and_legal_and_the_campaign_adds_up(seed, oc, np_steps, sorties):

@@ -30,7 +30,7 @@ from planner.scenario import Scenario, UavSpec, paper_scenario
 from planner.search import STRATEGIES
 from planner.search.exhaustive import all_choices
 from planner.search.problem import PathScorer
-from tests.planner.helpers import assert_plan_safe, random_scenario
+from tests.planner.helpers import assert_plan_safe, jit_off_examples, random_scenario, without_jit
 
 OPTIMISERS = ("cpio", "pio", "pso", "ga", "exhaustive")
 
@@ -165,7 +165,7 @@ def test_terminal_value_reads_the_last_cell_and_an_empty_window_adds_nothing():
 def test_off_is_the_paper_and_a_zero_weight_changes_nothing(strategy):
     """Off, the searchers carry no window and the scorer's J1 is score_paths' own; a zero weight
     (every path gets + 0.0) flies the same plan bit for bit."""
-    scenario = paper_scenario(4, range_steps=45)
+    scenario = paper_scenario(4, range_steps=without_jit(45, 15))
     off = fly(scenario, MissionConfig(strategy=strategy, return_planner="st"), seed=4)
     zero = fly(scenario, MissionConfig(strategy=strategy, return_planner="st", horizon=HorizonValue(weight=0.0)),
                seed=4)
@@ -195,9 +195,14 @@ def test_off_searchers_carry_no_window_and_score_plain_j1():
 OCS = [OC3, OC4, OC8]
 
 
-@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
+@jit_off_examples(*({"seed": 1, "oc_index": i % 3, "np_steps": 2, "n_uavs": 2, "range_steps": 20,
+                      "return_planner": ("exact", "st")[i % 2], "strategy": strategy, "weight": 1.0, "every": 2}
+                     for i, strategy in enumerate(OPTIMISERS)))
+@settings(max_examples=without_jit(30, 2), deadline=None,
+          suppress_health_check=[HealthCheck.filter_too_much, HealthCheck.too_slow])
 @given(seed=st.integers(0, 100_000), oc_index=st.integers(0, 2), np_steps=st.integers(1, 4),
-       n_uavs=st.integers(1, 4), range_steps=st.integers(12, 45), return_planner=st.sampled_from(["exact", "st"]),
+       n_uavs=st.integers(1, without_jit(4, 2)), range_steps=st.integers(12, without_jit(45, 25)),
+       return_planner=st.sampled_from(["exact", "st"]),
        strategy=st.sampled_from(OPTIMISERS), weight=st.floats(0.1, 5.0), every=st.integers(1, 4))
 def test_plans_with_the_horizon_value_are_safe(seed, oc_index, np_steps, n_uavs, range_steps, return_planner,
                                                 strategy, weight, every):
@@ -213,7 +218,7 @@ def test_plans_with_the_horizon_value_are_safe(seed, oc_index, np_steps, n_uavs,
 
 
 def test_same_seed_same_plan_with_the_horizon_value():
-    scenario = paper_scenario(2, range_steps=60)
+    scenario = paper_scenario(2, range_steps=without_jit(60, 14))
     config = MissionConfig(strategy="cpio", horizon=HorizonValue())
     a, b = fly(scenario, config, seed=2), fly(scenario, config, seed=2)
     assert [u.trajectory for u in a.uavs] == [u.trajectory for u in b.uavs]

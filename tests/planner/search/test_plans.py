@@ -12,6 +12,7 @@ from planner.environment import SearchMap, Sensor
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OC4, OC8
 from planner.scenario import Scenario, UavSpec, paper_scenario
 from planner.search import STRATEGIES
+from tests.planner.helpers import without_jit
 
 ALL = sorted(STRATEGIES)
 
@@ -55,7 +56,7 @@ def assert_closed_and_safe(plan, scenario, oc):
 
 
 @pytest.mark.parametrize("strategy", ALL)
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=without_jit(25, 8), deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(case=small_scenarios(), oc=st.sampled_from([OC3, OC4, OC8]), np_steps=st.integers(1, 4),
        return_planner=st.sampled_from(["exact", "st"]))
 def test_every_strategy_flies_closed_safe_plans(strategy, case, oc, np_steps, return_planner):
@@ -75,7 +76,7 @@ def test_every_strategy_flies_closed_safe_plans(strategy, case, oc, np_steps, re
 
 @pytest.mark.parametrize("strategy", ALL)
 def test_same_seed_same_plan(strategy):
-    scenario = paper_scenario(3, range_steps=40)
+    scenario = paper_scenario(3, range_steps=without_jit(40, 15))
     config = MissionConfig(strategy=strategy, return_planner="st")
     a, b = fly(scenario, config, seed=3), fly(scenario, config, seed=3)
     assert [u.trajectory for u in a.uavs] == [u.trajectory for u in b.uavs]
@@ -88,7 +89,7 @@ def test_same_seed_same_plan(strategy):
 
 
 def test_cpio_paper_mission_is_closed_and_safe():
-    scenario = paper_scenario(1)
+    scenario = paper_scenario(1, range_steps=without_jit(130, 40))  # the paper's range with the JIT
     plan = fly(scenario, MissionConfig(strategy="cpio"), seed=1)
     assert_closed_and_safe(plan, scenario, OC3)
     assert plan.mean_eta > 0.9
