@@ -45,6 +45,11 @@ MAX_ACCELERATION_M_S2 = 0.6
 
 #: The lean law's own error (m/s of air speed, one standard deviation): 0.3-0.7 on SITL's legs
 LAW_SIGMA_M_S = 0.6
+#: The law's error shrinks to LAW_SIGMA_M_S only over so many samples (20 s): a first reading
+#: leans from the climb's end into a first leg, and its error there is not yet averaged over the
+#: ways it flies (ArduCopter SITL: 8.3 m/s read in the first 10 s in 7.3 at 50 m)
+FIRM_SAMPLES = 40
+
 #: Successive samples (half a second apart) share a gust: so many (5 s) count as one
 CORRELATED_SAMPLES = 10
 
@@ -101,7 +106,8 @@ class LeanWind:
         n = len(self._winds)
         east, north = sum(w[0] for w in self._winds) / n, sum(w[1] for w in self._winds) / n
         scatter = sum((w[0] - east) ** 2 + (w[1] - north) ** 2 for w in self._winds) / (2 * max(1, n - 1))
-        sigma = math.sqrt(scatter * CORRELATED_SAMPLES / n + LAW_SIGMA_M_S ** 2)
+        law = LAW_SIGMA_M_S ** 2 * max(1.0, FIRM_SAMPLES / self.samples)
+        sigma = math.sqrt(scatter * CORRELATED_SAMPLES / n + law)
         return WindEstimate(east, north, sigma, "its lean")
 
     @property

@@ -28,9 +28,10 @@ from tests.gcs.bus.helpers import Mosquitto
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.ports import free_udp_port
 from tests.peers.process import SITL_WORKER
+from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
 from tests.peers.recorder import SpareRecorder
 from tests.peers.relay import UdpRelay, losing_uploads
-from tests.peers.site import COPTERS, MEADOW, PLANE, Site
+from tests.peers.site import COPTERS, MEADOW, PLANE, Airport, Site
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
@@ -45,6 +46,8 @@ SPEEDUP = 20.0  # the highest these flights pass at (docs/tests.md): wall-clock 
 #: the fast-draining copter's: at 20 its 1.3x drain spends 120 mAh a wall second, and a station that
 #: a loaded machine held up for 1.5 s sent it home 180 mAh late (ci59: touched down at 23 %)
 DRAIN_SPEEDUP = 10.0
+#: COPTERS and a third airport for a PX4 that never leaves the ground
+NOT_ARMED = Site((*COPTERS.airports, Airport("east", 240.0, 30.0, "W", 1300.0)))
 
 
 @pytest.mark.parametrize("vehicle", ["copter", "plane"])
@@ -154,26 +157,35 @@ def test_a_fast_draining_battery_brings_its_copter_home_first_and_the_other_sear
     assert land_time[2] < land_time[1]
 
 
-def test_a_vehicle_that_refuses_to_arm_stays_on_the_ground_with_its_reason_while_the_other_flies_home_on_an_order(
+def test_vehicles_that_cannot_arm_stay_on_the_ground_with_their_reasons_while_the_other_flies_home_on_an_order(
         tmp_path):
-    """UAV 2 refuses to arm (its battery below BATT_ARM_VOLT): it stays on the ground with
-    ArduPilot's reason while UAV 1 flies. On UAV 1, the operator's `r 1` typed 80 s of the copter's
-    time into its search: the copter is held, its planned way home is uploaded and flown (not RTL),
-    and it lands at its airport with the order as the reason. (The order was a one-copter flight
-    of its own until 2026-12-02, 17 s of the real autopilots' worker.)"""
-    plan_dir = COPTERS.plan(tmp_path)
+    """UAV 2, an ArduCopter, refuses to arm (its battery below BATT_ARM_VOLT): it stays on the
+    ground with ArduPilot's reason. UAV 3, a PX4, fails its pre-arm checks (COM_ARMABLE 0 puts it
+    in its safety configuration, its pre-arm bit stays off): the station never arms it and names
+    PX4's own reason after `--ready-timeout`. UAV 1, an ArduCopter, flies meanwhile; the
+    operator's `r 1` typed 80 s of its time into its search: it is held, its planned way home is
+    uploaded and flown (not RTL), and it lands at its airport with the order as the reason. The
+    PX4 runs at its own speed-up and never flies. (Until 2026-12-02 three flights of their own:
+    the order on a lone copter, 17 s of the real autopilots' worker, and the PX4's refusal beside
+    an ArduCopter in test_px4_flight.py, 27 s.)"""
+    plan_dir = NOT_ARMED.plan(tmp_path)
     port = free_udp_port()
     with ExitStack() as stack:
-        stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=SPEEDUP))
-        stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(1), sysid=2, gcs_port=port, speedup=SPEEDUP,
+        stack.enter_context(ArduPilotSitl("copter", home=NOT_ARMED.home(0), sysid=1, gcs_port=port, speedup=SPEEDUP))
+        stack.enter_context(ArduPilotSitl("copter", home=NOT_ARMED.home(1), sysid=2, gcs_port=port, speedup=SPEEDUP,
                                           params={"BATT_ARM_VOLT": 13.0}))  # the sim battery gives 12.6 V
-        done = fly(plan_dir, port, "--no-rrd", "--arm-timeout", "10",
-                   orders=(("UAV 1: search", "r 1", 80.0 / SPEEDUP),))
+        px4 = stack.enter_context(Px4Sitl(home=NOT_ARMED.home(2)[:3], sysid=3,
+                                          params={**STEADY_BATTERY, "COM_ARMABLE": 0}))
+        done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], "--no-rrd", "--arm-timeout", "10",
+                   "--ready-timeout", "15", orders=(("UAV 1: search", "r 1", 80.0 / SPEEDUP),))
     assert done.returncode == 1, done.stdout[-3000:] + done.stderr
     out = done.stdout
     assert "UAV 2: arming refused: Arm: Battery 1 below minimum arming voltage" in out
     assert "UAV 2: failed - cannot arm" in out and "left on the ground" in out
-    assert "UAV 1: landed" in out and "1/2 landed" in out
+    assert re.search(r"UAV 3: failed - not ready after 15 s: no PX4's pre-arm checks \(.*safety configuration",
+                     out), out
+    assert "UAV 3: arming" not in out
+    assert "UAV 1: landed" in out and "1/3 landed" in out
     assert "UAV 1: return ordered (order)" in out and re.search(r"UAV 1: return leg of \d+ waypoints uploaded", out)
     assert "RTL" not in out.split("UAV 1: return ordered", 1)[1]
     row = next(line.split() for line in out.splitlines() if line.startswith("  1 west"))

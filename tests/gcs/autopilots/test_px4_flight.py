@@ -133,24 +133,6 @@ def test_operator_orders_on_a_px4_a_shorter_range_then_home(tmp_path):
     assert row[2] == "landed" and float(row[3]) <= 3.0
 
 
-def test_a_px4_that_fails_its_pre_arm_checks_stays_on_the_ground_with_its_reason_while_the_ardupilot_flies(tmp_path):
-    """COM_ARMABLE 0 puts PX4 in its safety configuration: its pre-arm bit stays off, so the
-    station never arms it, names PX4's own reason, and flies the other vehicle. The ArduCopter
-    flies at the speed-up of the ArduPilot flight tests (the PX4 never flies)."""
-    plan_dir = COPTERS.plan(tmp_path)
-    port = free_udp_port()
-    with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=20), \
-            Px4Sitl(home=_px4_home(COPTERS, 1), sysid=2, params={**STEADY_BATTERY, "COM_ARMABLE": 0}) as px4:
-        done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], "--no-rrd",
-                   "--ready-timeout", "15")
-    assert done.returncode == 1, done.stdout[-3000:] + done.stderr
-    out = done.stdout
-    assert re.search(r"UAV 2: failed - not ready after 15 s: no PX4's pre-arm checks \(.*safety configuration",
-                     out), out
-    assert "UAV 2: arming" not in out
-    assert "UAV 1: landed" in out and "1/2 landed" in out
-
-
 def test_a_px4_whose_link_goes_silent_flies_its_mission_on_and_is_picked_up_again(tmp_path):
     """The station's link to PX4 goes through a relay that drops everything for 50 s of vehicle
     time, 15 s into the search: the station marks it lost; PX4 (NAV_DLL_ACT 0, its default) flies

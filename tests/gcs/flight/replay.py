@@ -4,7 +4,6 @@ station feeds it in flight: status first, then the fuel gauge."""
 from __future__ import annotations
 
 import gzip
-import struct
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -14,8 +13,8 @@ from pymavlink.dialects.v20 import ardupilotmega
 from gcs.flight.vehicle_energy import VehicleEnergy
 from gcs.links import mavlink
 from gcs.plans.plan_folder import UavTask
-from gcs.telemetry.status import VehicleStatus
 from gcs.plans.vehicle_file import STOCK_PROFILES
+from gcs.telemetry.status import VehicleStatus
 from planner.energy import Airframe
 
 DATA = Path(__file__).resolve().parents[2] / "data"

@@ -6,8 +6,17 @@ import math
 
 import pytest
 
-from gcs.flight.lean_wind import (CALM_M_S, GRAVITY_M_S2, LAW_SIGMA_M_S, LEAN_EXPONENT, MAX_ACCELERATION_M_S2,
-                                  MIN_SAMPLES, LeanWind, thrust_lean)
+from gcs.flight.lean_wind import (
+    CALM_M_S,
+    FIRM_SAMPLES,
+    GRAVITY_M_S2,
+    LAW_SIGMA_M_S,
+    LEAN_EXPONENT,
+    MAX_ACCELERATION_M_S2,
+    MIN_SAMPLES,
+    LeanWind,
+    thrust_lean,
+)
 from sim.autopilot.telemetry import COPTER_LEAN_AT_10_M_S, COPTER_LEAN_EXPONENT
 
 L10 = 0.507  # ArduCopter SITL's quad (benchmarks/lean_wind.py, at SITL's wind at 40 m)
@@ -44,8 +53,12 @@ def test_a_hover_reads_as_the_wind_it_holds_against(speed, source_deg):
     off = (math.degrees(math.atan2(-east, -north)) - source_deg + 180.0) % 360.0 - 180.0
     assert off == pytest.approx(0.0, abs=1e-6)
     assert math.hypot(*lean_for(8.0 * (40.0 / 60.0) ** 0.5, 0.0)) == pytest.approx(0.288, abs=0.002)
-    estimate = wind.estimate  # six identical samples: the law's own error is all the doubt left
-    assert estimate.sigma_m_s == pytest.approx(LAW_SIGMA_M_S) and not estimate.young
+    estimate = wind.estimate  # six identical samples: the law's own error, not yet averaged over many
+    assert estimate.sigma_m_s == pytest.approx(LAW_SIGMA_M_S * math.sqrt(FIRM_SAMPLES / MIN_SAMPLES))
+    assert estimate.young
+    for _ in range(FIRM_SAMPLES - MIN_SAMPLES):
+        wind.sample(lean_for(-wind_e, -wind_n), (0.0, 0.0), (0.0, 0.0))
+    assert wind.estimate.sigma_m_s == pytest.approx(LAW_SIGMA_M_S) and not wind.estimate.young
 
 
 def test_in_level_flight_the_wind_is_the_ground_velocity_less_the_air_velocity():
