@@ -82,8 +82,8 @@ def test_three_copters_one_with_a_small_pack_spend_their_batteries_on_the_search
     pytest.param(PLANES, FIELD_PLANES, ("--vehicle", "plane"), True, True, id="8 m/s wind-3 ArduPlane"),
     # no crew's figure: the wind only the copters read in the air, from their lean in steady flight
     # (gcs/flight/lean_wind.py) and the ground speed each way makes good; stock packs (a 2200 mAh one
-    # would fly a loop it cannot pay for in that wind, docs/energy.md). No PX4 fleet in wind: SIH v1.15.3 has none, its vehicles would
-    # fly the still-air flight again
+    # would fly a loop it cannot pay for in that wind, docs/energy.md). No PX4 fleet in wind: SIH
+    # v1.15.3 has none, its vehicles would fly the still-air flight again
     pytest.param([Vehicle()] * 3, FIELD_COPTERS, (), True, False, id="8 m/s wind read in flight-3 ArduCopter"),
 ])
 def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra, wind, crew_wind):
