@@ -264,7 +264,8 @@ class FuelGauge:
         flown = self._cruise_by_direction
         if not flown.any():
             return 0.0
-        return float(flown @ np.asarray(self.factor(_DIRECTION_UNITS[:, 0], _DIRECTION_UNITS[:, 1])))
+        factors = np.broadcast_to(self.factor(_DIRECTION_UNITS[:, 0], _DIRECTION_UNITS[:, 1]), flown.shape)
+        return float(flown @ factors)
 
     def _settled(self, time_s: float) -> bool:
         return self._level_since is not None and time_s - self._level_since >= self.settle_s

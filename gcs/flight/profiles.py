@@ -25,7 +25,7 @@ from gcs.flight.vehicle_energy import VehicleEnergy
 from gcs.plans.vehicle_file import VEHICLES_FILE, VehicleRecord, merge_vehicles, vehicle_key, vehicles_to_dict
 from planner.energy import EnergyProfile
 
-__all__ = ["MIN_CRUISE_M", "VEHICLES_FILE", "learned_profile", "learned_records", "save_learned",
+__all__ = ["MIN_CRUISE_M", "VEHICLES_FILE", "last_flight", "learned_profile", "learned_records", "save_learned",
            "whole_cruise_mah_per_m"]
 
 #: Metres of sampled cruise below which a flight does not move the cruise figure.
@@ -77,6 +77,16 @@ def learned_profile(vehicle: VehicleEnergy) -> EnergyProfile | None:
     return replace(prior, **changes)
 
 
+def last_flight(vehicle: VehicleEnergy) -> dict:
+    """The wind the flight was flown in (its last estimate; None in still air) and what it made
+    good over the ground each way (`gcs.flight.heading_speeds`), for vehicles.json."""
+    wind = vehicle.fuel.wind
+    return {"wind": None if wind is None else {"speed_m_s": round(wind.speed_m_s, 2),
+                                               "from_deg": round(wind.from_deg, 1),
+                                               "sigma_m_s": round(wind.sigma_m_s, 2), "source": wind.source},
+            "heading_speeds": vehicle.fuel.headings.as_dict()}
+
+
 def learned_records(vehicles: dict[int, VehicleEnergy], before: dict[str, VehicleRecord] | None = None
                     ) -> dict[str, VehicleRecord]:
     """A record per vehicle that flew: keyed by its board's unique id, or its system id where it
@@ -93,7 +103,7 @@ def learned_records(vehicles: dict[int, VehicleEnergy], before: dict[str, Vehicl
         key = vehicle_key(board if board and uids.count(board) == 1 else None, uid)
         flights = (before or {}).get(key)
         out[key] = VehicleRecord(key, uid, uid, vehicle.autopilot, (flights.flights if flights else 0) + 1, now,
-                                 profile)
+                                 profile, last_flight(vehicle))
     return out
 
 

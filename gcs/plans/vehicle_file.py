@@ -98,6 +98,7 @@ class VehicleRecord:
     flights: int
     updated: str
     profile: EnergyProfile
+    last_flight: dict | None = None  # the wind it was flown in and the ground speed each way made good
 
 
 def vehicle_key(board_uid: int | None, system_id: int) -> str:
@@ -126,6 +127,7 @@ def vehicles_to_dict(records: dict[str, VehicleRecord]) -> dict:
     return {"schema_version": SCHEMA_VERSION,
             "vehicles": {key: {"uav_id": r.uav_id, "system_id": r.system_id, "autopilot": r.autopilot,
                                "flights": r.flights, "updated": r.updated, "profile": profile_to_dict(r.profile)}
+                         | ({"last_flight": r.last_flight} if r.last_flight else {})
                          for key, r in sorted(records.items())}}
 
 
@@ -156,7 +158,7 @@ def load_vehicles(path: str | Path) -> dict[str, VehicleRecord]:
         except (KeyError, TypeError, ValueError) as exc:
             raise UserError(f"{path}: vehicle {key}: bad profile ({exc})") from None
         out[key] = VehicleRecord(key, int(v["uav_id"]), int(v["system_id"]), str(v["autopilot"]), int(v["flights"]),
-                                 str(v["updated"]), profile)
+                                 str(v["updated"]), profile, v.get("last_flight"))
     return out
 
 

@@ -11,7 +11,8 @@ logged on the `flight_time` timeline (seconds since the GCS loop started, its ow
   (static), `geo/airports`, `geo/targets` (static), `geo/detections` positive readings (the new
   ones in each row; the layout shows all past rows);
 - `uav/<id>/battery` battery %, `uav/<id>/mission` current mission item, `uav/<id>/range/left` and
-  `uav/<id>/range/margin` the return trigger's range left and margin (metres of cruise, when known), `uav/<id>/state`
+  `uav/<id>/range/margin` the return trigger's range left and margin (metres of cruise, when known),
+  `uav/<id>/wind/speed` and `uav/<id>/wind/sigma` its wind estimate and uncertainty, `uav/<id>/state`
   stage, flight mode, mission item, altitude, ground speed (values);
 - `events`: take-off, stage changes (return triggered and why, RTL, landed, lost link, link back,
   failures), the start of the plan's own return, flight-mode changes, positive readings (the
@@ -236,6 +237,9 @@ class FlightRecorder:
                          static=True)
             self.rec.log(f"uav/{uid}/range/margin", rr.SeriesLines(names="return margin (m)",
                                                                    colors=(220, 50, 50)), static=True)
+            self.rec.log(f"uav/{uid}/wind/speed", rr.SeriesLines(names="wind (m/s)", colors=colour), static=True)
+            self.rec.log(f"uav/{uid}/wind/sigma", rr.SeriesLines(names="wind uncertainty, 1 sigma (m/s)",
+                                                                 colors=lighter(colour)), static=True)
 
     def sample(self, controller: FlightController, now: float, *, force: bool = False) -> None:
         """One pass: telemetry rows where `sample_hz` allows, and the planned return's start."""
@@ -272,6 +276,9 @@ class FlightRecorder:
             self._add(f"{base}/range/left", rr.Scalars.columns, now, 1, scalars=[st.range_left])
         if _finite(st.margin):
             self._add(f"{base}/range/margin", rr.Scalars.columns, now, 1, scalars=[st.margin])
+        if st.wind is not None:
+            self._add(f"{base}/wind/speed", rr.Scalars.columns, now, 1, scalars=[st.wind.speed_m_s])
+            self._add(f"{base}/wind/sigma", rr.Scalars.columns, now, 1, scalars=[st.wind.sigma_m_s])
         self._add(f"{base}/state", rr.AnyValues.columns, now, 1, stage=[st.stage.value], mode=[st.mode_name],
                   mission_item=[st.mission_seq], mission_total=[st.mission_total], alt_m=[st.rel_alt_m],
                   ground_speed_m_s=[st.ground_speed_m_s])

@@ -111,6 +111,12 @@ def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra
                                              and RESERVE_PCT - 5 <= v.touchdown_pct <= RESERVE_PCT + 12), \
                     f"{v}\n{flight.stdout[-4000:]}"
                 assert abs(errors[v.uav]) <= 10.0, f"{errors}\n{flight.stdout[-4000:]}"
+            # vehicles.json keeps the wind each was flown in and what each way made good in it
+            records = json.loads((flight.plan_dir / "vehicles.json").read_text())["vehicles"].values()
+            for r in records:
+                wind, speeds = r["last_flight"]["wind"], r["last_flight"]["heading_speeds"]["bins"]
+                assert wind["source"] == "its lean" and abs((wind["from_deg"] - 250.0 + 180.0) % 360.0 - 180.0) < 20.0
+                assert min(b["ground_speed_m_s"] for b in speeds) < 8.0, speeds  # held back into the wind
     else:
         judge_still_air(flight, fleet)
 

@@ -95,6 +95,11 @@ def test_events_tell_take_offs_the_early_return_and_why_and_landings(flown):
     assert any(line.startswith("UAV") and "detection: positive reading at cell" in line for line in lines)
     _, margins = rec.column("uav/1/range/margin", "Scalars:scalars")
     assert min(v[0] for v in margins) <= 1.0  # the margin ran out: that is what sent it home
+    # the wind estimate beside it: the simulator's still air, read as such, with its uncertainty
+    _, winds = rec.column("uav/1/wind/speed", "Scalars:scalars")
+    _, sigmas = rec.column("uav/1/wind/sigma", "Scalars:scalars")
+    assert winds and len(winds) == len(sigmas) and max(v[0] for v in winds) <= 1.5
+    assert all(v[0] > 0 for v in sigmas)
 
 
 @CLOCK_WORKER
