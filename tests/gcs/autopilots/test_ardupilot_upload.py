@@ -43,38 +43,18 @@ def plans(tmp_path_factory) -> dict[str, Path]:
     return {"copter": SITE.plan(root / "copter"), "plane": PLANE.plan(root / "plane", "--vehicle", "plane")}
 
 
-@pytest.fixture(scope="module")
-def shared_sitl() -> Iterator[Callable[[str], ArduPilotSitl]]:
-    """One SITL per vehicle type, started when first asked for and shared by the upload tests (an
-    upload replaces the whole mission, fence and rally points, and changes nothing else); the
-    tests that share one are in one xdist group, so in one process."""
-    started: dict[str, ArduPilotSitl] = {}
-
-    def get(vehicle: str) -> ArduPilotSitl:
-        if vehicle not in started:
-            started[vehicle] = ArduPilotSitl(vehicle, home=SITES[vehicle].home(0), speedup=SPEEDUP)
-            started[vehicle].start()
-        return started[vehicle]
-
-    yield get
-    for sitl in started.values():
-        sitl.stop()
+async def _ready(link: MavLink) -> None:
+    """Until ArduPilot has a home (its mission storage is ready then; before, it holds 0 items)."""
+    await link.wait_for(1, "HEARTBEAT", timeout_s=30.0)
+    await link.command(1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_HOME_POSITION, 1e6)
+    assert await link.wait_for(1, "HOME_POSITION", timeout_s=30.0) is not None, "the SITL never set its home"
 
 
-@pytest.mark.parametrize("vehicle", ["copter", "plane"])  # one worker runs every SITL test: the shared SITLs hold
-@pytest.mark.parametrize("transport", ["udp", "tcp"])
-def test_planned_mission_uploads_and_reads_back(plans, shared_sitl, vehicle, transport):
-    sitl = shared_sitl(vehicle)
-    conn = sitl.udp_connection if transport == "udp" else sitl.tcp_connection
-    done = _gcs("upload", "--plan", str(plans[vehicle]), "--connect", conn, "--connect-timeout", "30")
-    assert done.returncode == 0, done.stdout + done.stderr
-    plan = json.loads((plans[vehicle] / "plan.json").read_text())
-    landing = 3 if vehicle == "plane" else 1  # DO_LAND_START, approach, NAV_LAND; or NAV_LAND
-    items = 1 + 1 + len(plan["uavs"][0]["waypoints"]) + landing  # home, take-off, waypoints, landing
-    assert plan["uavs"][0]["mission_items"] == items  # what the plan tells the crew before any upload
-    assert f"UAV 1: verified: mission {items} items" in done.stdout
-    assert "fence" in done.stdout and "rally 1 items" in done.stdout
-    assert "1/1 vehicles verified" in done.stdout
+def _waypoints(n: int, frame: int = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT) -> list[WireItem]:
+    lat, lon = SITE.centre
+    home = WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, lat, lon, 0.0)
+    return [home] + [WireItem.at(i, frame, mavlink.MAV_CMD_NAV_WAYPOINT, lat + i * 1e-5, lon, 30.0 + i % 7)
+                     for i in range(1, n)]
 
 
 @pytest.mark.parametrize("vehicle", ["copter", "plane"])
@@ -93,6 +73,51 @@ def test_signed_upload_after_provisioning_and_unsigned_station_told_why(plans, v
         assert unsigned.returncode == 1
         assert "signs its MAVLink messages" in unsigned.stdout and "--signing-key" in unsigned.stdout
     assert "UAV 1: verified: mission" in signed.stdout
+
+
+def test_refusals_are_named_with_the_vehicles_words_and_leave_no_mixed_mission():
+    async def main():
+        with ArduPilotSitl("copter", home=SITE.home(0), speedup=SPEEDUP) as sitl:
+            async with MavLink(sitl.tcp_connection) as link:
+                await _ready(link)
+                good = _waypoints(6)
+                await upload_verified(link, 1, good, Autopilot.ARDUPILOT)
+                with pytest.raises(MissionTransferError) as full:
+                    await upload_verified(link, 1, _waypoints(700), Autopilot.ARDUPILOT)
+                assert full.value.result == mavlink.MAV_MISSION_NO_SPACE and full.value.capacity == 650
+                assert "700 items sent, the vehicle holds at most 650 items" in str(full.value)
+                assert len(await download(link, 1)) == 6  # refused at the COUNT: the old mission is intact
+
+                bad = _waypoints(6)
+                bad[3] = WireItem.at(3, mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_CMD_NAV_WAYPOINT, 1.0, 2.0, 3.0)
+                with pytest.raises(MissionTransferError) as frame:
+                    await upload_verified(link, 1, bad, Autopilot.ARDUPILOT)
+                assert frame.value.result == mavlink.MAV_MISSION_UNSUPPORTED_FRAME
+                assert "MAV_MISSION_UNSUPPORTED_FRAME" in str(frame.value) and "cleared" in str(frame.value)
+                assert len(await download(link, 1)) <= 1  # at most home: items 1-2 new and 3-5 old were not left
+
+    asyncio.run(main())
+
+
+@pytest.fixture(scope="module")
+def shared_sitl() -> Iterator[Callable[[str], ArduPilotSitl]]:
+    """One SITL per vehicle type, started when first asked for and shared by the upload tests (an
+    upload replaces the whole mission, fence and rally points, and changes nothing else); the
+    tests that share one are in one xdist group, so in one process. They are the module's last
+    tests, the plane's last of all: a shared SITL runs (at speed-up 20, some two thirds of a core)
+    until the module ends, and while the signing and refusal tests flew SITLs of their own after
+    them, the two shared ones idled beside those for about 50 s (ci71: some 60 CPU-s)."""
+    started: dict[str, ArduPilotSitl] = {}
+
+    def get(vehicle: str) -> ArduPilotSitl:
+        if vehicle not in started:
+            started[vehicle] = ArduPilotSitl(vehicle, home=SITES[vehicle].home(0), speedup=SPEEDUP)
+            started[vehicle].start()
+        return started[vehicle]
+
+    yield get
+    for sitl in started.values():
+        sitl.stop()
 
 
 def test_a_wildland_fence_too_big_for_the_copter_is_fitted_and_read_back_around_the_area(tmp_path, shared_sitl):
@@ -135,39 +160,17 @@ def test_a_wildland_fence_too_big_for_the_copter_is_fitted_and_read_back_around_
     assert_fence_holds_the_area(area_file, read_back_fence(sitl.tcp_connection), 68)
 
 
-async def _ready(link: MavLink) -> None:
-    """Until ArduPilot has a home (its mission storage is ready then; before, it holds 0 items)."""
-    await link.wait_for(1, "HEARTBEAT", timeout_s=30.0)
-    await link.command(1, mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_HOME_POSITION, 1e6)
-    assert await link.wait_for(1, "HOME_POSITION", timeout_s=30.0) is not None, "the SITL never set its home"
-
-
-def _waypoints(n: int, frame: int = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT) -> list[WireItem]:
-    lat, lon = SITE.centre
-    home = WireItem.at(0, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_CMD_NAV_WAYPOINT, lat, lon, 0.0)
-    return [home] + [WireItem.at(i, frame, mavlink.MAV_CMD_NAV_WAYPOINT, lat + i * 1e-5, lon, 30.0 + i % 7)
-                     for i in range(1, n)]
-
-
-def test_refusals_are_named_with_the_vehicles_words_and_leave_no_mixed_mission():
-    async def main():
-        with ArduPilotSitl("copter", home=SITE.home(0), speedup=SPEEDUP) as sitl:
-            async with MavLink(sitl.tcp_connection) as link:
-                await _ready(link)
-                good = _waypoints(6)
-                await upload_verified(link, 1, good, Autopilot.ARDUPILOT)
-                with pytest.raises(MissionTransferError) as full:
-                    await upload_verified(link, 1, _waypoints(700), Autopilot.ARDUPILOT)
-                assert full.value.result == mavlink.MAV_MISSION_NO_SPACE and full.value.capacity == 650
-                assert "700 items sent, the vehicle holds at most 650 items" in str(full.value)
-                assert len(await download(link, 1)) == 6  # refused at the COUNT: the old mission is intact
-
-                bad = _waypoints(6)
-                bad[3] = WireItem.at(3, mavlink.MAV_FRAME_LOCAL_NED, mavlink.MAV_CMD_NAV_WAYPOINT, 1.0, 2.0, 3.0)
-                with pytest.raises(MissionTransferError) as frame:
-                    await upload_verified(link, 1, bad, Autopilot.ARDUPILOT)
-                assert frame.value.result == mavlink.MAV_MISSION_UNSUPPORTED_FRAME
-                assert "MAV_MISSION_UNSUPPORTED_FRAME" in str(frame.value) and "cleared" in str(frame.value)
-                assert len(await download(link, 1)) <= 1  # at most home: items 1-2 new and 3-5 old were not left
-
-    asyncio.run(main())
+@pytest.mark.parametrize("vehicle", ["copter", "plane"])  # one worker runs every SITL test: the shared SITLs hold
+@pytest.mark.parametrize("transport", ["udp", "tcp"])
+def test_planned_mission_uploads_and_reads_back(plans, shared_sitl, vehicle, transport):
+    sitl = shared_sitl(vehicle)
+    conn = sitl.udp_connection if transport == "udp" else sitl.tcp_connection
+    done = _gcs("upload", "--plan", str(plans[vehicle]), "--connect", conn, "--connect-timeout", "30")
+    assert done.returncode == 0, done.stdout + done.stderr
+    plan = json.loads((plans[vehicle] / "plan.json").read_text())
+    landing = 3 if vehicle == "plane" else 1  # DO_LAND_START, approach, NAV_LAND; or NAV_LAND
+    items = 1 + 1 + len(plan["uavs"][0]["waypoints"]) + landing  # home, take-off, waypoints, landing
+    assert plan["uavs"][0]["mission_items"] == items  # what the plan tells the crew before any upload
+    assert f"UAV 1: verified: mission {items} items" in done.stdout
+    assert "fence" in done.stdout and "rally 1 items" in done.stdout
+    assert "1/1 vehicles verified" in done.stdout
