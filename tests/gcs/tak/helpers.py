@@ -19,6 +19,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import pytest
 from cryptography import x509
 from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
@@ -31,6 +32,9 @@ ROOT = Path(__file__).resolve().parents[3]
 HERE = Path(__file__).resolve().parent
 VENV = ROOT / ".venv-tak"
 PYTHON = VENV / "bin" / "python"
+#: The tests that read from the shared FreeTAKServer (the `tak_server` fixture): one xdist group,
+#: so one worker runs them one after the other and starts the server once, and stops it after them.
+SHARED_TAK_SERVER = pytest.mark.xdist_group("tak")
 START_TIMEOUT_S = 180.0  # it takes 13-30 s here: slack for a machine loaded by other work
 
 

@@ -14,7 +14,7 @@ from datetime import timedelta
 from pathlib import Path
 
 from gcs.plans.plan_folder import load_plan_dir
-from tests.gcs.tak.helpers import MulticastReader, Received, TakClient
+from tests.gcs.tak.helpers import SHARED_TAK_SERVER, MulticastReader, Received, TakClient
 from tests.peers.ports import free_udp_port
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -46,6 +46,7 @@ def _missing(events: list[Received], tracks_only: bool = False) -> list[str]:
     return missing + [item for item in items if not any(e.uid.startswith(f"gcs.square.{item}") for e in events)]
 
 
+@SHARED_TAK_SERVER
 def test_a_simulated_flight_is_on_the_tak_server_as_a_tak_client_sees_it(tak_server, tak_pki, tmp_path):
     certs, _ = tak_pki
     mesh_port = free_udp_port()
@@ -132,6 +133,7 @@ def test_a_simulated_flight_is_on_the_tak_server_as_a_tak_client_sees_it(tak_ser
         assert len(tracks) >= 4 and "stage landed" in tracks[-1].remarks
 
 
+@SHARED_TAK_SERVER
 def test_a_tak_server_killed_mid_flight_costs_one_line_and_every_vehicle_lands(make_tak_server, tak_server, tak_pki,
                                                                                tmp_path):
     """The plain server dies for good mid-flight; a TLS server refuses the certificate from the

@@ -18,7 +18,7 @@ from gcs.tak.destination import TakProtocol, TakTls, check_tls, parse_tak_url
 from gcs.tak.publisher import TakPublisher
 from gcs.tak.sender import close_senders, open_senders
 from gcs.tak.settings import TakSettings
-from tests.gcs.tak.helpers import MulticastReader, TakClient
+from tests.gcs.tak.helpers import SHARED_TAK_SERVER, MulticastReader, TakClient
 from tests.peers.ports import free_port, free_udp_port
 
 
@@ -231,6 +231,7 @@ def test_a_dropped_server_is_said_once_and_gets_the_lasting_items_again():
     assert b'lat="47.0019"' not in second.text  # positions from while it was away were not queued
 
 
+@SHARED_TAK_SERVER
 def test_tls_with_a_client_certificate_on_freetakserver(tak_server, tak_pki, monkeypatch):
     certs, _ = tak_pki
     good = parse_tak_url(f"tls://127.0.0.1:{tak_server.ssl_port}",

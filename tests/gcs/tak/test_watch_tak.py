@@ -13,11 +13,12 @@ from pathlib import Path
 from gcs.bus import FleetBus, parse_broker_url
 from gcs.plans.plan_folder import load_plan_dir
 from tests.gcs.bus.helpers import Mosquitto, ScriptedFleet
-from tests.gcs.tak.helpers import TakClient
+from tests.gcs.tak.helpers import SHARED_TAK_SERVER, TakClient
 
 GCS = str(Path(sys.executable).parent / "gcs")
 
 
+@SHARED_TAK_SERVER
 def test_a_second_station_puts_the_fleet_on_the_bus_on_tak(tak_server, square_plan_dir, tmp_path):
     broker = Mosquitto(tmp_path)
     broker.start()
