@@ -164,17 +164,18 @@ def test_vehicles_that_cannot_arm_stay_on_the_ground_with_their_reasons_while_th
     in its safety configuration, its pre-arm bit stays off): the station never arms it and names
     PX4's own reason after `--ready-timeout`. UAV 1, an ArduCopter, flies meanwhile; the
     operator's `r 1` typed 80 s of its time into its search: it is held, its planned way home is
-    uploaded and flown (not RTL), and it lands at its airport with the order as the reason. The
-    PX4 runs at its own speed-up and never flies. (Until 2026-12-02 three flights of their own:
-    the order on a lone copter, 17 s of the real autopilots' worker, and the PX4's refusal beside
-    an ArduCopter in test_px4_flight.py, 27 s.)"""
+    uploaded and flown (not RTL), and it lands at its airport with the order as the reason. Only
+    UAV 1 flies: UAV 2 runs at speed-up 10 (ready in about 5 s), the PX4 at 5 (its pre-arm reason
+    comes 0.2 s in); with them at 20 and 8 the three took 1.9 cores, 1.6 so. (Until 2026-12-02
+    three flights of their own: the order on a lone copter, 17 s of the real autopilots' worker,
+    and the PX4's refusal beside an ArduCopter in test_px4_flight.py, 27 s.)"""
     plan_dir = NOT_ARMED.plan(tmp_path)
     port = free_udp_port()
     with ExitStack() as stack:
         stack.enter_context(ArduPilotSitl("copter", home=NOT_ARMED.home(0), sysid=1, gcs_port=port, speedup=SPEEDUP))
-        stack.enter_context(ArduPilotSitl("copter", home=NOT_ARMED.home(1), sysid=2, gcs_port=port, speedup=SPEEDUP,
+        stack.enter_context(ArduPilotSitl("copter", home=NOT_ARMED.home(1), sysid=2, gcs_port=port, speedup=10.0,
                                           params={"BATT_ARM_VOLT": 13.0}))  # the sim battery gives 12.6 V
-        px4 = stack.enter_context(Px4Sitl(home=NOT_ARMED.home(2)[:3], sysid=3,
+        px4 = stack.enter_context(Px4Sitl(home=NOT_ARMED.home(2)[:3], sysid=3, speedup=5.0,
                                           params={**STEADY_BATTERY, "COM_ARMABLE": 0}))
         done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection], "--no-rrd", "--arm-timeout", "10",
                    "--ready-timeout", "15", orders=(("UAV 1: search", "r 1", 80.0 / SPEEDUP),))
