@@ -142,15 +142,19 @@ def wind_factor(profile: EnergyProfile, east: ArrayLike, north: ArrayLike, wind_
     (a multicopter's ground speed never above it: its autopilot holds that speed over the ground),
     at most MAX_WIND_FACTOR; 1 for no direction (a zero step). Directions may come as arrays:
     one factor each. `air_speed_m_s`: the most air speed a multicopter makes when its cruise
-    speed over the ground cannot be held (its tilt limit's; the cruise speed by default)."""
+    speed over the ground cannot be held (its tilt limit's), a plane's true air speed (its
+    ground speed in still air, which a metre of its profile is priced at); the cruise speed by
+    default."""
     east, north = np.asarray(east, dtype=float), np.asarray(north, dtype=float)
     length = np.hypot(east, north)
-    speed = profile.cruise_speed_m_s
-    air = speed if air_speed_m_s is None else max(speed, air_speed_m_s)
+    copter = profile.airframe is Airframe.COPTER
+    air = profile.cruise_speed_m_s if air_speed_m_s is None else air_speed_m_s
+    speed = profile.cruise_speed_m_s if copter else air
+    air = max(speed, air) if copter else air
     along = (east * wind_m_s[0] + north * wind_m_s[1]) / np.where(length > 0, length, 1.0)
     across2 = wind_m_s[0] ** 2 + wind_m_s[1] ** 2 - along * along
     ground = along + np.sqrt(np.maximum(air * air - across2, 0.0))
-    if profile.airframe is Airframe.COPTER:
+    if copter:
         ground = np.minimum(ground, speed)
     blocked = (across2 >= air * air) | (ground * MAX_WIND_FACTOR <= speed)
     factor = np.where(length == 0, 1.0, np.where(blocked, MAX_WIND_FACTOR, speed / np.where(blocked, 1.0, ground)))

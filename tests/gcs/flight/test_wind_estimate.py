@@ -82,3 +82,34 @@ def test_a_return_only_a_young_estimate_asks_for_is_put_off(plan, sigma, young):
         assert decision.must_return == (decision.fuel.must_return and not decision.deferred)
         deferred += decision.deferred
     assert (deferred > 0) == young
+
+
+@pytest.mark.parametrize("wind", [(0.0, 0.0), (-8.0, 0.0)])
+def test_a_plane_s_metre_is_priced_against_its_true_air_speed(wind):
+    """ArduPlane SITL flies 23.4 m/s through the air at its 22 indicated (docs/energy.md): in still
+    air every way costs what its profile says, in a wind a way costs that air speed over what it
+    makes good, whether flown or not."""
+    from gcs.flight.fuel import FuelGauge
+    from gcs.plans.vehicle_file import STOCK_PROFILES
+    from planner.energy import Airframe
+
+    gauge = FuelGauge(STOCK_PROFILES[("ardupilot", Airframe.PLANE)])
+    if any(wind):
+        gauge.set_wind(*wind)
+    t = 0.0
+    gauge.moved(t, 0.0, 0.0, FlightPhase.CRUISE)
+    def made_good(towards: float) -> float:
+        east, north = _towards(towards)
+        along = east * wind[0] + north * wind[1]
+        return along + math.sqrt(23.4 ** 2 - (wind[0] ** 2 + wind[1] ** 2 - along ** 2))
+
+    for towards in (0.0, 90.0, 180.0):  # never west (with the wind)
+        east, north = _towards(towards)
+        ground = (made_good(towards) * east, made_good(towards) * north)
+        for _ in range(40):
+            t += 0.5
+            gauge.moved(t, ground[0] * 0.5, ground[1] * 0.5, FlightPhase.CRUISE)
+            gauge.steady(t, ground, 0.5, FlightPhase.CRUISE)
+    assert gauge.headings.cruise_speed_m_s == pytest.approx(23.4, abs=0.01)
+    for towards in (0.0, 90.0, 180.0, 270.0):
+        assert gauge.factor(*_towards(towards)) == pytest.approx(23.4 / made_good(towards), rel=0.02), towards
