@@ -155,25 +155,22 @@ def test_a_vehicle_whose_charge_cannot_pay_for_its_plan_stays_on_the_ground_nami
     assert grounded["end"] == "failed" and grounded["note"].startswith("not armed: charge 100% = 1800 mAh pays for")
 
 
-def test_a_range_cut_to_the_charge_that_cannot_fly_its_shortest_way_out_and_home_is_not_flown(tmp_path):
-    """`--fit-charge` flies a range cut to the charge, but not one shorter than the plan's first
-    step and the way home from it: UAV 2's 1800 mAh would fly a loop its charge does not pay for."""
+def test_a_range_cut_that_cannot_fly_its_shortest_way_out_and_home_is_not_flown_and_a_copter_down_away_is_reported(
+        tmp_path):
+    """One flight for two checks (a SITL start fewer). `--fit-charge` flies a range cut to the
+    charge, but not one shorter than the plan's first step and the way home from it: UAV 2's
+    1800 mAh would fly a loop its charge does not pay for, and stays down. UAV 1's GPS fails once
+    it is 150 m from its airport, searching: ArduCopter's EKF failsafe lands it where it is, and
+    the station reports it for its crew to fetch."""
     require_ardupilot()
     fleet = [Vehicle(), Vehicle(params={"BATT_CAPACITY": 1800}), Vehicle()]
-    flight = fly_fleet(tmp_path, FIELD_COPTERS_SHORT, fleet, "--fit-charge")
+    flight = fly_fleet(tmp_path, FIELD_COPTERS_SHORT, fleet, "--fit-charge",
+                       inject=(1, 150.0, {"SIM_GPS1_ENABLE": 0.0}))
     out = flight.stdout
     assert re.search(r"UAV 2: failed - not armed: charge 100% = 1800 mAh pays for \d+ m of its plan's \d+ m .*, less "
                      r"than its shortest way out and home \(\d+ m\)", out), out[-3000:]
-    assert flight.returncode == 1 and not flight.flown[2].armed_seen
-    assert flight.verdicts[1].landed_m is not None and flight.verdicts[3].landed_m is not None, out[-4000:]
-
-
-def test_a_copter_that_comes_down_away_from_its_airport_is_reported_for_its_crew(tmp_path):
-    """Its GPS fails once it is 150 m from its airport, searching: ArduCopter's EKF failsafe lands
-    it where it is."""
-    require_ardupilot()
-    flight = fly_fleet(tmp_path, FIELD_COPTERS_SHORT, [Vehicle()] * 3, "--fit-charge",
-                       inject=(1, 150.0, {"SIM_GPS1_ENABLE": 0.0}))
-    out = flight.stdout
+    assert not flight.flown[2].armed_seen
     assert "UAV 1: landed away - LANDED AWAY at" in out and "fetch it" in out, out[-3000:]
-    assert flight.returncode == 1 and "LANDED AWAY: UAV 1" in out
+    assert "LANDED AWAY: UAV 1" in out
+    assert flight.verdicts[3].landed_m is not None, out[-4000:]
+    assert flight.returncode == 1
