@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 
 import numpy as np
@@ -120,7 +120,6 @@ class FuelGauge:
         self.capacity_mah = profile.capacity_mah
         self.prior_weight_m = prior_weight_m
         self.settle_s = settle_s
-        self.wind_m_s: tuple[float, float] | None = None
         self.wind: WindEstimate | None = None
         self.headings = HeadingSpeeds(profile.cruise_speed_m_s)
         self.max_air_speed_m_s: float | None = None  # a multicopter's at its tilt limit, where its lean shows it
@@ -164,15 +163,19 @@ class FuelGauge:
         component, where it came from. A wind of 0 is no report (ArduCopter sends 0 when it
         estimates none)."""
         if math.isfinite(east_m_s) and math.isfinite(north_m_s) and (east_m_s or north_m_s):
-            self.wind = WindEstimate(float(east_m_s), float(north_m_s), sigma_m_s, source)
-            if self.wind_m_s != self.wind.vector:
-                self.wind_m_s = self.wind.vector
+            before, self.wind = self.wind_m_s, WindEstimate(float(east_m_s), float(north_m_s), sigma_m_s, source)
+            if before != self.wind.vector:
                 self._refit()
 
     def clear_wind(self) -> None:
         """Still air after all (a vehicle's own reading replacing an earlier one)."""
-        self.wind_m_s = self.wind = None
+        self.wind = None
         self._refit()
+
+    @property
+    def wind_m_s(self) -> tuple[float, float] | None:
+        """(east, north) m/s the air moves towards, as known; None in still air."""
+        return None if self.wind is None else self.wind.vector
 
     def set_max_air_speed(self, speed_m_s: float) -> None:
         """The most air speed a multicopter has been seen to make (at its tilt limit, the most
@@ -182,19 +185,20 @@ class FuelGauge:
             if self.wind_m_s is not None:
                 self._refit()
 
-    def in_wind(self, wind_m_s: tuple[float, float] | None) -> FuelGauge:
+    def in_wind(self, wind_m_s: tuple[float, float]) -> FuelGauge:
         """This gauge as it would price a way in another wind (a copy: this one is unchanged)."""
         other = copy.copy(self)
-        other.wind_m_s = wind_m_s if wind_m_s is None or any(wind_m_s) else None
+        other.wind = replace(self.wind, east_m_s=wind_m_s[0], north_m_s=wind_m_s[1]) \
+            if self.wind is not None and any(wind_m_s) else None
         other._fit = other._rate = None
         return other
 
     def steady(self, time_s: float, velocity_m_s: tuple[float, float], seconds: float, phase: FlightPhase) -> None:
         """`seconds` of steady flight at `velocity_m_s` (east, north) over the ground, ending at
         `time_s`: cruise teaches what the vehicle makes good in its direction."""
-        if phase is FlightPhase.CRUISE and self._settled(time_s):
+        if phase is FlightPhase.CRUISE and self._settled(time_s) and 0 < seconds < 5.0:
             version = self.headings.version
-            if self.profile.airframe is Airframe.PLANE and 0 < seconds < 5.0:
+            if self.profile.airframe is Airframe.PLANE:
                 self._true_air_speed(velocity_m_s, seconds)
             self.headings.add(*velocity_m_s, seconds)
             if self.headings.version != version:

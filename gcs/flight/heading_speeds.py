@@ -47,7 +47,7 @@ class HeadingSpeeds:
     def add(self, east_m_s: float, north_m_s: float, seconds: float) -> None:
         """`seconds` of steady flight at this velocity over the ground."""
         speed = math.hypot(east_m_s, north_m_s)
-        if speed < MIN_SPEED_M_S or not (0 < seconds < 5.0) or not math.isfinite(speed):
+        if speed < MIN_SPEED_M_S or not math.isfinite(speed):
             return
         b = round(math.degrees(math.atan2(east_m_s, north_m_s)) % 360.0 / (360.0 / BINS)) % BINS
         first = self.seconds[b] == 0

@@ -27,8 +27,7 @@ from collections import deque
 
 from gcs.telemetry.wind import WindEstimate
 
-__all__ = ["CALM_M_S", "LEAN_EXPONENT", "LeanWind", "MAX_ACCELERATION_M_S2", "MIN_SAMPLES", "WINDOW", "is_calm",
-           "thrust_lean"]
+__all__ = ["LEAN_EXPONENT", "LeanWind", "MAX_ACCELERATION_M_S2", "MIN_SAMPLES", "WINDOW", "thrust_lean"]
 
 #: p of the module docstring
 LEAN_EXPONENT = 4.0 / 3.0
@@ -36,9 +35,6 @@ LEAN_EXPONENT = 4.0 / 3.0
 #: Samples (ATTITUDE at 2 Hz: 3 s) before the wind is estimated, and the last ones it is the mean of (30 s)
 MIN_SAMPLES = 6
 WINDOW = 60
-
-#: An estimate slower than this, or than two of its standard deviations, is still air
-CALM_M_S = 1.0
 
 #: Samples whose ground velocity changed faster than this over the second before are left out
 MAX_ACCELERATION_M_S2 = 0.6
@@ -112,14 +108,9 @@ class LeanWind:
 
     @property
     def wind_m_s(self) -> tuple[float, float] | None:
-        """(east, north) m/s the air moves towards, (0, 0) for still air (under CALM_M_S or two of
-        its standard deviations); None before MIN_SAMPLES."""
+        """(east, north) m/s the air moves towards, (0, 0) for still air (`WindEstimate.calm`); None
+        before MIN_SAMPLES."""
         estimate = self.estimate
         if estimate is None:
             return None
-        return (0.0, 0.0) if is_calm(estimate) else estimate.vector
-
-
-def is_calm(estimate: WindEstimate) -> bool:
-    """Whether `estimate` cannot be told from still air."""
-    return estimate.speed_m_s < max(CALM_M_S, 2.0 * estimate.sigma_m_s)
+        return (0.0, 0.0) if estimate.calm else estimate.vector

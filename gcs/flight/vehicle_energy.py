@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gcs.flight.fuel import FlightPhase, FuelGauge
-from gcs.flight.lean_wind import MAX_ACCELERATION_M_S2, LeanWind, is_calm, thrust_lean
+from gcs.flight.lean_wind import MAX_ACCELERATION_M_S2, LeanWind, thrust_lean
 from gcs.flight.return_trigger import FuelDecision, confirmed, fuel_decision
 from gcs.flight.vehicle_track import Legs, PlanTrack
 from gcs.links import mavlink
@@ -138,8 +138,7 @@ class VehicleEnergy:
         self._lean = 0.0      # tan of the last tilt
         self._most_lean = 0.0  # and the most it has leant in steady flight
         self._climb_m_s = 0.0
-        self._wind_said: tuple[float, float] | None = None
-        self.deferred_since: float | None = None  # a return the young wind estimate alone asked for, put off
+        self._wind_said: tuple[float, float] | None = None  # the wind last said ((0, 0): still air)
 
     @property
     def uid(self) -> int:
@@ -209,11 +208,12 @@ class VehicleEnergy:
         it changes."""
         st = self.status
         st.wind = estimate
-        if is_calm(estimate):
+        if estimate.calm:
             if self.fuel.wind_m_s is not None and self.crew_wind is None:
                 self.fuel.clear_wind()
-                self._wind_said = None
-                self.notes.append(f"still air after all ({estimate.text()})")
+                if self._wind_said not in (None, (0.0, 0.0)):  # a wind said again only 2 m/s from none
+                    self._wind_said = (0.0, 0.0)
+                    self.notes.append(f"still air after all ({estimate.text()})")
             return
         self.fuel.set_wind(*estimate.vector, sigma_m_s=estimate.sigma_m_s, source=estimate.source)
         said = self._wind_said

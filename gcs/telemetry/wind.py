@@ -13,13 +13,15 @@ from dataclasses import dataclass
 
 from gcs.links import mavlink
 
-__all__ = ["AUTOPILOT_SIGMA_M_S", "CREW_SIGMA_M_S", "YOUNG_SIGMA_M_S", "WindEstimate", "wind_from_message"]
+__all__ = ["AUTOPILOT_SIGMA_M_S", "CALM_M_S", "CREW_SIGMA_M_S", "YOUNG_SIGMA_M_S", "WindEstimate", "wind_from_message"]
 
 #: One standard deviation of a component of ArduPlane's WIND: within 0.5 m/s of SITL's set wind,
 #: yet 1.1-1.4 m/s in SITL's still air (docs/energy.md); two of these is still air
 AUTOPILOT_SIGMA_M_S = 0.75
 #: A crew's hand-held reading at the launch site, taken for the mission altitude
 CREW_SIGMA_M_S = 1.0
+#: An estimate slower than this, or than two of its standard deviations, is still air
+CALM_M_S = 1.0
 #: An estimate less sure than this (m/s, one standard deviation) is young: it does not commit a
 #: return on its own (`gcs.flight.vehicle_energy.VehicleEnergy.evaluate`)
 YOUNG_SIGMA_M_S = 1.0
@@ -47,6 +49,11 @@ class WindEstimate:
     def from_deg(self) -> float:
         """Where it blows from, degrees from north."""
         return math.degrees(math.atan2(-self.east_m_s, -self.north_m_s)) % 360.0
+
+    @property
+    def calm(self) -> bool:
+        """Whether it cannot be told from still air."""
+        return self.speed_m_s < max(CALM_M_S, 2.0 * self.sigma_m_s)
 
     @property
     def young(self) -> bool:

@@ -7,7 +7,6 @@ import math
 import pytest
 
 from gcs.flight.lean_wind import (
-    CALM_M_S,
     FIRM_SAMPLES,
     GRAVITY_M_S2,
     LAW_SIGMA_M_S,
@@ -17,6 +16,7 @@ from gcs.flight.lean_wind import (
     LeanWind,
     thrust_lean,
 )
+from gcs.telemetry.wind import CALM_M_S
 from sim.autopilot.telemetry import COPTER_LEAN_AT_10_M_S, COPTER_LEAN_EXPONENT
 
 L10 = 0.507  # ArduCopter SITL's quad (benchmarks/lean_wind.py, at SITL's wind at 40 m)
