@@ -41,6 +41,26 @@ def _with_profile(**changes) -> dict:
     return data
 
 
+LAST_FLIGHT = {"wind": {"speed_m_s": 7.3, "from_deg": 250.0, "sigma_m_s": 0.6, "source": "its lean"},
+               "heading_speeds": {"cruise_speed_m_s": 10.0,
+                                  "bins": [{"towards_deg": 270.0, "seconds": 45.2, "ground_speed_m_s": 4.04}]}}
+
+
+def _with_last_flight(last_flight: dict) -> dict:
+    """A file of one stock ArduCopter with `last_flight` (the wind it last flew in, issue 38)."""
+    data = vehicles_to_dict({"sysid:1": record("sysid:1", 1)})
+    data["vehicles"]["sysid:1"]["last_flight"] = last_flight
+    return data
+
+
+def test_the_wind_a_vehicle_last_flew_in_round_trips(tmp_path):
+    path = tmp_path / "vehicles.json"
+    path.write_text(json.dumps(_with_last_flight(LAST_FLIGHT)))
+    back = load_vehicles(path)["sysid:1"]
+    assert back.last_flight == LAST_FLIGHT
+    assert vehicles_to_dict({"sysid:1": back})["vehicles"]["sysid:1"]["last_flight"] == LAST_FLIGHT
+
+
 def test_a_file_from_before_cornering_prices_every_path_by_its_metres(tmp_path):
     """A profile written before profiles priced a path by its time: its figure per metre, as then."""
     path = tmp_path / "vehicles.json"
@@ -82,6 +102,9 @@ def test_stock_profiles_cover_every_family():
     (json.dumps(_with_profile(cornering={"accel_m_s2": 1.5, "corner_fractions": [[0, 1.0]]}, moving_mah_per_s=None)),
      "together"),
     (json.dumps(_with_profile(cornering={"accel_m_s2": 1.5, "corner_fractions": [[0, 1.0, 3]]})), "cornering"),
+    (json.dumps(_with_last_flight({"wind": {"speed_m_s": -1, "from_deg": 250, "sigma_m_s": 1, "source": "its lean"},
+                                   "heading_speeds": {"cruise_speed_m_s": 10, "bins": []}})), "last_flight"),
+    (json.dumps(_with_last_flight({"wind": None, "heading_speeds": {"bins": []}})), "cruise_speed_m_s"),
 ])
 def test_a_bad_file_is_one_line_naming_what_is_wrong(tmp_path, text, says):
     path = tmp_path / "vehicles.json"
