@@ -23,7 +23,7 @@ from gcs.links import mavlink
 from gcs.plans.plan_folder import UavTask
 from gcs.telemetry.status import Stage, VehicleStatus, ground_distance_m
 from gcs.telemetry.wind import CREW_SIGMA_M_S, WindEstimate, wind_from_message
-from planner.energy import EnergyProfile
+from planner.energy import Airframe, EnergyProfile
 
 __all__ = ["EnergyAccount", "PlanCharge", "VehicleEnergy"]
 
@@ -51,7 +51,8 @@ STEADY_BASELINE_S = 1.0
 
 #: A multicopter slower than this share of its cruise speed in steady flight is held back by the
 #: wind only where its lean is at its limit: this share of the most it has leant (else it is on a
-#: leg too short to reach its speed, and what it makes there is the profile's cornering)
+#: leg too short to reach its speed, and what it makes there is the profile's cornering; one
+#: whose lean is not read counts only at its cruise speed)
 CRUISE_SHARE = 0.9
 TILT_LIMIT_SHARE = 0.9
 
@@ -255,8 +256,10 @@ class VehicleEnergy:
         if acceleration is None or last_s is None or math.hypot(*acceleration) > MAX_ACCELERATION_M_S2:
             return
         cruise = self.profile.cruise_speed_m_s
-        if self.lean_wind is not None and math.hypot(*velocity) < CRUISE_SHARE * cruise \
-                and not (self._most_lean > 0 and self._lean >= TILT_LIMIT_SHARE * self._most_lean):
+        at_tilt_limit = self.lean_wind is not None and self._most_lean > 0 \
+            and self._lean >= TILT_LIMIT_SHARE * self._most_lean
+        if self.profile.airframe is Airframe.COPTER and math.hypot(*velocity) < CRUISE_SHARE * cruise \
+                and not at_tilt_limit:
             return
         self.fuel.steady(now_s, velocity, now_s - last_s, self.phase)
 
