@@ -110,9 +110,8 @@ def shared_sitl() -> Iterator[Callable[[str], ArduPilotSitl]]:
     started: dict[str, ArduPilotSitl] = {}
 
     def get(vehicle: str) -> ArduPilotSitl:
-        if vehicle not in started:
-            started[vehicle] = ArduPilotSitl(vehicle, home=SITES[vehicle].home(0), speedup=SPEEDUP)
-            started[vehicle].start()
+        if vehicle not in started:  # kept once started: where it cannot be (no peers: a skip), each test says so
+            started[vehicle] = ArduPilotSitl(vehicle, home=SITES[vehicle].home(0), speedup=SPEEDUP).start()
         return started[vehicle]
 
     yield get
