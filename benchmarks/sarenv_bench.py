@@ -1,0 +1,490 @@
+"""SAREnv (Grøntved et al., Drones 2025): its scenarios, its five baselines and gcs, all scored by
+SAREnv's own evaluator (`sarenv.analytics.metrics.PathEvaluator`).
+
+    .venv/bin/pip install -e '.[bench]'
+    .venv/bin/python benchmarks/sarenv_bench.py                       # the eight shipped scenarios
+    .venv/bin/python benchmarks/sarenv_bench.py --ids 1 --drones 2 --budget 8000 --size small
+
+Per scenario (`--datasets DIR/ID/heatmap.npy`, the centre of the id from `--source`'s
+`data/export_all_data.py`), as SAREnv's README and `DatasetLoader.load_environment` place it: the
+master heatmap (30 m bins, row 0 south) centred on the id's point in its UTM zone, cropped to the
+box of the size's circle (Koester's hiker radius: medium 1.8 km on flat temperate ground) with the
+bins outside the circle zeroed, not renormalised. The baselines (Greedy, Spiral, Concentric,
+Pizza, RandomWalk) run with the published runs' parameters; their unseeded generator
+(`np.random.default_rng()`: RandomWalk's steps, Greedy's ties) is seeded with `--seed`.
+
+gcs plans the same scenario through the product: an area file (the circle, one airport per UAV
+at the IPP, the heatmap as its raster prior) planned as `gcs plan --area` plans it, each UAV's
+range its share of the budget, the camera of SAREnv's setting (45 deg FOV at 80 m: a 66.3 m
+swath, so cells of the swath's width and one look per cell flown); its closed paths (IPP -> mission -> IPP, from the
+plan's `paths.geojson`) are projected to the UTM zone and scored like the baselines.
+
+Victims: `--victims` points drawn from the cropped heatmap with `--seed` (SAREnv draws them from
+its features files, which are not shipped), the same for every planner.
+
+SAREnv is not on PyPI and its package `__init__` imports its map generator (osmnx, rasterio, ...):
+its `analytics/metrics.py` and `analytics/paths.py` are loaded by path from `--source` (they need
+numpy, scipy, shapely and geopandas: the `bench` extra)."""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import contextlib
+import csv
+import importlib.util
+import json
+import math
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pyproj
+from shapely.geometry import LineString, Point
+
+ROOT = Path(__file__).resolve().parents[1]
+PEERS = ROOT.parent / "shared" / "peers" / "sarenv"
+DEFAULT_SOURCE = PEERS / "source"
+DEFAULT_DATASETS = PEERS / "datasets"
+SHIPPED_IDS = (1, 3, 4, 6, 7, 9, 12, 14)
+BASELINES = ("Greedy", "Spiral", "Concentric", "Pizza", "RandomWalk")
+RANDOM_BASELINES = ("Greedy", "RandomWalk")
+SIZES = ("small", "medium", "large", "xlarge")
+METRES_PER_BIN = 30
+FOV_DEG = 45.0
+ALTITUDE_M = 80.0
+DISCOUNT = 0.999
+SWATH_M = 2 * ALTITUDE_M * math.tan(math.radians(FOV_DEG / 2))  # 66.3 m on the ground
+CELL_M = SWATH_M  # a cell flown is a cell seen
+GCS_PC = 0.95  # SAREnv's evaluator counts every bin within the swath as seen
+GCS_PF = 0.01
+AIRPORT_GAP_CELLS = 3
+
+
+class BenchError(Exception):
+    """Bad input: one line, no traceback."""
+
+
+@dataclass(frozen=True)
+class Sarenv:
+    """SAREnv's evaluator and baseline generators, loaded from its source tree."""
+
+    metrics: ModuleType
+    paths: ModuleType
+    centres: dict[int, tuple[float, float, str, str]]  # id -> lon, lat, climate, environment type
+    radii_km: dict[tuple[str, str], list[float]]  # (type, climate) -> small, medium, large, xlarge
+    published: dict[tuple[int, str, str, int, int], tuple[float, float]]  # (id, algo, size, n, budget) -> scores
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One SAREnv scenario at one size, in its UTM zone's metres."""
+
+    ident: int
+    size: str
+    lon_deg: float
+    lat_deg: float
+    crs: str
+    centre_xy: tuple[float, float]
+    radius_m: float
+    heatmap: np.ndarray  # [row, col], row 0 south
+    bounds: tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class Score:
+    """One planner's paths on one scenario, as SAREnv's evaluator scores them."""
+
+    algorithm: str
+    likelihood: float
+    discounted: float
+    victims_pct: float
+    length_km: float
+    longest_km: float
+    published: tuple[float, float] | None = None
+    seconds: float = 0.0
+    spread: tuple[float, float] | None = None  # least and greatest likelihood over repeated runs
+
+
+def _load_module(path: Path, name: str) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise BenchError(f"{path}: not a Python module")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _names_as_strings(node: ast.expr, constants: dict[str, str]) -> object:
+    class Names(ast.NodeTransformer):
+        def visit_Name(self, n: ast.Name) -> ast.AST:
+            return ast.Constant(constants.get(n.id, n.id))
+
+    return ast.literal_eval(ast.fix_missing_locations(Names().visit(node)))
+
+
+def load_sarenv(source: Path) -> Sarenv:
+    """SAREnv's evaluator, baselines, dataset centres, radii and published scores from `source`."""
+    needed = [source / "sarenv/analytics/metrics.py", source / "sarenv/analytics/paths.py",
+              source / "sarenv/utils/lost_person_behavior.py", source / "data/export_all_data.py"]
+    missing = [str(p) for p in needed if not p.is_file()]
+    if missing:
+        raise BenchError(f"--source {source}: not SAREnv's source tree (missing {', '.join(missing)})")
+    try:
+        metrics = _load_module(needed[0], "sarenv_metrics")
+    except ImportError as exc:
+        raise BenchError(f"SAREnv's evaluator needs {exc.name}: pip install -e '.[bench]'") from None
+    paths = _load_module(needed[1], "sarenv_paths")
+    behaviour = _load_module(needed[2], "sarenv_lost_person_behavior")
+    constants = {k: v for k, v in vars(behaviour).items() if k.startswith(("CLIMATE_", "ENVIRONMENT_TYPE_"))}
+    points = _names_as_strings(next(
+        n.value for n in ast.parse(needed[3].read_text()).body
+        if isinstance(n, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "points" for t in n.targets)),
+        constants)
+    centres = {int(p[0]): (float(p[1]), float(p[2]), str(p[3]), str(p[4])) for p in points}  # type: ignore[union-attr]
+    radii = {(t, c): behaviour.get_environment_radius(t, c) for t in ("flat", "mountainous")
+             for c in ("temperate", "dry")}
+    published: dict[tuple[int, str, str, int, int], tuple[float, float]] = {}
+    for table in sorted((source / "results").glob("comparative_metrics_results_*.csv")):
+        with table.open(newline="", encoding="utf-8") as f:
+            for row in csv.DictReader(f):
+                key = (int(row["Dataset"]), row["Algorithm"], row["Environment Size"], int(row["n_agents"]),
+                       int(float(row["Budget (m)"])))
+                published[key] = (float(row["Likelihood Score"]), float(row["Time-Discounted Score"]))
+    return Sarenv(metrics, paths, centres, radii, published)
+
+
+def utm_crs(lon_deg: float, lat_deg: float) -> str:
+    """SAREnv's projected CRS: the UTM zone of the point (`sarenv.utils.geo.get_utm_epsg`)."""
+    zone = int((lon_deg + 180) / 6) + 1
+    return f"EPSG:{326 if lat_deg >= 0 else 327}{zone}"
+
+
+def load_scenario(sarenv: Sarenv, datasets: Path, ident: int, size: str) -> Scenario:
+    """Scenario `ident` at `size`, placed and cropped as SAREnv's `DatasetLoader.load_environment` does."""
+    if ident not in sarenv.centres:
+        raise BenchError(f"dataset id {ident} has no centre in the SAREnv source (ids {min(sarenv.centres)}-"
+                         f"{max(sarenv.centres)})")
+    heatmap_file = datasets / str(ident) / "heatmap.npy"
+    if not heatmap_file.is_file():
+        raise BenchError(f"{heatmap_file}: no such heatmap")
+    master = np.load(heatmap_file)
+    if master.ndim != 2 or not np.isfinite(master).all() or master.min() < 0:
+        raise BenchError(f"{heatmap_file}: not a 2-D heatmap of finite non-negative values")
+    lon, lat, climate, kind = sarenv.centres[ident]
+    crs = utm_crs(lon, lat)
+    cx, cy = pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True).transform(lon, lat)
+    h, w = master.shape
+    master_minx, master_miny = cx - w * METRES_PER_BIN / 2, cy - h * METRES_PER_BIN / 2
+    radius_m = sarenv.radii_km[(kind, climate)][SIZES.index(size)] * 1000
+    circle = Point(cx, cy).buffer(radius_m)  # geopandas' buffer: shapely's, 16 segments a quarter
+    minx, miny, maxx, maxy = circle.bounds
+    x0, x1 = np.clip([int((minx - master_minx) / METRES_PER_BIN), int((maxx - master_minx) / METRES_PER_BIN)], 0, w)
+    y0, y1 = np.clip([int((miny - master_miny) / METRES_PER_BIN), int((maxy - master_miny) / METRES_PER_BIN)], 0, h)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    px, py, pr = (cx - master_minx) / METRES_PER_BIN, (cy - master_miny) / METRES_PER_BIN, radius_m / METRES_PER_BIN
+    heatmap = np.where((xx - px) ** 2 + (yy - py) ** 2 <= pr**2, master[y0:y1, x0:x1], 0.0)
+    return Scenario(ident, size, lon, lat, crs, (cx, cy), radius_m, heatmap, (minx, miny, maxx, maxy))
+
+
+def draw_victims(scenario: Scenario, count: int, seed: int) -> np.ndarray:
+    """`count` points (x, y) drawn from the heatmap: a bin by its mass, a point uniform in it."""
+    rng = np.random.default_rng(seed)
+    h, w = scenario.heatmap.shape
+    flat = scenario.heatmap.ravel() / scenario.heatmap.sum()
+    cells = rng.choice(flat.size, size=count, p=flat)
+    rows, cols = np.divmod(cells, w)
+    minx, miny, maxx, maxy = scenario.bounds
+    return np.column_stack([minx + (cols + rng.random(count)) * (maxx - minx) / w,
+                            miny + (rows + rng.random(count)) * (maxy - miny) / h])
+
+
+@contextlib.contextmanager
+def seeded_default_rng(seed: int) -> Iterator[None]:
+    """numpy's `default_rng()` without a seed returns a generator seeded with `seed` (SAREnv's
+    baselines draw from an unseeded one)."""
+    original = np.random.default_rng
+
+    def default_rng(s: object = None) -> np.random.Generator:
+        return original(seed if s is None else s)  # type: ignore[arg-type]
+
+    np.random.default_rng = default_rng  # type: ignore[assignment]
+    try:
+        yield
+    finally:
+        np.random.default_rng = original  # type: ignore[assignment]
+
+
+def baseline_paths(sarenv: Sarenv, scenario: Scenario, name: str, drones: int, budget_m: float,
+                   seed: int) -> list[LineString]:
+    """The paths of SAREnv baseline `name`, called as its published runs called it
+    (`PathGeneratorConfig` defaults: overlap 0, 10 m point spacing, 50 m transition, 15 m border gap)."""
+    functions = {"Greedy": "generate_greedy_path", "Spiral": "generate_spiral_path",
+                 "Concentric": "generate_concentric_circles_path", "Pizza": "generate_pizza_zigzag_path",
+                 "RandomWalk": "generate_random_walk_path"}
+    params = dict(center_x=scenario.centre_xy[0], center_y=scenario.centre_xy[1], max_radius=scenario.radius_m,
+                  probability_map=scenario.heatmap, bounds=scenario.bounds, num_drones=drones, budget=budget_m,
+                  fov_deg=FOV_DEG, altitude=ALTITUDE_M, overlap=0, path_point_spacing_m=10.0,
+                  transition_distance_m=50.0, border_gap_m=15.0)
+    with seeded_default_rng(seed):
+        return list(getattr(sarenv.paths, functions[name])(**params))
+
+
+def score(sarenv: Sarenv, scenario: Scenario, victims_xy: np.ndarray, name: str, paths: list[LineString],
+          published: tuple[float, float] | None = None, seconds: float = 0.0) -> Score:
+    """`paths` scored by SAREnv's `PathEvaluator` as its published runs scored theirs."""
+    import geopandas as gpd
+
+    victims = gpd.GeoDataFrame(geometry=gpd.points_from_xy(victims_xy[:, 0], victims_xy[:, 1]), crs=scenario.crs)
+    evaluator = sarenv.metrics.PathEvaluator(scenario.heatmap, scenario.bounds, victims, FOV_DEG, ALTITUDE_M,
+                                             METRES_PER_BIN)
+    m = evaluator.calculate_all_metrics(paths, DISCOUNT)
+    longest = max((p.length for p in paths), default=0.0) / 1000
+    return Score(name, float(m["total_likelihood_score"]), float(m["total_time_discounted_score"]),
+                 float(m["victim_detection_metrics"]["percentage_found"]), float(m["total_path_length"]), longest,
+                 published, seconds)
+
+
+def area_file_for(scenario: Scenario, drones: int, budget_m: float, cell_m: float = CELL_M) -> dict:
+    """The scenario as a gcs area file (GeoJSON dict): the size's circle, one airport per UAV
+    around the IPP (`ipp_offsets_m`), each with its share of the budget less its way to the IPP
+    and back."""
+    to_lonlat = pyproj.Transformer.from_crs(scenario.crs, "EPSG:4326", always_xy=True)
+    cx, cy = scenario.centre_xy
+    ring = np.asarray(Point(cx, cy).buffer(scenario.radius_m, quad_segs=32).exterior.coords)
+    lon, lat = to_lonlat.transform(ring[:, 0], ring[:, 1])
+    offsets = ipp_offsets_m(drones, cell_m)
+    features = [{"type": "Feature", "properties": {"role": "area", "name": f"SAREnv {scenario.ident} {scenario.size}"},
+                 "geometry": {"type": "Polygon", "coordinates": [[[float(a), float(b)] for a, b in zip(lon, lat)]]}}]
+    for i, (dx, dy, heading) in enumerate(offsets):
+        share = budget_m / drones - 2 * math.hypot(dx, dy)
+        alon, alat = to_lonlat.transform(cx + dx, cy + dy)
+        features.append({"type": "Feature", "properties": {
+            "role": "airport", "name": f"IPP {i + 1}", "heading": heading, "range_m": share, "altitude_m": ALTITUDE_M},
+            "geometry": {"type": "Point", "coordinates": [alon, alat]}})
+    return {"type": "FeatureCollection", "name": f"sarenv-{scenario.ident}-{scenario.size}",
+            "properties": {"cell_size_m": cell_m}, "features": features}
+
+
+def ipp_offsets_m(drones: int, cell_m: float = CELL_M) -> list[tuple[float, float, float]]:
+    """Where each UAV's airport lies from the IPP (east, north metres) and its heading (degrees
+    from north, outward): on a ring at least `AIRPORT_GAP_CELLS` cells apart (the planner keeps
+    two UAVs out of one cell at every step, airports and ways home included). A path flies IPP ->
+    airport first and airport -> IPP last, paid from its share of the budget."""
+    if drones == 1:
+        return [(0.0, 0.0, 0.0)]
+    radius = math.ceil(AIRPORT_GAP_CELLS / 2 / math.sin(math.pi / drones)) * cell_m
+    out = []
+    for i in range(drones):
+        angle = 2 * math.pi * i / drones
+        out.append((radius * math.cos(angle), radius * math.sin(angle), (90.0 - math.degrees(angle)) % 360))
+    return out
+
+
+def resample_heatmap(scenario: Scenario, area_grid: object) -> np.ndarray:
+    """The heatmap's mass on the planner's grid (`AreaGrid`): every bin's mass to the cell holding its centre."""
+    h, w = scenario.heatmap.shape
+    minx, miny, maxx, maxy = scenario.bounds
+    rows, cols = np.nonzero(scenario.heatmap > 0)
+    x = minx + (cols + 0.5) * (maxx - minx) / w
+    y = miny + (rows + 0.5) * (maxy - miny) / h
+    lon, lat = pyproj.Transformer.from_crs(scenario.crs, "EPSG:4326", always_xy=True).transform(x, y)
+    east, north = area_grid.frame.geodetic2local(lat, lon)  # type: ignore[attr-defined]
+    g = area_grid.grid  # type: ignore[attr-defined]
+    gx = np.clip(np.floor((east - g.east0_m) / g.cell_size_m).astype(int), 0, g.nx - 1)
+    gy = np.clip(np.floor((north - g.north0_m) / g.cell_size_m).astype(int), 0, g.ny - 1)
+    mass = np.zeros(g.shape)
+    np.add.at(mass, (gx, gy), scenario.heatmap[rows, cols])
+    return mass
+
+
+@dataclass(frozen=True)
+class GcsSettings:
+    """How gcs plans a SAREnv scenario: its cell size, sensor and search strategy."""
+
+    cell_m: float = CELL_M
+    pc: float = GCS_PC
+    pf: float = GCS_PF
+    strategy: str = "cpio"
+    np_steps: int = 5
+
+
+def plan_gcs(scenario: Scenario, drones: int, budget_m: float, seed: int, out_dir: Path,
+             settings: GcsSettings = GcsSettings()) -> list[LineString]:
+    """gcs's closed paths (IPP -> mission -> IPP) in the scenario's UTM metres."""
+    from gcs.plans.make import fly_with_progress
+    from gcs.plans.options import AreaOptions, SearchOptions
+    from gcs.plans.planning import area_outputs, build_area_search
+    from planner.campaign import Belief
+    from planner.environment import SearchMap
+
+    area = area_file_for(scenario, drones, budget_m, settings.cell_m)
+    area_path = out_dir / f"{area['name']}.geojson"
+    area_path.write_text(json.dumps(area))
+    options = AreaOptions(altitude_m=ALTITUDE_M, speed_m_s=12.0)
+    search = SearchOptions(seed=seed, pc=settings.pc, pf=settings.pf, strategy=settings.strategy,
+                           np_steps=settings.np_steps)
+    setup = build_area_search(area_path, options, search)
+    mass = resample_heatmap(scenario, setup.area)
+    tep = mass / mass.max()
+    prior = SearchMap(tep, tep.copy(), setup.search.scenario.search_map.no_fly.copy())
+    setup = setup.for_belief(Belief.prior(prior), seed)
+    plan = fly_with_progress(setup.search, progress=False)
+    files = area_outputs(setup, plan, seed, options.speed_m_s)
+    to_utm = pyproj.Transformer.from_crs("EPSG:4326", scenario.crs, always_xy=True)
+    paths = []
+    cx, cy = scenario.centre_xy
+    for feature in json.loads(files["paths.geojson"])["features"]:
+        coords = np.asarray(feature["geometry"]["coordinates"])
+        x, y = to_utm.transform(coords[:, 0], coords[:, 1])
+        points = [(cx, cy), *zip(x.tolist(), y.tolist()), (cx, cy)]
+        paths.append(LineString(points))
+    (out_dir / "plan.json").write_text(files["plan.json"])
+    if len(paths) != drones:
+        raise BenchError(f"scenario {scenario.ident}: gcs flew {len(paths)} of {drones} UAVs")
+    return paths
+
+
+def run_scenario(sarenv: Sarenv, scenario: Scenario, drones: int, budget_m: float, seed: int, victims: int,
+                 baselines: tuple[str, ...] = BASELINES, settings: GcsSettings = GcsSettings(),
+                 repeats: int = 1) -> list[Score]:
+    """Every baseline and gcs on one scenario, scored by SAREnv's evaluator; a baseline that draws
+    random numbers (`RANDOM_BASELINES`) runs `repeats` times (seeds seed, seed + 1, ...) and scores
+    their mean, its likelihood's least and greatest kept in `spread`."""
+    victims_xy = draw_victims(scenario, victims, seed)
+    scores = []
+    for name in baselines:
+        runs = []
+        for k in range(repeats if name in RANDOM_BASELINES else 1):
+            t0 = time.process_time()
+            paths = baseline_paths(sarenv, scenario, name, drones, budget_m, seed + k)
+            runs.append(score(sarenv, scenario, victims_xy, name, paths, seconds=time.process_time() - t0))
+        published = sarenv.published.get((scenario.ident, name, scenario.size, drones, int(budget_m)))
+        likelihoods = [r.likelihood for r in runs]
+        scores.append(Score(name, float(np.mean(likelihoods)), float(np.mean([r.discounted for r in runs])),
+                            float(np.mean([r.victims_pct for r in runs])), float(np.mean([r.length_km for r in runs])),
+                            max(r.longest_km for r in runs), published, float(np.mean([r.seconds for r in runs])),
+                            (min(likelihoods), max(likelihoods)) if len(runs) > 1 else None))
+    t0 = time.process_time()
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = plan_gcs(scenario, drones, budget_m, seed, Path(tmp), settings)
+    scores.append(score(sarenv, scenario, victims_xy, "gcs", paths, None, time.process_time() - t0))
+    return scores
+
+
+def likelihood_bound(scenario: Scenario, drones: int, budget_m: float) -> float:
+    """No paths of `budget_m` metres in all score a higher likelihood under SAREnv's evaluator:
+    the mass of the richest bins as many as they can see. A bin is seen when its centre lies within
+    the detection radius (33.1 m) of the path; a straight path along a row of bin centres sees 3
+    bins each 30 m, the most of any direction (a strip 66.3 m wide holds at most 3 rows of
+    centres 30 m apart, 4 rows 21.2 m apart along a diagonal: 4 / 42.4 m), so at most 0.1 bins a
+    metre, and each path's first point sees at most 5 (radius / 30 m < 1.11)."""
+    radius = ALTITUDE_M * math.tan(math.radians(FOV_DEG / 2))
+    reach = math.floor(radius / METRES_PER_BIN)
+    first = sum(1 for i in range(-reach, reach + 1) for j in range(-reach, reach + 1)
+                if math.hypot(i, j) * METRES_PER_BIN <= radius)
+    bins = math.ceil(budget_m * 3 / METRES_PER_BIN) + drones * first
+    return float(np.sort(scenario.heatmap.ravel())[::-1][:bins].sum())
+
+
+@dataclass(frozen=True)
+class Ratios:
+    """gcs over the best baseline per scenario: likelihood and time-discounted score."""
+
+    likelihood: list[float]
+    discounted: list[float]
+
+    def line(self) -> str:
+        def fmt(r: list[float]) -> str:
+            return f"mean {np.mean(r):.2f}x, min {np.min(r):.2f}x"
+
+        return f"gcs vs the best baseline: likelihood {fmt(self.likelihood)}; time-discounted {fmt(self.discounted)}"
+
+
+def ratios(results: dict[int, list[Score]]) -> Ratios:
+    like, disc = [], []
+    for scores in results.values():
+        gcs = next(s for s in scores if s.algorithm == "gcs")
+        base = [s for s in scores if s.algorithm != "gcs"]
+        like.append(gcs.likelihood / max(s.likelihood for s in base))
+        disc.append(gcs.discounted / max(s.discounted for s in base))
+    return Ratios(like, disc)
+
+
+def table(results: dict[int, list[Score]], bounds: dict[int, float], drones: int, budget_m: float) -> str:
+    head = (f"{'id':>3} {'planner':<11} {'likelihood':>10} {'published':>9} {'diff':>6} {'discounted':>10} "
+            f"{'published':>9} {'victims %':>9} {'km':>6} {'longest km':>10} {'CPU s':>6}")
+    lines = [head]
+    for ident, scores in results.items():
+        for s in scores:
+            pub_l = pub_d = diff = ""
+            if s.published is not None:
+                pub_l, pub_d = f"{s.published[0]:.4f}", f"{s.published[1]:.5f}"
+                diff = f"{100 * (s.likelihood / s.published[0] - 1):+.1f}%"
+            spread = "" if s.spread is None else f"  ({s.spread[0]:.4f}-{s.spread[1]:.4f})"
+            lines.append(f"{ident:>3} {s.algorithm:<11} {s.likelihood:>10.4f} {pub_l:>9} {diff:>6} "
+                         f"{s.discounted:>10.5f} {pub_d:>9} {s.victims_pct:>9.0f} {s.length_km:>6.1f} "
+                         f"{s.longest_km:>10.2f} {s.seconds:>6.1f}{spread}")
+        if ident in bounds:
+            lines.append(f"{ident:>3} {'bound':<11} {bounds[ident]:>10.4f}")
+    lines.append(f"({drones} UAVs, {budget_m:g} m in all, {budget_m / drones:g} m each; published: SAREnv's "
+                 "results/*.csv where it has the same runs; Greedy and RandomWalk: the mean of --repeats seeds, "
+                 "their least and greatest likelihood in brackets; bound: the most any paths of the budget can "
+                 "see, likelihood_bound)")
+    return "\n".join(lines)
+
+
+def parse_ids(text: str) -> tuple[int, ...]:
+    try:
+        ids = tuple(int(part) for part in text.split(",") if part.strip())
+    except ValueError:
+        raise BenchError(f"--ids must be comma-separated dataset ids, got {text!r}") from None
+    if not ids:
+        raise BenchError("--ids names no dataset")
+    return ids
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawTextHelpFormatter)
+    parser.add_argument("--datasets", type=Path, default=DEFAULT_DATASETS, help="folder of ID/heatmap.npy")
+    parser.add_argument("--source", type=Path, default=DEFAULT_SOURCE, help="SAREnv's source tree")
+    parser.add_argument("--ids", default=",".join(map(str, SHIPPED_IDS)), help="dataset ids, comma-separated")
+    parser.add_argument("--drones", type=int, default=5)
+    parser.add_argument("--budget", type=float, default=100_000, help="metres in all, shared by the UAVs")
+    parser.add_argument("--size", choices=SIZES, default="medium")
+    parser.add_argument("--victims", type=int, default=100)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--baselines", default=",".join(BASELINES), help="SAREnv baselines to run, comma-separated")
+    parser.add_argument("--repeats", type=int, default=5, help="runs (seeds) of the baselines that draw random numbers")
+    args = parser.parse_args(argv)
+    try:
+        ids = parse_ids(args.ids)
+        if args.drones < 1 or not (args.budget > 0) or args.victims < 1 or args.repeats < 1:
+            raise BenchError("--drones, --budget, --victims and --repeats must be positive")
+        chosen = tuple(b for b in args.baselines.split(",") if b)
+        unknown = sorted(set(chosen) - set(BASELINES))
+        if unknown or not chosen:
+            raise BenchError(f"--baselines: unknown {', '.join(unknown) or 'none given'} (of {', '.join(BASELINES)})")
+        sarenv = load_sarenv(args.source)
+        scenarios = [load_scenario(sarenv, args.datasets, ident, args.size) for ident in ids]
+        results, bounds = {}, {}
+        for scenario in scenarios:
+            results[scenario.ident] = run_scenario(sarenv, scenario, args.drones, args.budget, args.seed, args.victims,
+                                                   chosen, repeats=args.repeats)
+            bounds[scenario.ident] = likelihood_bound(scenario, args.drones, args.budget)
+    except BenchError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(table(results, bounds, args.drones, args.budget))
+    print(ratios(results).line())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
