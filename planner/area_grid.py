@@ -117,11 +117,19 @@ def units_m(units: float, cell_size_m: float, costs: MoveCosts = AREA_MOVE_COSTS
     return units * cell_size_m / costs.straight
 
 
-def airport_cell(area: AreaGrid, east_m: float, north_m: float, label: str) -> tuple[int, int]:
-    """The free cell an airport flies from: the cell holding it, or else the free cell among its
-    eight neighbours with the nearest centre (the straight leg from the airport to the chosen
-    centre must be safe either way). An airport on the area's edge is inside it (to within
-    LEG_TOLERANCE_M, the round-off of a point drawn on the edge).
+#: How far (in cells, on each axis) from the cell holding an airport a UAV may be given its own
+#: cell when the nearer ones are blocked or taken by UAVs launched from the same point.
+AIRPORT_REACH_CELLS = 2
+
+
+def airport_cell(area: AreaGrid, east_m: float, north_m: float, label: str,
+                 taken: frozenset[tuple[int, int]] | set[tuple[int, int]] = frozenset()) -> tuple[int, int]:
+    """The free cell an airport flies from: the cell holding it, or else the free cell with the
+    nearest centre within AIRPORT_REACH_CELLS of it (the straight leg from the airport to the
+    chosen centre must be safe either way). Cells in `taken` (those of UAVs already launched from
+    this or another airport) are skipped: several UAVs may launch from one point, each from its
+    own cell, so no two share a cell at step 0. An airport on the area's edge is inside it (to
+    within LEG_TOLERANCE_M, the round-off of a point drawn on the edge).
 
     ValueError when the airport is outside the area, in a no-fly zone, or has no such cell."""
     point = Point(east_m, north_m)
@@ -135,15 +143,22 @@ def airport_cell(area: AreaGrid, east_m: float, north_m: float, label: str) -> t
     x0 = min(max(math.floor((east_m - g.east0_m) / g.cell_size_m), 0), g.nx - 1)
     y0 = min(max(math.floor((north_m - g.north0_m) / g.cell_size_m), 0), g.ny - 1)
     options = []
-    for dx in (-1, 0, 1):
-        for dy in (-1, 0, 1):
+    reach = range(-AIRPORT_REACH_CELLS, AIRPORT_REACH_CELLS + 1)
+    for dx in reach:
+        for dy in reach:
             x, y = x0 + dx, y0 + dy
-            if 0 <= x < area.grid.nx and 0 <= y < area.grid.ny and area.free[x, y]:
+            if 0 <= x < area.grid.nx and 0 <= y < area.grid.ny and area.free[x, y] and (x, y) not in taken:
+                if max(abs(dx), abs(dy)) > 1 and not taken:
+                    continue
                 ce, cn = area.grid.centre_m(x, y)
                 leg = shapely.LineString([(east_m, north_m), (float(ce), float(cn))])
                 if area.legs_m.covers(leg):
                     options.append(((dx, dy) != (0, 0), math.hypot(ce - east_m, cn - north_m), x, y))
     if not options:
+        if taken:
+            raise ValueError(f"{label}: no free cell within {AIRPORT_REACH_CELLS} cells of cell ({x0 + 1}, {y0 + 1}) "
+                             f"is left for it (the UAVs launched there before it took them); move the airport or "
+                             f"use a smaller cell size")
         raise ValueError(f"{label} is in cell ({x0 + 1}, {y0 + 1}), which the grid blocks (its centre is outside "
                          f"the area or too close to an edge), and no neighbouring cell is reachable; move the "
                          f"airport inward or use a smaller cell size")
@@ -160,11 +175,13 @@ class PriorCells:
     eu: float
 
 
-def area_search_map(area: AreaGrid, priors: list[PriorCells], default_tep: float, default_eu: float) -> SearchMap:
-    """TEP/EU maps: the defaults, then each prior region in order (later regions win where they
-    overlap); cells not free are blocked (the planner's no-fly mask)."""
-    tep = np.full(area.grid.shape, float(default_tep))
-    eu = np.full(area.grid.shape, float(default_eu))
+def area_search_map(area: AreaGrid, priors: list[PriorCells], default_tep: float, default_eu: float,
+                    base: np.ndarray | None = None) -> SearchMap:
+    """TEP/EU maps: the defaults (or `base`, a mass prior's TEP, for both), then each prior region
+    in order (later regions win where they overlap); cells not free are blocked (the planner's
+    no-fly mask)."""
+    tep = np.full(area.grid.shape, float(default_tep)) if base is None else np.array(base, dtype=np.float64)
+    eu = np.full(area.grid.shape, float(default_eu)) if base is None else np.array(base, dtype=np.float64)
     for prior in priors:
         inside = cells_inside(prior.geometry_m, area.grid)
         tep[inside] = prior.tep
@@ -174,10 +191,10 @@ def area_search_map(area: AreaGrid, priors: list[PriorCells], default_tep: float
 
 def area_scenario(name: str, area: AreaGrid, priors: list[PriorCells], uavs: list[UavSpec],
                   targets_m: list[tuple[float, float]], default_tep: float, default_eu: float,
-                  sensor: Sensor) -> Scenario:
+                  sensor: Sensor, base: np.ndarray | None = None) -> Scenario:
     """The planner scenario of an area; targets are local points (placed in their cell). UAV
-    ranges are in `AREA_MOVE_COSTS` units (`range_units`)."""
+    ranges are in `AREA_MOVE_COSTS` units (`range_units`); `base` as in `area_search_map`."""
     targets = [area.grid.cell_of(e, n) for e, n in targets_m]
-    return Scenario(name, area_search_map(area, priors, default_tep, default_eu), uavs,
+    return Scenario(name, area_search_map(area, priors, default_tep, default_eu, base), uavs,
                     np.array(targets, dtype=np.int64).reshape(-1, 2), sensor, move_costs=AREA_MOVE_COSTS,
                     unit_m=units_m(1, area.grid.cell_size_m))

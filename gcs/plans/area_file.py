@@ -10,6 +10,9 @@ carry a `role` property. See docs/areas.md for the format and a complete example
              NW), optional `range_m` or `endurance_s`, `altitude_m` (flight altitude above the airport),
              `elevation_m` (the airport's ground altitude above mean sea level), `name`.
 - `target`   Point (optional): a target for simulation and evaluation.
+- `raster_prior`  no geometry: `path` to a raster of probability mass (GeoTIFF or any raster GDAL
+             reads, its own coordinate system; or a `.npy` array with `crs`, `bounds` and `row0`),
+             optional `weight`; `gcs.plans.raster_prior` reads it.
 
 A suggested cell size may be given as `cell_size_m` in the area feature's properties or in the
 FeatureCollection's `properties` member. Rings may wind either way. Bad input raises `UserError`
@@ -35,7 +38,7 @@ from gcs.errors import UserError
 from planner.georef import heading_from_degrees
 from planner.motion import COMPASS
 
-ROLES = ("area", "no_fly", "prior", "airport", "target")
+ROLES = ("area", "no_fly", "prior", "airport", "target", "raster_prior")
 FORMATS = ("area files are GeoJSON (.geojson, .json), KML (.kml, .kmz), GPX (.gpx), GeoPackage (.gpkg) or "
            "Shapefile (.shp, a .zip or a folder of them)")
 POLYGONAL = ("Polygon", "MultiPolygon")
@@ -72,6 +75,20 @@ class Target:
 
 
 @dataclass(frozen=True)
+class RasterPrior:
+    """A raster prior: `path` resolved against the area file's folder; `crs`, `bounds` (west,
+    south, east, north in `crs` units) and `row0` ("north" or "south": the edge of row 0) place
+    a `.npy` array; a GeoTIFF carries its own. `weight` mixes it with the area's other mass priors."""
+
+    name: str
+    path: Path
+    crs: str | None = None
+    bounds: tuple[float, float, float, float] | None = None
+    row0: str = "north"
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
 class AreaFile:
     """A parsed, validated area file; geometries are shapely, in lon/lat."""
 
@@ -82,6 +99,7 @@ class AreaFile:
     airports: tuple[Airport, ...]
     targets: tuple[Target, ...]
     cell_size_m: float | None
+    rasters: tuple[RasterPrior, ...] = ()
 
 
 def _reject_constant(name: str) -> float:
@@ -95,7 +113,8 @@ def read_area_file(path: str | Path) -> AreaFile:
 
         if is_gis_area(path):
             gis = read_gis_area(path)
-            return parse_area(gis.collection, name=path.stem, source=str(path), places=gis.places)
+            return parse_area(gis.collection, name=path.stem, source=str(path), places=gis.places,
+                              folder=path.parent)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
@@ -109,7 +128,7 @@ def read_area_file(path: str | Path) -> AreaFile:
         raise UserError(f"{path}: not JSON ({exc.msg} at line {exc.lineno} column {exc.colno}){formats}") from None
     except ValueError as exc:
         raise UserError(f"{path}: not valid JSON: {exc}") from None
-    return parse_area(data, name=path.stem, source=str(path))
+    return parse_area(data, name=path.stem, source=str(path), folder=path.parent)
 
 
 def _where(index: int, feature: dict) -> str:
@@ -210,15 +229,43 @@ def _outline(geometry: BaseGeometry) -> BaseGeometry:
     return unary_union([Polygon(p.exterior) for p in parts])
 
 
-def parse_area(data, name: str = "area", source: str = "area file", places: Sequence[str] | None = None) -> AreaFile:
+def _raster_prior(props: dict, label: str, where: str, folder: Path) -> RasterPrior:
+    """A `raster_prior` feature's properties, checked (the raster itself is read later)."""
+    path = props.get("path")
+    if not isinstance(path, str) or not path.strip():
+        raise UserError(f"{where}: a raster_prior needs 'path', the raster file (relative to the area file)")
+    resolved = Path(path) if Path(path).is_absolute() else folder / path
+    weight = _number(props.get("weight", 1.0), f"{where}: weight", positive=True)
+    if resolved.suffix.lower() != ".npy":
+        extra = [key for key in ("crs", "bounds", "row0") if key in props]
+        if extra:
+            raise UserError(f"{where}: '{extra[0]}' is for .npy arrays; a raster file carries its own georeference")
+        return RasterPrior(label, resolved, weight=weight)
+    crs, bounds, row0 = props.get("crs"), props.get("bounds"), props.get("row0", "north")
+    if not isinstance(crs, str) or not crs.strip():
+        raise UserError(f"{where}: a .npy raster_prior needs 'crs' (e.g. \"EPSG:32632\")")
+    if not isinstance(bounds, list) or len(bounds) != 4:
+        raise UserError(f"{where}: a .npy raster_prior needs 'bounds': [west, south, east, north] in its crs")
+    west, south, east, north = (_number(b, f"{where}: bounds") for b in bounds)
+    if not (west < east and south < north):
+        raise UserError(f"{where}: bounds must be [west, south, east, north] with west < east and south < north")
+    if row0 not in ("north", "south"):
+        raise UserError(f"{where}: row0 must be \"north\" or \"south\" (the edge of the array's row 0), got {row0!r}")
+    return RasterPrior(label, resolved, crs.strip(), (west, south, east, north), row0, weight)
+
+
+def parse_area(data, name: str = "area", source: str = "area file", places: Sequence[str] | None = None,
+               folder: Path | None = None) -> AreaFile:
     """Validate a decoded GeoJSON document and return its parts; `places` says where each feature
-    came from in the file it was read from (for other formats: `gcs.plans.gis_formats`)."""
+    came from in the file it was read from (for other formats: `gcs.plans.gis_formats`); relative
+    raster paths are read from `folder` (None: the working folder)."""
+    folder = Path(".") if folder is None else folder
     if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
         raise UserError(f"{source}: not a GeoJSON FeatureCollection")
     features = data.get("features")
     if not isinstance(features, list):
         raise UserError(f"{source}: FeatureCollection has no 'features' list")
-    areas, no_fly, priors, airports, targets = [], [], [], [], []
+    areas, no_fly, priors, airports, targets, rasters = [], [], [], [], [], []
     cell_size = None
     collection_props = data.get("properties")
     if isinstance(collection_props, dict) and collection_props.get("cell_size_m") is not None:
@@ -264,6 +311,10 @@ def parse_area(data, name: str = "area", source: str = "area file", places: Sequ
                 None if endurance_s is None else _number(endurance_s, f"{where}: endurance_s", positive=True),
                 None if altitude is None else _number(altitude, f"{where}: altitude_m", positive=True),
                 None if elevation is None else _number(elevation, f"{where}: elevation_m", -500.0, 9000.0)))
+        elif role == "raster_prior":
+            if feature.get("geometry") is not None:
+                raise UserError(f"{where}: a raster_prior has no geometry (null): the raster places itself")
+            rasters.append(_raster_prior(props, label, where, folder))
         else:
             point = _geometry(feature, ("Point",), where)
             targets.append(Target(label, point.x, point.y))
@@ -276,4 +327,5 @@ def parse_area(data, name: str = "area", source: str = "area file", places: Sequ
     if max_lon - min_lon > 180.0:
         raise UserError(f"{source}: the area spans more than 180 degrees of longitude (areas across the "
                         f"antimeridian are not supported)")
-    return AreaFile(name, area, tuple(no_fly), tuple(priors), tuple(airports), tuple(targets), cell_size)
+    return AreaFile(name, area, tuple(no_fly), tuple(priors), tuple(airports), tuple(targets), cell_size,
+                    tuple(rasters))

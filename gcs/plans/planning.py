@@ -29,6 +29,7 @@ from gcs.missions.paths import paths_geojson, uav_label
 from gcs.missions.qgc_plan import qgc_plan
 from gcs.missions.wpl import wpl_text
 from gcs.plans.area_file import AreaFile, read_area_file
+from gcs.plans.area_prior import area_mass_prior
 from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, SearchOptions
 from gcs.plans.plan_file import plan_to_dict
 from gcs.plans.vehicle_file import load_vehicles, profile_for_uav
@@ -49,6 +50,7 @@ from planner.environment import Sensor
 from planner.horizon import HorizonValue
 from planner.motion import constraint_by_name
 from planner.plan import Plan
+from planner.priors import MassPrior
 from planner.scenario import SCENARIOS, Scenario, UavSpec
 
 
@@ -69,6 +71,7 @@ class AreaSetup:
     range_sources: dict[int, str] = field(default_factory=dict)
     grounded: dict[int, str] = field(default_factory=dict)  # UAV -> why its range cannot leave its airport
     fence: FittedFence | None = None  # the area's fence as the vehicles hold it (`area_fence`)
+    prior_mass: MassPrior | None = None  # the subject's probability per cell, from rasters or an IPP
 
     def __post_init__(self) -> None:
         if self.belief is None:
@@ -203,11 +206,13 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
                                  area.ceiling_m)
         uavs, ranges_m, overheads_m, sources = [], {}, {}, {}
         grounded: dict[int, str] = {}
+        taken: set[tuple[int, int]] = set()
         for ap in source.airports:
             uav_id = ap.index + 1
             label = f"airport {ap.name!r} (UAV {uav_id})"
             east, north = grid.point_m(ap.lon_deg, ap.lat_deg)
-            x, y = airport_cell(grid, east, north, label)
+            x, y = airport_cell(grid, east, north, label, taken)
+            taken.add((x, y))
             record = profile_for_uav(records, uav_id)
             if record is not None:
                 range_m = record.profile.range_m(layers.altitudes_m[uav_id], area.reserve_pct)
@@ -237,9 +242,11 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
                 raise ValueError(f"target {t.name!r} at lon {t.lon_deg}, lat {t.lat_deg} is outside the area")
             targets.append((east, north))
         priors = [PriorCells(grid.to_local(p.geometry), p.tep, p.eu) for p in source.priors]
+        mass = area_mass_prior(source, grid)
         sensor = Sensor(search.pc, search.pf, search.footprint)
         config = mission_config(search, horizon=True)
-        scenario = area_scenario(source.name, grid, priors, uavs, targets, area.default_tep, area.default_eu, sensor)
+        scenario = area_scenario(source.name, grid, priors, uavs, targets, area.default_tep, area.default_eu, sensor,
+                                 None if mass is None else mass.tep)
         for spec in uavs_that_cannot_leave(scenario, config):
             grounded[spec.uav_id] = (f"range {ranges_m[spec.uav_id]:.0f} m ({units_m(spec.range_units, cell):.0f} m "
                                      f"over the {cell:g} m cells) is too short to leave its airport and come back "
@@ -254,7 +261,7 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
         raise UserError(f"{area_file}: {exc}") from None
     reference = AltitudeReference.TERRAIN if area.terrain_follow else AltitudeReference.HOME
     return AreaSetup(source, grid, closed, ranges_m, layers, overheads_m, vehicle, reference, approach, belief, sources,
-                     dict(sorted(grounded.items())), fence)
+                     dict(sorted(grounded.items())), fence, mass)
 
 
 def area_fence(source: AreaFile, vehicle: Vehicle, cell_size_m: float) -> FittedFence:

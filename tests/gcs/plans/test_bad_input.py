@@ -140,11 +140,6 @@ def test_missing_file(tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
-def test_two_airports_in_one_cell(run_gcs, area_doc, shapes):
-    area_doc["features"][4]["geometry"]["coordinates"] = shapes.lonlat([(-250, -20)])[0]
-    _fails(run_gcs, area_doc, "shared with another UAV")
-
-
 @pytest.mark.parametrize("option, value, match", [("--cell-size", "-5", "--cell-size must be a positive number"),
                                                   ("--cell-size", "nan", "--cell-size must be a positive number"),
                                                   ("--speed", "0", "--speed must be a positive number"),
