@@ -79,7 +79,7 @@ class SearchTheory:
     rest_poa: float = 0.0
     rest_poa_after: float = 0.0
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, object]:
         return {"pc": self.pc, "pos": round(self.pos, 6), "cumulative_pos": round(self.cumulative_pos, 6),
                 "rest_of_world_poa": round(self.rest_poa, 6), "rest_of_world_poa_after": round(self.rest_poa_after, 6),
                 "segments": [s.as_dict() for s in self.segments]}
