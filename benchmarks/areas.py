@@ -21,12 +21,13 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from planner.area_grid import (  # noqa: E402
+    AREA_MOVE_COSTS,
     PriorCells,
     airport_cell,
     area_scenario,
     build_area_grid,
     local_frame_for,
-    steps_for_range,
+    range_units,
 )
 from planner.environment import Sensor  # noqa: E402
 from planner.georef import LocalFrame  # noqa: E402
@@ -114,12 +115,12 @@ def _draw(rng: np.random.Generator, seed: int, sensor: Sensor) -> Scenario | Non
             return None
         taken.add(cell)
         range_m = rng.uniform(1.0, 2.2) * size * math.sqrt(2)
-        steps = steps_for_range(range_m, CELL_M)
+        units = range_units(range_m, CELL_M)
         heading = int(rng.integers(8))
-        table = return_table(~area.free, cell, OC3)
-        if not _can_leave(table, cell, heading, steps, ~area.free):
+        table = return_table(~area.free, cell, OC3, AREA_MOVE_COSTS)
+        if not _can_leave(table, cell, heading, units, ~area.free):
             return None
-        uavs.append(UavSpec(i + 1, cell, heading, steps))
+        uavs.append(UavSpec(i + 1, cell, heading, units))
     prior_cells = [PriorCells(to_local(shape), tep, eu) for shape, tep, eu in priors]
     scenario = area_scenario(f"random {seed}", area, prior_cells, uavs, [], default_tep, default_eu, sensor)
     free = np.argwhere(~scenario.search_map.no_fly)
@@ -129,10 +130,11 @@ def _draw(rng: np.random.Generator, seed: int, sensor: Sensor) -> Scenario | Non
     return scenario
 
 
-def _can_leave(table: np.ndarray, cell: tuple[int, int], heading: int, steps: int, blocked: np.ndarray) -> bool:
+def _can_leave(table: np.ndarray, cell: tuple[int, int], heading: int, units: int, blocked: np.ndarray) -> bool:
     from planner.dtscs import first_step_feasible
 
-    return first_step_feasible(table, OC3.successors, blocked, (cell[0], cell[1], heading), 0, steps)
+    return first_step_feasible(table, OC3.successors, blocked, (cell[0], cell[1], heading), 0, units,
+                               AREA_MOVE_COSTS)
 
 
 def mission_scenario(name: str) -> Scenario:
