@@ -63,7 +63,6 @@ SWATH_M = 2 * ALTITUDE_M * math.tan(math.radians(FOV_DEG / 2))  # 66.3 m on the 
 CELL_M = SWATH_M  # a cell flown is a cell seen
 GCS_PC = 0.95  # SAREnv's evaluator counts every bin within the swath as seen
 GCS_PF = 0.01
-AIRPORT_GAP_CELLS = 3
 
 
 class BenchError(Exception):
@@ -250,57 +249,32 @@ def score(sarenv: Sarenv, scenario: Scenario, victims_xy: np.ndarray, name: str,
                  published, seconds)
 
 
-def area_file_for(scenario: Scenario, drones: int, budget_m: float, cell_m: float = CELL_M) -> dict:
-    """The scenario as a gcs area file (GeoJSON dict): the size's circle, one airport per UAV
-    around the IPP (`ipp_offsets_m`), each with its share of the budget less its way to the IPP
-    and back."""
+def area_file_for(scenario: Scenario, drones: int, budget_m: float, folder: Path, cell_m: float = CELL_M) -> Path:
+    """The scenario as a gcs area file in `folder`: the size's circle, the cropped heatmap as its
+    raster prior (`heatmap.npy`, placed by its UTM bounds, row 0 south) and one airport per UAV
+    at the IPP (each flies from its own cell nearest the point, to and from it on its range),
+    headings spread around, each with its share of the budget."""
     to_lonlat = pyproj.Transformer.from_crs(scenario.crs, "EPSG:4326", always_xy=True)
     cx, cy = scenario.centre_xy
     ring = np.asarray(Point(cx, cy).buffer(scenario.radius_m, quad_segs=32).exterior.coords)
     lon, lat = to_lonlat.transform(ring[:, 0], ring[:, 1])
-    offsets = ipp_offsets_m(drones, cell_m)
-    features = [{"type": "Feature", "properties": {"role": "area", "name": f"SAREnv {scenario.ident} {scenario.size}"},
-                 "geometry": {"type": "Polygon", "coordinates": [[[float(a), float(b)] for a, b in zip(lon, lat)]]}}]
-    for i, (dx, dy, heading) in enumerate(offsets):
-        share = budget_m / drones - 2 * math.hypot(dx, dy)
-        alon, alat = to_lonlat.transform(cx + dx, cy + dy)
-        features.append({"type": "Feature", "properties": {
-            "role": "airport", "name": f"IPP {i + 1}", "heading": heading, "range_m": share, "altitude_m": ALTITUDE_M},
-            "geometry": {"type": "Point", "coordinates": [alon, alat]}})
-    return {"type": "FeatureCollection", "name": f"sarenv-{scenario.ident}-{scenario.size}",
-            "properties": {"cell_size_m": cell_m}, "features": features}
-
-
-def ipp_offsets_m(drones: int, cell_m: float = CELL_M) -> list[tuple[float, float, float]]:
-    """Where each UAV's airport lies from the IPP (east, north metres) and its heading (degrees
-    from north, outward): on a ring at least `AIRPORT_GAP_CELLS` cells apart (the planner keeps
-    two UAVs out of one cell at every step, airports and ways home included). A path flies IPP ->
-    airport first and airport -> IPP last, paid from its share of the budget."""
-    if drones == 1:
-        return [(0.0, 0.0, 0.0)]
-    radius = math.ceil(AIRPORT_GAP_CELLS / 2 / math.sin(math.pi / drones)) * cell_m
-    out = []
+    ipp = list(to_lonlat.transform(cx, cy))
+    np.save(folder / "heatmap.npy", scenario.heatmap)
+    features = [
+        {"type": "Feature", "properties": {"role": "area", "name": f"SAREnv {scenario.ident} {scenario.size}"},
+         "geometry": {"type": "Polygon", "coordinates": [[[float(a), float(b)] for a, b in zip(lon, lat)]]}},
+        {"type": "Feature", "properties": {"role": "raster_prior", "name": "SAREnv heatmap", "path": "heatmap.npy",
+                                           "crs": scenario.crs, "bounds": list(scenario.bounds), "row0": "south"},
+         "geometry": None}]
     for i in range(drones):
-        angle = 2 * math.pi * i / drones
-        out.append((radius * math.cos(angle), radius * math.sin(angle), (90.0 - math.degrees(angle)) % 360))
-    return out
-
-
-def resample_heatmap(scenario: Scenario, area_grid: object) -> np.ndarray:
-    """The heatmap's mass on the planner's grid (`AreaGrid`): every bin's mass to the cell holding its centre."""
-    h, w = scenario.heatmap.shape
-    minx, miny, maxx, maxy = scenario.bounds
-    rows, cols = np.nonzero(scenario.heatmap > 0)
-    x = minx + (cols + 0.5) * (maxx - minx) / w
-    y = miny + (rows + 0.5) * (maxy - miny) / h
-    lon, lat = pyproj.Transformer.from_crs(scenario.crs, "EPSG:4326", always_xy=True).transform(x, y)
-    east, north = area_grid.frame.geodetic2local(lat, lon)  # type: ignore[attr-defined]
-    g = area_grid.grid  # type: ignore[attr-defined]
-    gx = np.clip(np.floor((east - g.east0_m) / g.cell_size_m).astype(int), 0, g.nx - 1)
-    gy = np.clip(np.floor((north - g.north0_m) / g.cell_size_m).astype(int), 0, g.ny - 1)
-    mass = np.zeros(g.shape)
-    np.add.at(mass, (gx, gy), scenario.heatmap[rows, cols])
-    return mass
+        features.append({"type": "Feature", "properties": {
+            "role": "airport", "name": f"IPP {i + 1}", "heading": round(360 * i / drones) % 360,
+            "range_m": budget_m / drones, "altitude_m": ALTITUDE_M},
+            "geometry": {"type": "Point", "coordinates": ipp}})
+    path = folder / f"sarenv-{scenario.ident}-{scenario.size}.geojson"
+    path.write_text(json.dumps({"type": "FeatureCollection", "properties": {"cell_size_m": cell_m},
+                                "features": features}))
+    return path
 
 
 @dataclass(frozen=True)
@@ -320,30 +294,20 @@ def plan_gcs(scenario: Scenario, drones: int, budget_m: float, seed: int, out_di
     from gcs.plans.make import fly_with_progress
     from gcs.plans.options import AreaOptions, SearchOptions
     from gcs.plans.planning import area_outputs, build_area_search
-    from planner.campaign import Belief
-    from planner.environment import SearchMap
 
-    area = area_file_for(scenario, drones, budget_m, settings.cell_m)
-    area_path = out_dir / f"{area['name']}.geojson"
-    area_path.write_text(json.dumps(area))
+    area_path = area_file_for(scenario, drones, budget_m, out_dir, settings.cell_m)
     options = AreaOptions(altitude_m=ALTITUDE_M, speed_m_s=12.0)
     search = SearchOptions(seed=seed, pc=settings.pc, pf=settings.pf, strategy=settings.strategy,
                            np_steps=settings.np_steps)
     setup = build_area_search(area_path, options, search)
-    mass = resample_heatmap(scenario, setup.area)
-    tep = mass / mass.max()
-    prior = SearchMap(tep, tep.copy(), setup.search.scenario.search_map.no_fly.copy())
-    setup = setup.for_belief(Belief.prior(prior), seed)
     plan = fly_with_progress(setup.search, progress=False)
     files = area_outputs(setup, plan, seed, options.speed_m_s)
     to_utm = pyproj.Transformer.from_crs("EPSG:4326", scenario.crs, always_xy=True)
     paths = []
-    cx, cy = scenario.centre_xy
     for feature in json.loads(files["paths.geojson"])["features"]:
         coords = np.asarray(feature["geometry"]["coordinates"])
         x, y = to_utm.transform(coords[:, 0], coords[:, 1])
-        points = [(cx, cy), *zip(x.tolist(), y.tolist()), (cx, cy)]
-        paths.append(LineString(points))
+        paths.append(LineString(zip(x.tolist(), y.tolist())))
     (out_dir / "plan.json").write_text(files["plan.json"])
     if len(paths) != drones:
         raise BenchError(f"scenario {scenario.ident}: gcs flew {len(paths)} of {drones} UAVs")
