@@ -179,7 +179,7 @@ def metres(plan: FleetPlan, a, b) -> float:
     return math.hypot(ea - eb, na - nb)
 
 
-def _depth_in_no_fly_cell(plan: FleetPlan, lat: float, lon: float) -> float:
+def depth_in_no_fly_cell(plan: FleetPlan, lat: float, lon: float) -> float:
     """How far (m) a position lies inside a no-fly cell (0 when its cell is free)."""
     east, north = plan.local_m(lat, lon)
     g = plan.grid
@@ -226,7 +226,7 @@ def assert_landed_home_and_clear_of_no_fly(plan_dir: Path, max_from_airport_m: f
         assert max(metres(plan, p, task.airport_lat_lon) for p in track) > 2 * plan.cell_size_m  # it went searching
         landed[uid] = metres(plan, track[-1], task.airport_lat_lon)
         assert landed[uid] <= max_from_airport_m, f"UAV {uid} landed {landed[uid]:.1f} m from its airport"
-        deepest = max(_depth_in_no_fly_cell(plan, *p) for p in track)
+        deepest = max(depth_in_no_fly_cell(plan, *p) for p in track)
         assert deepest <= tolerance_m, f"UAV {uid} went {deepest:.1f} m into a no-fly cell"
         seen = stages[uid]
         assert seen[:len(STAGES)] == STAGES and seen[-1] == "landed", f"UAV {uid} stages {seen}"

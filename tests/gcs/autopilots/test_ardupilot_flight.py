@@ -1,7 +1,6 @@
 """`gcs fly` on real ArduCopter and ArduPlane SITL: each vehicle waits until it is ready, flies its
 planned search in AUTO and lands at its own airport (the plane on its runway, after the landing
-approach); a fast-draining battery brings its vehicle home early by fuel while the other keeps
-searching; a vehicle that refuses to arm stays on the ground with ArduPilot's reason while the
+approach); a vehicle that refuses to arm stays on the ground with ArduPilot's reason while the
 other flies. Each test reads the flight back from its Rerun recording: where each vehicle
 landed, that no recorded position entered a no-fly cell, and that the stages came in order."""
 
@@ -19,13 +18,11 @@ import shapely
 
 from tests.gcs.autopilots.flights import (
     assert_landed_home_and_clear_of_no_fly,
-    bus_events,
     ctrl_c_while_its_way_home_is_lost,
     fly,
     fly_with_a_dropout,
     recorded,
 )
-from tests.gcs.bus.helpers import Mosquitto
 from tests.peers.ardupilot import ArduPilotSitl
 from tests.peers.ports import free_udp_port
 from tests.peers.process import SITL_WORKER
@@ -36,17 +33,7 @@ from tests.peers.site import COPTERS, MEADOW, PLANE, Airport, Site
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
-#: a copter whose current sensor reads 1.3x what SITL's copter draws (ArduPilot SITL feeds the
-#: current pin `current / 17`, and the autopilot multiplies it by BATT_AMP_PERVLT): to the
-#: autopilot and the station it draws 1.3x its stock profile, like one lifting a payload. Its
-#: full 3300 mAh pack passes the check before arming; only what it burns in flight shows. (At
-#: 1.65x it turned home on time by its estimate and touched down at 23 %: the way home's stops
-#: cost more than the cruise average the gauge has learned by then; issue 23's note.)
-THIRSTY = {"BATT_AMP_PERVLT": 17.0 * 1.3}
 SPEEDUP = 20.0  # the highest these flights pass at (docs/tests.md): wall-clock moments below are vehicle time / SPEEDUP
-#: the fast-draining copter's: at 20 its 1.3x drain spends 120 mAh a wall second, and a station that
-#: a loaded machine held up for 1.5 s sent it home 180 mAh late (ci59: touched down at 23 %)
-DRAIN_SPEEDUP = 10.0
 SHORT_PLANE = replace(PLANE, airports=(replace(PLANE.airports[0], range_m=5000.0),))
 #: COPTERS and a third airport for a PX4 that never leaves the ground
 NOT_ARMED = Site((*COPTERS.airports, Airport("east", 240.0, 30.0, "W", 1300.0)))
@@ -117,48 +104,6 @@ def test_a_plane_lands_on_a_runway_at_the_area_edge_from_an_approach_outside_it_
     east, north = np.subtract(plan.local_m(*tracks[1][-1]), plan.local_m(*task.airport_lat_lon))
     assert abs(east) <= 5.0 and -30.0 <= north <= 5.0, (east, north)  # on the runway, inside the area
     assert landed[1] <= 60.0
-
-
-def test_a_fast_draining_battery_brings_its_copter_home_first_and_the_other_searches_on(tmp_path):
-    plan_dir = COPTERS.plan(tmp_path)
-    port = free_udp_port()
-    (tmp_path / "mosquitto").mkdir()
-    broker = Mosquitto(tmp_path / "mosquitto")
-    broker.start()
-    events: list = []
-    stop = threading.Event()
-    try:
-        listener = bus_events(broker.port, "drain", events, stop)
-        with ExitStack() as stack:  # both vehicles push to one UDP port: one link for the fleet
-            stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port,
-                                              speedup=DRAIN_SPEEDUP))
-            stack.enter_context(ArduPilotSitl("copter", home=COPTERS.home(1), sysid=2, gcs_port=port,
-                                              speedup=DRAIN_SPEEDUP, params=THIRSTY))
-            done = fly(plan_dir, port, "--mqtt", f"mqtt://127.0.0.1:{broker.port}", "--fleet", "drain")
-        stop.set()
-        listener.join(5)
-    finally:
-        broker.stop()
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
-    assert re.search(r"UAV 2: battery \d+% \(\d+ mAh\) pays for \d+ m above the 30% reserve and the landing; the way "
-                     r"home is \d+ m", done.stdout), done.stdout[-3000:]
-    at_landing = {int(m.group(1)): int(m.group(2))
-                  for m in re.finditer(r"UAV (\d): landed - battery (\d+)%", done.stdout)}
-    assert at_landing[2] >= 25, done.stdout[-3000:]  # the 30 % reserve, give or take ArduPilot's whole percent
-    landed = assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=3.0, tolerance_m=3.0)
-    assert set(landed) == {1, 2}
-    by_uav: dict[int, list] = {1: [], 2: []}
-    for e in events:
-        by_uav[e["uav"]].append(e)
-    for uid, seq in by_uav.items():
-        assert [e["seq"] for e in seq] == sorted(e["seq"] for e in seq) and seq, f"UAV {uid} events out of order"
-        kinds = [e["kind"] for e in seq]
-        assert "takeoff" in kinds and kinds[-1] == "landed" and kinds.index("takeoff") < kinds.index("landed")
-    returns = [e for e in by_uav[2] if e["kind"] == "return"]
-    assert returns and returns[0]["reason"] == "battery"
-    assert not [e for e in by_uav[1] if e["kind"] == "return"]  # UAV 1 flew its plan's own return
-    land_time = {uid: next(e["t_s"] for e in seq if e["kind"] == "landed") for uid, seq in by_uav.items()}
-    assert land_time[2] < land_time[1]
 
 
 def test_vehicles_that_cannot_arm_stay_on_the_ground_with_their_reasons_while_the_other_flies_home_on_an_order(

@@ -53,7 +53,7 @@ def test_a_copter_flies_on_while_the_station_is_dead_and_the_restarted_station_b
     assert v_before.stage.value == "search" and v_before.return_reason is None
     assert "UAV 1: reattached: flying its search (mode AUTO, mission item" in out
     # home on fuel after the restart, above the reserve, at its own airport
-    assert v_after.return_reason == "battery" and v_after.stage.value == "landed"
+    assert v_after.return_reason == "battery" and v_after.stage.value == "landed", out[-4000:]
     returns = [t for t, line in after.events if line.uav_id == 1 and "return triggered (reason: battery)" in line.text]
     assert len(returns) == 1 and returns[0] > after.resumed_t[0]
     battery = int(re.search(r"UAV 1: landed - battery (\d+)%", out).group(1))

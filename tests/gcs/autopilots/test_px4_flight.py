@@ -1,8 +1,7 @@
-"""`gcs upload` and `gcs fly` on real PX4 SITL (v1.15.3, SIH copter), alone and in a mixed fleet
-with an ArduCopter: the mission reads back as PX4 stores it, the copter waits for PX4's pre-arm
-checks, flies its search and lands at its own airport; in the mixed fleet the PX4 battery drains
-fast and brings it home by fuel first while the ArduCopter flies its plan. Flights are read back
-from their Rerun recordings."""
+"""`gcs upload` and `gcs fly` on real PX4 SITL (v1.15.3, SIH copter): the mission reads back as PX4
+stores it, the copter waits for PX4's pre-arm checks, flies its search and lands at its own
+airport. Flights are read back from their Rerun recordings. (PX4 in a mixed fleet with
+ArduCopters: `test_energy_fleets.py`.)"""
 
 from __future__ import annotations
 
@@ -16,21 +15,17 @@ import pytest
 from tests.gcs.autopilots.flights import (
     assert_fence_holds_the_area,
     assert_landed_home_and_clear_of_no_fly,
-    bus_events,
     ctrl_c_while_its_way_home_is_lost,
     fly,
     fly_with_a_dropout,
     planned_fence,
     recorded,
 )
-from tests.gcs.bus.helpers import Mosquitto
-from tests.peers.ardupilot import ArduPilotSitl
-from tests.peers.ports import free_udp_port
 from tests.peers.process import SITL_WORKER
-from tests.peers.px4 import PX4_SPEEDUP, STEADY_BATTERY, Px4Sitl
+from tests.peers.px4 import STEADY_BATTERY, Px4Sitl
 from tests.peers.recorder import SpareRecorder
 from tests.peers.relay import UdpRelay, losing_uploads
-from tests.peers.site import COPTERS, PX4_SOLO, PX4_WILDLAND, Site
+from tests.peers.site import PX4_SOLO, PX4_WILDLAND, Site
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]
 
@@ -61,47 +56,6 @@ def test_a_planned_mission_uploads_to_px4_and_reads_back_as_px4_stores_it(tmp_pa
     if link == "udpout":
         assert "fence 64 items" in done.stdout and "simplified" not in done.stdout, done.stdout
         assert_fence_holds_the_area(tmp_path / "site.geojson", planned_fence(plan_dir), 64)
-
-
-def test_a_mixed_fleet_brings_the_fast_draining_px4_home_first(tmp_path):
-    """Both autopilots at one speed-up, so "first" means the same in vehicle time; PX4's battery
-    lasts 300 s of flight (SIM_BAT_DRAIN), far less than its share of the search needs. The bus
-    carries both vehicles' events alike."""
-    plan_dir = COPTERS.plan(tmp_path)
-    port = free_udp_port()
-    (tmp_path / "mosquitto").mkdir()
-    broker = Mosquitto(tmp_path / "mosquitto")
-    broker.start()
-    events: list = []
-    stop = threading.Event()
-    try:
-        listener = bus_events(broker.port, "mixed", events, stop)
-        with ArduPilotSitl("copter", home=COPTERS.home(0), sysid=1, gcs_port=port, speedup=PX4_SPEEDUP), \
-                Px4Sitl(home=_px4_home(COPTERS, 1), sysid=2,
-                        params={"SIM_BAT_DRAIN": 300.0, "SIM_BAT_MIN_PCT": 0.0}) as px4:
-            done = fly(plan_dir, [f"udpin:127.0.0.1:{port}", px4.gcs_connection],
-                       "--mqtt", f"mqtt://127.0.0.1:{broker.port}", "--fleet", "mixed")
-        stop.set()
-        listener.join(5)
-    finally:
-        broker.stop()
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr
-    out = done.stdout
-    assert "UAV 1: preparing - ardupilot autopilot" in out and "UAV 2: preparing - px4 autopilot" in out
-    assert re.search(r"UAV 2: battery \d+% \(\d+ mAh\) pays for \d+ m above the 30% reserve and the landing; the way "
-                     r"home is \d+ m", out), out[-3000:]
-    rows = {line.split()[0]: line.split() for line in out.splitlines() if re.match(r"^\s+[12] ", line)}
-    assert rows["1"][5] == "plan" and rows["2"][5] == "battery"
-    assert out.index("UAV 2: return - going home (battery)") < out.index("UAV 1: landed")
-    assert_landed_home_and_clear_of_no_fly(plan_dir, max_from_airport_m=3.0, tolerance_m=3.0)
-    by_uav: dict[int, list] = {1: [], 2: []}
-    for e in events:
-        by_uav[e["uav"]].append(e)
-    for _uid, seq in by_uav.items():
-        kinds = [e["kind"] for e in seq]
-        assert "takeoff" in kinds and kinds[-1] == "landed" and kinds.index("takeoff") < kinds.index("landed"), kinds
-    assert [e["reason"] for e in by_uav[2] if e["kind"] == "return"] == ["battery"]
-    assert not [e for e in by_uav[1] if e["kind"] == "return"]
 
 
 def test_ctrl_c_while_the_px4_waits_for_its_way_home_sends_it_home_by_rtl(tmp_path):
