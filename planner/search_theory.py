@@ -84,6 +84,15 @@ class SearchTheory:
                 "rest_of_world_poa": round(self.rest_poa, 6), "rest_of_world_poa_after": round(self.rest_poa_after, 6),
                 "segments": [s.as_dict() for s in self.segments]}
 
+    @classmethod
+    def from_dict(cls, data: dict[str, object]) -> SearchTheory:
+        """The figures `as_dict` wrote (plan.json's and sortie.json's `search_theory`)."""
+        segments = data["segments"]
+        assert isinstance(segments, list)
+        return cls(tuple(SegmentFigures(**s) for s in segments), float(data["pos"]),  # type: ignore[arg-type]
+                   float(data["cumulative_pos"]), float(data["pc"]),  # type: ignore[arg-type]
+                   float(data.get("rest_of_world_poa", 0.0)), float(data.get("rest_of_world_poa_after", 0.0)))  # type: ignore[arg-type]
+
     def table(self) -> str:
         """The segments as a search manager's table, then the sortie's POS."""
         rows = [f"{'segment':<8} {'cells':>5} {'POA':>6} {'POD':>6} {'POS':>6} {'cum POD':>7} {'POA after':>9}"]

@@ -22,9 +22,17 @@ def _hex(rgb: tuple[int, int, int]) -> str:
     return "#{:02X}{:02X}{:02X}".format(*rgb)
 
 
+def segment_fill(poa_pct: float) -> str:
+    """A segment's fill: orange, its opacity growing with its POA (a quarter at 25 % and above)."""
+    alpha = int(round(40 + 160 * min(max(poa_pct, 0.0), 25.0) / 25.0))
+    return f"#FF8C00{alpha:02X}"
+
+
 def feature_style(properties: dict, geometry_type: str) -> str:
     """The OGR feature style of a feature (GDAL writes it as the Placemark's KML Style): its UAV's
-    colour, a line or an icon."""
+    colour, a line or an icon; a segment's polygon shaded by its POA."""
+    if geometry_type == "Polygon":
+        return f"BRUSH(fc:{segment_fill(float(properties.get('poa_pct') or 0.0))});PEN(c:#8B4500,w:2px)"
     colour = _hex(uav_colour(int(properties.get("uav") or 1) - 1))
     if geometry_type == "LineString":
         return f"PEN(c:{colour},w:{LINE_WIDTH_PX}px)"
@@ -33,7 +41,7 @@ def feature_style(properties: dict, geometry_type: str) -> str:
 
 def kml_text(collection: dict, folder: str, names: Sequence[str], title: str, geometry_type: str) -> str:
     """A KML document `title` with one Folder `folder` holding the collection's features (all
-    `geometry_type`, "LineString" or "Point"; None geometries are Placemarks without one), named
+    `geometry_type`, "LineString", "Point" or "Polygon"; None geometries are Placemarks without one), named
     `names`; their properties, but `name`, as ExtendedData."""
     features = collection["features"]
     fields = list(dict.fromkeys(k for f in features for k in (f.get("properties") or {}) if k != "name"))

@@ -32,6 +32,7 @@ from gcs.plans.area_file import AreaFile, read_area_file
 from gcs.plans.area_prior import area_mass_prior
 from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, SearchOptions
 from gcs.plans.plan_file import plan_to_dict
+from gcs.plans.segments import area_segments, plan_theory, segments_for_teams, segments_geojson
 from gcs.plans.vehicle_file import load_vehicles, profile_for_uav
 from planner.area_grid import (
     AREA_MOVE_COSTS,
@@ -350,6 +351,9 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
                             for uid, why in setup.grounded.items()]
     if campaign is not None:
         data["campaign"] = campaign
+    segments = area_segments(area)
+    theory = plan_theory(setup, plan, segments)
+    data["search_theory"] = theory.as_dict()
     files = {"plan.json": json.dumps(data, indent=1) + "\n"}
     for m in missions:
         files[f"uav{m.uav_id}.waypoints"] = wpl_text(m)
@@ -360,6 +364,7 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
     collection = paths_geojson(missions, lengths, source.name)
     files["paths.geojson"] = json.dumps(collection, indent=1) + "\n"
     files.update(paths_for_teams(collection, missions, source.name))
+    files.update(segments_for_teams(segments_geojson(area, segments, theory, source.name), source.name))
     return files
 
 

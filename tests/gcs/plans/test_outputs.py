@@ -37,7 +37,8 @@ def test_a_successful_run_replaces_old_files(run_gcs, area_doc):
     assert code == 0, err
     first = _snapshot(out)
     assert set(first) == {"plan.json", "paths.geojson", "paths.kml", "paths.gpx", "uav1.waypoints", "uav1.plan",
-                          "uav2.waypoints", "uav2.plan", "plan.png", "plan.rrd", "belief.json"}
+                          "uav2.waypoints", "uav2.plan", "plan.png", "plan.rrd", "belief.json", "segments.geojson",
+                          "segments.kml"}
     code, _, _ = run_gcs(area_doc, "--seed", "5")
     assert code == 0
     assert not [p for p in out.iterdir() if p.name.startswith(".")]

@@ -1,0 +1,66 @@
+"""POA / POD / POS per segment in an area plan's outputs: plan.json's `search_theory` agrees with
+the plan's probability of success, the second sortie of a campaign starts from the POAs the
+first leaves, and the map files carry the figures (segments.geojson, segments.kml)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from gcs.display.plan_tables import area_report
+from gcs.plans.make import plan_area
+from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions
+from gcs.plans.plan_file import validate_plan_dict
+
+AREA = Path(__file__).parent / "gis" / "caltopo.kml"
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    out = tmp_path_factory.mktemp("segments")
+    result = plan_area(AREA, AreaOptions(), SearchOptions(seed=1), out, OutputOptions(record=False, progress=False),
+                       sorties=2)
+    return out, result
+
+
+def test_the_segments_add_up_to_the_plans_probability_of_success(campaign) -> None:
+    out, _ = campaign
+    first = json.loads((out / "sortie1" / "plan.json").read_text())
+    validate_plan_dict(first)
+    theory = first["search_theory"]
+    segments = theory["segments"]
+    assert sum(s["poa"] for s in segments) == pytest.approx(1.0, abs=1e-5)
+    assert sum(s["pos"] for s in segments) == pytest.approx(first["summary"]["probability_of_success"], abs=1e-5)
+    assert theory["pos"] == theory["cumulative_pos"]
+    assert any(s["pod"] == 0 for s in segments) and any(s["pod"] > 0.5 for s in segments)
+    for s in segments:
+        assert s["pos"] == pytest.approx(s["poa"] * s["pod"], abs=2e-6)
+    assert segments[0]["name"] == "A1"
+
+
+def test_the_next_sortie_starts_from_the_shifted_poas(campaign) -> None:
+    out, _ = campaign
+    first, second = (json.loads((out / f"sortie{k}" / "plan.json").read_text())["search_theory"] for k in (1, 2))
+    after = {s["name"]: s["poa_after"] for s in first["segments"]}
+    for s in second["segments"]:
+        assert s["poa"] == pytest.approx(after[s["name"]], abs=2e-6)
+        assert s["cumulative_pod"] >= s["pod"] - 1e-9
+    assert second["cumulative_pos"] > first["cumulative_pos"]
+
+
+def test_the_map_files_and_the_summary_carry_the_figures(campaign) -> None:
+    out, result = campaign
+    geo = json.loads((out / "sortie1" / "segments.geojson").read_text())
+    theory = json.loads((out / "sortie1" / "plan.json").read_text())["search_theory"]
+    assert [f["properties"]["segment"] for f in geo["features"]] == [s["name"] for s in theory["segments"]]
+    a1 = geo["features"][0]
+    assert a1["geometry"]["type"] in ("Polygon", "MultiPolygon")
+    assert a1["properties"]["poa_pct"] == pytest.approx(100 * theory["segments"][0]["poa"], abs=0.01)
+    kml = (out / "sortie1" / "segments.kml").read_text()
+    assert kml.count("<Placemark") == len(geo["features"]) and kml.count("<Polygon>") == len(geo["features"])
+    assert '<SimpleData name="pod_pct">' in kml and "POA after an unsuccessful sortie" in kml
+    report = area_report(result)
+    assert "segment  cells    POA    POD    POS cum POD POA after" in report
+    assert f"POS this sortie {theory['pos']:.1%}" in report
