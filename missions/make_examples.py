@@ -145,8 +145,39 @@ def large_example() -> dict:
     return _collection("large", 25.0, "10 km wildland search, 400x400 cells, 8 UAVs", feats)
 
 
+def _line(frame, points_m, **props) -> dict:
+    return {"type": "Feature", "geometry": {"type": "LineString", "coordinates": _lonlat(frame, points_m)},
+            "properties": props}
+
+
+def hiker_example() -> dict:
+    """A hiker missing in the mountains above Grindelwald (Bernese Oberland): a 4 x 3.6 km area
+    around the initial planning point, the trailhead car park from which the crew launches all
+    three UAVs; the prior comes from the IPP alone (Koester's hiker, mountainous, temperate),
+    weighted by the trail, the stream and the hut subjects are found near. The village is a
+    no-fly zone."""
+    frame = LocalFrame(46.6300, 8.0600)
+    outline = [(-2000, -1800), (2000, -1800), (2000, 1800), (-2000, 1800)]
+    car_park = (-400, -1100)
+    trail = [car_park, (-250, -600), (100, -200), (300, 400), (700, 900), (1300, 1300), (1900, 1700)]
+    stream = [(-1950, 200), (-1200, 300), (-500, 150), (200, 600), (900, 500), (1950, 800)]
+    feats = [_polygon(frame, outline, role="area", name="Oberland search area")]
+    feats.append(_polygon(frame, _circle(700, -1500, 450, 20), role="no_fly", name="village"))
+    feats.append(_point(frame, *car_park, role="ipp", name="trailhead (last seen)", subject="hiker",
+                        terrain="mountainous", climate="temperate"))
+    feats.append(_line(frame, trail, role="feature", kind="trail", name="hut trail"))
+    feats.append(_line(frame, stream, role="feature", kind="drainage", name="stream"))
+    feats.append(_point(frame, 700, 900, role="feature", kind="structure", name="hut"))
+    for i in range(3):
+        feats.append(_point(frame, *car_park, role="airport", name=f"car park {i + 1}", heading="N"))
+    feats.append(_point(frame, 380, 520, role="target", name="hiker"))
+    return _collection("hiker", 50.0, "A hiker missing in the mountains: the prior from the IPP alone, three UAVs "
+                       "launched from the trailhead", feats)
+
+
 def main() -> None:
-    for name, make in (("paper", paper_example), ("irregular", irregular_example), ("large", large_example)):
+    for name, make in (("paper", paper_example), ("irregular", irregular_example), ("large", large_example),
+                       ("hiker", hiker_example)):
         (HERE / f"{name}.geojson").write_text(json.dumps(make(), indent=1) + "\n", encoding="utf-8")
 
 

@@ -13,6 +13,12 @@ carry a `role` property. See docs/areas.md for the format and a complete example
 - `raster_prior`  no geometry: `path` to a raster of probability mass (GeoTIFF or any raster GDAL
              reads, its own coordinate system; or a `.npy` array with `crs`, `bounds` and `row0`),
              optional `weight`; `gcs.plans.raster_prior` reads it.
+- `ipp`      Point: the initial planning point of a lost-person prior, with `subject`, `terrain`
+             and optional `climate` (`planner.priors.lost_person`), optional `weight`.
+- `feature`  Point, LineString or Polygon (and Multi-): a `kind` of place subjects are found near
+             (trail, road, drainage, water, field, woodland, structure, ...).
+- `segment`  Polygon / MultiPolygon: a search segment with its `poa` in percent, or `poas`, several
+             planners' POAs (their mean is used: the Mattson consensus); POAs sum to 100.
 
 A suggested cell size may be given as `cell_size_m` in the area feature's properties or in the
 FeatureCollection's `properties` member. Rings may wind either way. Bad input raises `UserError`
@@ -29,6 +35,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import shapely
 from shapely.geometry import MultiPolygon, Polygon, shape
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
@@ -38,10 +45,13 @@ from gcs.errors import UserError
 from planner.georef import heading_from_degrees
 from planner.motion import COMPASS
 
-ROLES = ("area", "no_fly", "prior", "airport", "target", "raster_prior")
+ROLES = ("area", "no_fly", "prior", "airport", "target", "raster_prior", "ipp", "feature", "segment")
 FORMATS = ("area files are GeoJSON (.geojson, .json), KML (.kml, .kmz), GPX (.gpx), GeoPackage (.gpkg) or "
            "Shapefile (.shp, a .zip or a folder of them)")
 POLYGONAL = ("Polygon", "MultiPolygon")
+FEATURE_GEOMETRIES = ("Point", "LineString", "MultiLineString", "Polygon", "MultiPolygon")
+#: How far segment POAs may sum from 100 % (rounding of hand-entered percentages).
+POA_TOLERANCE_PCT = 0.5
 
 
 @dataclass(frozen=True)
@@ -89,6 +99,37 @@ class RasterPrior:
 
 
 @dataclass(frozen=True)
+class Ipp:
+    """The initial planning point of a lost-person prior (`planner.priors.lost_person`)."""
+
+    name: str
+    lon_deg: float
+    lat_deg: float
+    subject: str
+    terrain: str
+    climate: str
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
+class PlaceFeature:
+    """A place subjects are found near: `kind` is a FIND_LOCATION kind (the word given mapped)."""
+
+    name: str
+    kind: str
+    geometry: BaseGeometry
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A search segment and its POA as a share (0..1): the mean of the planners' POAs."""
+
+    name: str
+    geometry: BaseGeometry
+    poa: float
+
+
+@dataclass(frozen=True)
 class AreaFile:
     """A parsed, validated area file; geometries are shapely, in lon/lat."""
 
@@ -100,6 +141,9 @@ class AreaFile:
     targets: tuple[Target, ...]
     cell_size_m: float | None
     rasters: tuple[RasterPrior, ...] = ()
+    ipps: tuple[Ipp, ...] = ()
+    features: tuple[PlaceFeature, ...] = ()
+    segments: tuple[Segment, ...] = ()
 
 
 def _reject_constant(name: str) -> float:
@@ -184,6 +228,15 @@ def _geometry(feature: dict, allowed: tuple[str, ...], where: str) -> BaseGeomet
     coords = geom.get("coordinates")
     if kind == "Point":
         _check_position(coords, where)
+    elif kind in ("LineString", "MultiLineString"):
+        lines = [coords] if kind == "LineString" else coords
+        if not isinstance(lines, list) or not lines:
+            raise UserError(f"{where}: a {kind} needs a list of positions")
+        for line in lines:
+            if not isinstance(line, list) or len(line) < 2:
+                raise UserError(f"{where}: a line needs at least 2 positions")
+            for pos in line:
+                _check_position(pos, where)
     elif kind == "Polygon":
         _check_polygon_coords(coords, where)
     elif kind == "MultiPolygon":
@@ -192,7 +245,7 @@ def _geometry(feature: dict, allowed: tuple[str, ...], where: str) -> BaseGeomet
         for i, rings in enumerate(coords):
             _check_polygon_coords(rings, f"{where} polygon {i}")
     result = shape({"type": kind, "coordinates": coords})
-    if kind != "Point":
+    if kind in POLYGONAL:
         if not result.is_valid:
             reason = explain_validity(result)
             raise UserError(f"{where}: invalid polygon: {_readable_validity(reason)}")
@@ -254,6 +307,41 @@ def _raster_prior(props: dict, label: str, where: str, folder: Path) -> RasterPr
     return RasterPrior(label, resolved, crs.strip(), (west, south, east, north), row0, weight)
 
 
+def _ipp(props: dict, label: str, point: BaseGeometry, where: str) -> Ipp:
+    from planner.priors.lost_person import climates, subjects, terrains
+
+    def word(key: str, choices: list[str], default: str | None = None) -> str:
+        value = props.get(key, default)
+        if value is None:
+            raise UserError(f"{where}: an ipp needs '{key}' (one of {', '.join(choices)})")
+        text = str(value).strip().lower()
+        if text not in choices:
+            raise UserError(f"{where}: {key} {value!r} is not in the lost-person table "
+                            f"(it holds: {', '.join(choices)})")
+        return text
+
+    subject = word("subject", subjects())
+    terrain = word("terrain", terrains(subject))
+    known = climates(subject, terrain)
+    climate = word("climate", known, "temperate" if "temperate" in known else None)
+    weight = _number(props.get("weight", 1.0), f"{where}: weight", positive=True)
+    return Ipp(label, point.x, point.y, subject, terrain, climate, weight)
+
+
+def _segment_poa(props: dict, where: str) -> float:
+    if "poa" in props and "poas" in props:
+        raise UserError(f"{where}: give 'poa' or 'poas' (several planners' POAs), not both")
+    if "poas" in props:
+        poas = props["poas"]
+        if not isinstance(poas, list) or not poas:
+            raise UserError(f"{where}: poas must be a list of percentages, one per planner")
+        values = [_number(v, f"{where}: poas", 0.0, 100.0) for v in poas]
+        return sum(values) / len(values) / 100.0
+    if "poa" not in props:
+        raise UserError(f"{where}: a segment needs 'poa' (percent) or 'poas' (several planners' percentages)")
+    return _number(props["poa"], f"{where}: poa", 0.0, 100.0) / 100.0
+
+
 def parse_area(data, name: str = "area", source: str = "area file", places: Sequence[str] | None = None,
                folder: Path | None = None) -> AreaFile:
     """Validate a decoded GeoJSON document and return its parts; `places` says where each feature
@@ -266,6 +354,10 @@ def parse_area(data, name: str = "area", source: str = "area file", places: Sequ
     if not isinstance(features, list):
         raise UserError(f"{source}: FeatureCollection has no 'features' list")
     areas, no_fly, priors, airports, targets, rasters = [], [], [], [], [], []
+    ipps: list[Ipp] = []
+    spots: list[PlaceFeature] = []
+    segments: list[Segment] = []
+    ipp_where: list[str] = []
     cell_size = None
     collection_props = data.get("properties")
     if isinstance(collection_props, dict) and collection_props.get("cell_size_m") is not None:
@@ -311,6 +403,20 @@ def parse_area(data, name: str = "area", source: str = "area file", places: Sequ
                 None if endurance_s is None else _number(endurance_s, f"{where}: endurance_s", positive=True),
                 None if altitude is None else _number(altitude, f"{where}: altitude_m", positive=True),
                 None if elevation is None else _number(elevation, f"{where}: elevation_m", -500.0, 9000.0)))
+        elif role == "ipp":
+            ipps.append(_ipp(props, label, _geometry(feature, ("Point",), where), where))
+            ipp_where.append(where)
+        elif role == "feature":
+            from planner.priors.lost_person import FEATURE_KINDS
+
+            geom = _geometry(feature, FEATURE_GEOMETRIES, where)
+            kind = str(props.get("kind", "")).strip().lower()
+            if kind not in FEATURE_KINDS:
+                raise UserError(f"{where}: kind {props.get('kind')!r} is not a kind of place subjects are found near "
+                                f"(one of {', '.join(sorted(FEATURE_KINDS))})")
+            spots.append(PlaceFeature(label, FEATURE_KINDS[kind], geom))
+        elif role == "segment":
+            segments.append(Segment(label, _geometry(feature, POLYGONAL, where), _segment_poa(props, where)))
         elif role == "raster_prior":
             if feature.get("geometry") is not None:
                 raise UserError(f"{where}: a raster_prior has no geometry (null): the raster places itself")
@@ -327,5 +433,15 @@ def parse_area(data, name: str = "area", source: str = "area file", places: Sequ
     if max_lon - min_lon > 180.0:
         raise UserError(f"{source}: the area spans more than 180 degrees of longitude (areas across the "
                         f"antimeridian are not supported)")
+    for ipp, at in zip(ipps, ipp_where):
+        if not area.covers(shapely.Point(ipp.lon_deg, ipp.lat_deg)):
+            raise UserError(f"{at}: the IPP at lon {ipp.lon_deg}, lat {ipp.lat_deg} is outside the area")
+    if segments:
+        total = 100.0 * sum(seg.poa for seg in segments)
+        if abs(total - 100.0) > POA_TOLERANCE_PCT:
+            raise UserError(f"{source}: the segments' POAs sum to {total:g}%, not 100% ("
+                            + ", ".join(f"{seg.name} {100 * seg.poa:g}%" for seg in segments)
+                            + "): correct them, or give the rest of the area a segment of its own")
+        segments = [Segment(seg.name, seg.geometry, seg.poa * 100.0 / total) for seg in segments]
     return AreaFile(name, area, tuple(no_fly), tuple(priors), tuple(airports), tuple(targets), cell_size,
-                    tuple(rasters))
+                    tuple(rasters), tuple(ipps), tuple(spots), tuple(segments))

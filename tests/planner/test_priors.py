@@ -49,6 +49,11 @@ def test_mass_off_the_grid_is_dropped_and_the_rest_normalised_on_searchable_cell
 
 
 def test_tep_keeps_the_shape_of_the_mass_and_mixtures_weigh_normalised_maps():
-    assert tep_of_mass(np.array([[0.1, 0.4]])) == pytest.approx(np.array([[0.225, 0.9]]))
+    ramp = np.arange(1.0, 1001.0).reshape(10, 100)
+    tep = tep_of_mass(ramp)
+    reference = np.quantile(ramp, 0.99)
+    assert tep[4, 99] == pytest.approx(PEAK_TEP * 500 / reference)  # the shape below the top 1 %
+    assert np.all(tep[ramp >= reference] == PEAK_TEP) and (tep == PEAK_TEP).sum() == 10
+    assert tep_of_mass(np.zeros((2, 2))).max() == 0
     mixed = mixture([np.array([[2.0, 0.0]]), np.array([[0.0, 10.0]])], [3.0, 1.0])
     assert mixed == pytest.approx(np.array([[0.75, 0.25]]))

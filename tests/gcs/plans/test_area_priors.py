@@ -1,5 +1,6 @@
-"""Mass priors in area files: raster priors (GeoTIFF, .npy) resampled onto the grid, several UAVs
-launched from one airport point; bad priors are one error line."""
+"""Mass priors in area files: raster priors (GeoTIFF, .npy) resampled onto the grid, lost-person
+priors from an IPP with features and segments, the camera's sensor, several UAVs launched from
+one airport point; bad priors are one error line."""
 
 import json
 
@@ -121,3 +122,79 @@ def test_bad_raster_priors_are_one_line_naming_the_feature(run_gcs, area_doc, sh
     far = (bounds[0] + 50_000, bounds[1], bounds[2] + 50_000, bounds[3])
     _fails(run_gcs, _with_raster(area_doc, shapes, path="heat.npy", crs=UTM32, bounds=list(far)),
            "no mass on a searchable cell")
+
+
+def _feature(geometry, **props):
+    return {"type": "Feature", "geometry": geometry, "properties": props}
+
+
+def _lost_person(doc, shapes, *extra, **ipp):
+    doc = json.loads(json.dumps(doc))
+    doc["features"] = [f for f in doc["features"] if f["properties"]["role"] != "prior"]
+    point = {"type": "Point", "coordinates": shapes.lonlat([(-150, 150)])[0]}
+    doc["features"].append(_feature(point, role="ipp", name="PLS", **({"subject": "hiker", "terrain": "flat"} | ipp)))
+    doc["features"] += list(extra)
+    return doc
+
+
+def test_an_ipp_with_a_trail_and_two_segments_and_a_camera(tmp_path, area_doc, shapes):
+    trail = _feature({"type": "LineString", "coordinates": shapes.lonlat([(-300, 200), (300, 200)])},
+                     role="feature", kind="Trail")
+    west = _feature({"type": "Polygon", "coordinates": [shapes.ring([(-300, -300), (0, -300), (0, 300),
+                                                                      (-300, 300)])]}, role="segment", poas=[60, 70])
+    east = _feature({"type": "Polygon", "coordinates": [shapes.ring([(0, -300), (300, -300), (300, 300),
+                                                                      (0, 300)])]}, role="segment", poa=35)
+    path = tmp_path / "ipp.geojson"
+    path.write_text(json.dumps(_lost_person(area_doc, shapes)))
+    alone = build_area_search(path, AreaOptions(), SearchOptions(strategy="exhaustive"))
+    path.write_text(json.dumps(_lost_person(area_doc, shapes, trail, west, east)))
+    setup = build_area_search(path, AreaOptions(), SearchOptions(strategy="exhaustive", camera_fov_deg=45.0))
+    grid, free = setup.area.grid, setup.area.free
+    east_m, north_m = grid.centres_m()
+    r = np.hypot(east_m + 150, north_m - 150)
+    plain = alone.prior_mass.mass
+    assert plain[r < 200].sum() > plain[r > 400].sum() / 50  # the ring density around the IPP
+    # 0.6 km holds 25 % of flat-terrain hikers, the 600 m square (less its no-fly box) some 9 %
+    assert 0.05 < alone.prior_mass.inside < 0.15
+    mass = setup.prior_mass.mass
+    assert mass[(east_m < 0) & free].sum() == pytest.approx(0.65) and mass.sum() == pytest.approx(1.0)
+    on_trail = np.abs(north_m - 200) < 15 + 15  # centres within 15 m and half a cell of it
+    assert mass[on_trail & (east_m < 0)].mean() > 3 * mass[~on_trail & (east_m < 0) & free].mean()
+    assert setup.camera is not None and setup.camera.altitude_m == 50.0  # the lowest layer's
+    sensor = setup.search.scenario.sensor
+    assert sensor.footprint_radius == 0 and sensor.pc == pytest.approx(setup.camera.pc)  # a 41 m swath, 30 m cells
+    assert setup.search.scenario.p0 is not None and setup.search.scenario.p0.sum() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("change, match", [
+    ({"subject": "astronaut"}, "subject 'astronaut' is not in the lost-person table (it holds: hiker)"),
+    ({"terrain": "lunar"}, "terrain 'lunar' is not in the lost-person table (it holds: flat, mountainous)"),
+    ({"climate": "polar"}, "climate 'polar' is not in the lost-person table"),
+    ({"subject": None}, "an ipp needs 'subject'"),
+])
+def test_bad_ipps_are_one_line(run_gcs, area_doc, shapes, change, match):
+    doc = _lost_person(area_doc, shapes)
+    props = doc["features"][-1]["properties"]
+    for key, value in change.items():
+        if value is None:
+            props.pop(key)
+        else:
+            props[key] = value
+    _fails(run_gcs, doc, match)
+
+
+def test_bad_lost_person_features_and_segments_are_one_line(run_gcs, area_doc, shapes):
+    doc = _lost_person(area_doc, shapes)
+    doc["features"][-1]["geometry"]["coordinates"] = shapes.lonlat([(-500, 150)])[0]
+    _fails(run_gcs, doc, "feature 5 (ipp 'PLS'): the IPP at lon")
+    line = {"type": "LineString", "coordinates": shapes.lonlat([(-300, 200), (300, 200)])}
+    _fails(run_gcs, _lost_person(area_doc, shapes, _feature(line, role="feature", kind="moat")),
+           "kind 'moat' is not a kind of place subjects are found near")
+    square = {"type": "Polygon", "coordinates": [shapes.ring([(-300, -300), (0, -300), (0, 300), (-300, 300)])]}
+    _fails(run_gcs, _lost_person(area_doc, shapes, _feature(square, role="segment", name="A", poa=60),
+                                 _feature(square, role="segment", name="B", poas=[20, 30])),
+           "the segments' POAs sum to 85%, not 100% (A 60%, B 25%)")
+    _fails(run_gcs, _lost_person(area_doc, shapes, _feature(square, role="segment", poa=60, poas=[60])),
+           "give 'poa' or 'poas'")
+    _fails(run_gcs, _lost_person(area_doc, shapes, _feature(square, role="segment", poa=160)),
+           "poa must lie in [0.0, 100.0]")

@@ -17,7 +17,11 @@ from gcs.cli import main
 from gcs.plans.plan_file import validate_plan_dict
 
 MISSIONS = Path(__file__).resolve().parents[3] / "missions"
-EXAMPLES = ("paper", "irregular", "large")
+EXAMPLES = ("paper", "irregular", "large", "hiker")
+#: Options beyond the defaults: the large example's exhaustive search keeps the suite quick (legs are
+#: checked alike); the hiker is searched with a camera's sensor.
+OPTIONS = {"large": ["--strategy", "exhaustive"],
+           "hiker": ["--strategy", "exhaustive", "--camera-fov", "45", "--no-rrd"]}
 
 
 @pytest.fixture(scope="module")
@@ -26,8 +30,8 @@ def planned(tmp_path_factory):
     root = tmp_path_factory.mktemp("examples")
     out = {}
     for name in EXAMPLES:
-        fast = ["--strategy", "exhaustive"] if name == "large" else []   # keeps the suite quick; legs are checked alike
-        args = ["plan", "--area", str(MISSIONS / f"{name}.geojson"), "--out", str(root / name), "--quiet", *fast]
+        args = ["plan", "--area", str(MISSIONS / f"{name}.geojson"), "--out", str(root / name), "--quiet",
+                *OPTIONS.get(name, [])]
         assert main(args) == 0
         out[name] = root / name
     return out
@@ -201,6 +205,19 @@ def test_uavs_fly_at_distinct_altitudes_by_default(planned):
     for name in EXAMPLES:
         altitudes = [u["altitude_m"] for u in _load(planned[name] / "plan.json")["uavs"]]
         assert len(set(altitudes)) == len(altitudes)
+
+
+def test_the_hiker_is_searched_from_the_ipp_alone_by_three_uavs_from_one_car_park(planned):
+    """The prior is the hiker's distance from the IPP with the trail, stream and hut: its mass in the
+    area is the whole of what the plan can find (expected finds are a probability), and the
+    camera's 45 degrees at the lowest layer (50 m: a 41 m swath over 50 m cells) is the sensor."""
+    plan = _load(planned["hiker"] / "plan.json")
+    summary = plan["summary"]
+    assert summary["expected_targets_in_area"] == pytest.approx(1.0)
+    assert 0.2 < summary["probability_of_success"] < 0.9
+    assert len({tuple(u["airport_lat_lon"]) for u in plan["uavs"]}) == 1 and len(plan["uavs"]) == 3
+    assert len({tuple(u["airport"]) for u in plan["uavs"]}) == 3
+    assert plan["campaign"]["options"]["camera_fov_deg"] == 45.0
 
 
 def test_merging_shortens_the_missions(planned):
