@@ -17,6 +17,8 @@ imported before a picture is drawn, so that helper loads neither numba nor the p
 from __future__ import annotations
 
 import io
+import math
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -34,6 +36,8 @@ WIDTH_PX = 1400
 HEIGHT_PX = 1000
 DPI = 100
 REGION_COLOURS = {"known": "tab:cyan", "key": "tab:orange"}
+SEGMENT_COLOUR = "#1f3a93"
+TITLE_CHARS = 150  # a title line wraps at this many characters: it fits the picture's width
 
 # Named bands of the prior (P, chi) used to outline regions (Section 2.1 names them, it does not
 # fix numbers): known where both are <= 0.1, key where P >= 0.8.
@@ -169,19 +173,64 @@ def warm_up() -> None:
 class MapLayers:
     """What the picture shows of a scenario, in plain arrays: the prior (a later sortie's belief
     before it) TEP and no-fly cells, the known and key regions, the cells earlier sorties
-    searched (None for a first sortie) and the colour bar's label."""
+    searched (None for a first sortie) and the colour bar's label; over a real area its cell
+    side `cell_m` (the axes then in metres from the grid's south-west corner) and its segments
+    (`blocks`: name, x0, y0, x1, y1 in 0-based cells, ends exclusive)."""
 
     tep: np.ndarray
     no_fly: np.ndarray
     regions: dict[str, np.ndarray]
     searched: np.ndarray | None
     tep_label: str
+    cell_m: float | None = None
+    blocks: tuple[tuple[str, int, int, int, int], ...] = ()
 
 
 def map_layers(scenario: Scenario) -> MapLayers:
     m = scenario.search_map
+    blocks: tuple[tuple[str, int, int, int, int], ...] = ()
+    if scenario.unit_m is not None:
+        from planner.search_theory import block_segments
+
+        blocks = tuple((b.name, *b.block) for b in block_segments(~np.asarray(m.no_fly)) if b.block is not None)
     return MapLayers(np.asarray(m.tep), np.asarray(m.no_fly), region_masks(scenario), searched_before(scenario),
-                     "prior TEP" if scenario.looks_before is None else "belief TEP before this sortie")
+                     "prior TEP" if scenario.looks_before is None else "belief TEP before this sortie",
+                     cell_side_m(scenario), blocks)
+
+
+def cell_side_m(scenario: Scenario) -> float | None:
+    """A real area's cell side in metres (None for a built-in scenario, drawn in cells)."""
+    if scenario.unit_m is None:
+        return None
+    return float(scenario.unit_m * scenario.move_costs.straight)
+
+
+def nice_length(limit: float) -> float:
+    """The longest of 1, 2, 5 x 10^k not above `limit` (a scale bar's length)."""
+    k = 10 ** math.floor(math.log10(limit))
+    return max(f * k for f in (1, 2, 5) if f * k <= limit)
+
+
+def segment_labels(plan: Plan, scenario: Scenario, blocks: tuple[tuple[str, int, int, int, int], ...]
+                   ) -> tuple[tuple[float, float, str], ...]:
+    """Per segment its name, POA and the POD this plan gives it (`planner.search_theory`, the
+    POA as a share of what the prior puts in the area), at its north-west corner (1-based cells)."""
+    if not blocks:
+        return ()
+    from planner.campaign import look_counts
+    from planner.search_theory import Segment, search_theory
+
+    free = ~np.asarray(scenario.search_map.no_fly)
+    segments = []
+    for name, x0, y0, x1, y1 in blocks:
+        mask = np.zeros(free.shape, dtype=bool)
+        mask[x0:x1, y0:y1] = free[x0:x1, y0:y1]
+        segments.append(Segment(name, mask, (x0, y0, x1, y1)))
+    theory = search_theory(scenario.success_prior, free, scenario.sensor.pc,
+                           look_counts(plan, scenario.sensor.footprint_radius), segments,
+                           looks_before=scenario.looks_before)
+    return tuple((b[1] + 0.6, b[4] + 0.4, f"{f.name} POA {f.poa:.0%}\nPOD {f.pod:.0%}")
+                 for b, f in zip(blocks, theory.segments))
 
 
 @dataclass(frozen=True)
@@ -205,6 +254,7 @@ class PlanLayers:
     found: np.ndarray
     missed: np.ndarray
     title: str
+    segments: tuple[tuple[float, float, str], ...] = ()
 
 
 def plan_layers(plan: Plan, scenario: Scenario) -> PlanLayers:
@@ -213,9 +263,10 @@ def plan_layers(plan: Plan, scenario: Scenario) -> PlanLayers:
     found = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is not None], dtype=float).reshape(-1, 2)
     missed = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is None], dtype=float).reshape(-1, 2)
     campaign = campaign_outcome(plan, scenario)
-    title = (f"{plan.scenario}: {title_outcome(plan)}\n" + (f"{campaign}\n" if campaign else "")
-             + settings_text(plan.settings))
-    return PlanLayers(uavs, found, missed, title)
+    lines = [f"{plan.scenario}: {title_outcome(plan)}", *([campaign] if campaign else []), settings_text(plan.settings)]
+    title = "\n".join(textwrap.fill(line, TITLE_CHARS, subsequent_indent="  ") for line in lines)
+    blocks = map_layers(scenario).blocks if scenario.unit_m is not None else ()
+    return PlanLayers(uavs, found, missed, title, segment_labels(plan, scenario, blocks))
 
 
 class OverviewPicture:
@@ -253,11 +304,27 @@ class OverviewPicture:
                 segments[..., 1] = ny + 0.5 - segments[..., 1]
                 self._map.append(ax.add_collection(LineCollection(segments, colors=REGION_COLOURS[name],
                                                                   linewidths=2.2, zorder=2)))
+        if layers.blocks:
+            edges = [((x0 + 0.5, y0 + 0.5), (x1 + 0.5, y0 + 0.5), (x1 + 0.5, y1 + 0.5), (x0 + 0.5, y1 + 0.5),
+                      (x0 + 0.5, y0 + 0.5)) for _, x0, y0, x1, y1 in layers.blocks]
+            self._map.append(ax.add_collection(LineCollection(edges, colors=SEGMENT_COLOUR, linewidths=0.9,
+                                                              linestyles=(0, (4, 3)), alpha=0.7, zorder=1.8)))
         ax.set_xlim(extent[0] - 1, extent[1] + 1)
         ax.set_ylim(extent[2] - 1, extent[3] + 1)
         ax.set_aspect("equal")
-        ax.set_xlabel("x (cell, east)")
-        ax.set_ylabel("y (cell, north)")
+        if layers.cell_m is None:
+            ax.set_xlabel("x (cell, east)")
+            ax.set_ylabel("y (cell, north)")
+        else:
+            from matplotlib.ticker import FuncFormatter, MaxNLocator
+
+            cell = layers.cell_m
+            for axis, n in ((ax.xaxis, nx), (ax.yaxis, ny)):
+                ticks_m = MaxNLocator(nbins=8, steps=[1, 2, 2.5, 5, 10]).tick_values(0, n * cell)
+                axis.set_ticks([t / cell + 0.5 for t in ticks_m if 0 <= t <= n * cell])
+                axis.set_major_formatter(FuncFormatter(lambda v, _: f"{(v - 0.5) * cell:,.0f}"))
+            ax.set_xlabel("metres east of the grid's south-west corner")
+            ax.set_ylabel("metres north of the grid's south-west corner")
         self._map += [ax.xaxis, ax.yaxis]
         cbar = fig.colorbar(prior, cax=fig.add_axes((0.67, 0.3, 0.012, 0.4)))
         cbar.set_label(layers.tep_label)
@@ -291,14 +358,19 @@ class OverviewPicture:
                 ax.plot(*u.back[0], "o", ms=7, mfc="white", mec=colour, mew=2)
             ax.plot(u.airport[0] + 1, u.airport[1] + 1, "^", ms=14, color=colour, mec="black", mew=1.2, zorder=5)
             inward = np.sign([(nx + 1) / 2 - (u.airport[0] + 1), (ny + 1) / 2 - (u.airport[1] + 1)])
-            ax.annotate(f"A{u.uav_id}", (u.airport[0] + 1, u.airport[1] + 1), textcoords="offset points",
-                        xytext=tuple(14 * inward + (0, -5)), ha="center", fontsize=11, fontweight="bold",
+            ax.annotate(f"UAV {u.uav_id}", (u.airport[0] + 1, u.airport[1] + 1), textcoords="offset points",
+                        xytext=tuple(24 * inward + (0, -5)), ha="center", fontsize=11, fontweight="bold",
                         color=colour, zorder=6,
                         bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8})
         found, missed = plan.found, plan.missed
         ax.plot(found[:, 0], found[:, 1], "*", ms=17, color="gold", mec="black", mew=1.0, zorder=7, ls="none")
         ax.plot(missed[:, 0], missed[:, 1], "X", ms=11, color="crimson", mec="black", mew=0.8, zorder=7, ls="none")
-        ax.set_title(plan.title, fontsize=12)
+        ax.set_title(plan.title, fontsize=11, loc="left")
+        for x, y, text in plan.segments:
+            ax.text(x, y, text, fontsize=7.5, color=SEGMENT_COLOUR, va="top", ha="left", zorder=4,
+                    bbox={"boxstyle": "round,pad=0.12", "fc": "white", "ec": "none", "alpha": 0.6})
+        if self.layers.cell_m is not None:
+            self._scale_and_north(ax, self.layers.cell_m)
 
         handles = [Line2D([], [], color=_rgb(uav_colour(i)), lw=2.5, label=u.label) for i, u in enumerate(plan.uavs)]
         handles += [
@@ -317,7 +389,10 @@ class OverviewPicture:
         if self.layers.searched is not None:
             handles.append(Patch(facecolor=(0.55, 0.55, 0.55, 0.35), edgecolor=(0.1, 0.1, 0.1, 0.7), hatch="///",
                                  lw=0, label=f"searched in earlier sorties ({int(self.layers.searched.sum())} cells)"))
-        legend = fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.73, 0.5), fontsize=11,
+        if plan.segments:
+            handles.append(Line2D([], [], color=SEGMENT_COLOUR, lw=0.9, ls=(0, (4, 3)),
+                                  label="segment: POA (share of the area's prior),\n    POD this sortie gives it"))
+        legend = fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.71, 0.5), fontsize=10,
                             frameon=False, labelspacing=0.8)
         canvas = fig.canvas
         if self._background is None:
@@ -337,6 +412,20 @@ class OverviewPicture:
         self.png = png.getvalue()
         self._figure = self._axes = self._background = None
         self._map = []
+
+    def _scale_and_north(self, ax: Any, cell_m: float) -> None:
+        """A scale bar (bottom left) and a north arrow (top right) inside the axes."""
+        from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+        nx, _ = self.shape
+        length_m = nice_length(nx * cell_m / 4)
+        label = f"{length_m / 1000:g} km" if length_m >= 1000 else f"{length_m:g} m"
+        ax.add_artist(AnchoredSizeBar(ax.transData, length_m / cell_m, label, "lower left", pad=0.4, sep=4,
+                                      frameon=True, size_vertical=0.15, fontproperties={"size": 10}))
+        ax.annotate("N", xy=(0.965, 0.975), xytext=(0.965, 0.89), xycoords="axes fraction", ha="center",
+                    va="center", fontsize=13, fontweight="bold",
+                    arrowprops={"arrowstyle": "-|>", "lw": 2, "color": "black"},
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8}, zorder=8)
 
     def save(self, path: str | Path) -> Path:
         """Write the rendered picture to `path`, atomically."""

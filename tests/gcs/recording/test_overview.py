@@ -130,3 +130,32 @@ def test_the_pictures_helper_is_sent_plain_data(recorded_run: RecordedRun, tmp_p
     assert picture.png.startswith(b"\x89PNG")
     with pytest.raises(RuntimeError, match="rendered already"):
         picture.render(layers[1])
+
+
+def test_an_area_plan_is_drawn_in_metres_with_its_segments(tmp_path: Path):
+    """Over a real area: axes in metres from the grid's corner, a scale bar and a north arrow,
+    the segments (those of plan.json) labelled with their POA and POD, the title wrapped to fit;
+    the map drawn ahead still gives the picture drawn all at once."""
+    from gcs.display.overview import TITLE_CHARS, map_layers, plan_layers
+    from gcs.plans.make import fly_with_progress
+    from gcs.plans.options import SearchOptions
+    from gcs.plans.planning import build_area_search
+    from gcs.plans.segments import area_segments, plan_theory
+
+    setup = build_area_search(Path(__file__).parents[1] / "plans" / "gis" / "caltopo.kml",
+                              search=SearchOptions(np_steps=2, strategy="exhaustive"))
+    plan = fly_with_progress(setup.search, progress=False)
+    scenario = setup.search.scenario
+    layers = map_layers(scenario)
+    assert layers.cell_m == 30.0
+    segments = area_segments(setup.area)
+    assert [b[0] for b in layers.blocks] == [s.name for s in segments]
+    labels = plan_layers(plan, scenario)
+    theory = plan_theory(setup, plan, segments)
+    assert [text for *_, text in labels.segments] == [f"{f.name} POA {f.poa:.0%}\nPOD {f.pod:.0%}"
+                                                      for f in theory.segments]
+    assert max(len(line) for line in labels.title.splitlines()) <= TITLE_CHARS
+    ahead = draw_overview(plan, scenario, tmp_path / "ahead.png").read_bytes()
+    assert ahead == _all_at_once(plan, scenario, tmp_path / "once.png").read_bytes()
+    image = np.asarray(Image.open(tmp_path / "ahead.png").convert("RGB")).astype(int)
+    assert image[:, :8].min() > 240  # nothing runs off the left edge (the title did)
