@@ -1,5 +1,5 @@
 """Probability of success (`planner.success`) and planning time per search option, with an upper
-bound from a solver (`benchmarks/success_bound.py`, needs the `bench` extra: highspy).
+bound from a solver (`planner.bound`, HiGHS).
 
     .venv/bin/python benchmarks/bench_success.py [--paper-seeds 100] [--areas 20] [--mission-seeds 3]
                                                  [--bound-time 20] [--no-bound] [--no-large]
@@ -73,7 +73,7 @@ class Tally:
 
 
 def bound_row(name: str, scenarios: list[Scenario], seconds: float) -> str:
-    from benchmarks.success_bound import success_bound
+    from planner.bound import success_bound
 
     values, shares, times = [], [], []
     for scenario in scenarios:
@@ -83,7 +83,7 @@ def bound_row(name: str, scenarios: list[Scenario], seconds: float) -> str:
         values.append(b.value)
         shares.append(b.value / available)
         times.append(b.seconds)
-        print(f"    bound {scenario.name}: {b.value:.1f} (LP {b.lp:.1f}, MIP dual {b.mip:.1f}, b = {b.block}, "
+        print(f"    bound {scenario.name}: {b.value:.1f} (LP {b.lp:.1f}, MIP dual {b.mip_dual:.1f}, b = {b.block}, "
               f"{b.columns} columns, {b.seconds:.0f} s)", file=sys.stderr, flush=True)
     return (f"| {name} | upper bound (LP / MIP, HiGHS) | {np.mean(values):.1f} | {np.mean(shares):.1%} | - | "
             f"{statistics.median(times):.1f} |")

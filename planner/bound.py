@@ -122,8 +122,8 @@ class _Model:
     def add_columns(self, n: int, gain: float | np.ndarray = 0.0, upper: float | np.ndarray = 1.0,
                     integer: bool = False) -> np.ndarray:
         ids = np.arange(self.columns, self.columns + n, dtype=np.int64)
-        self.gain.append(np.broadcast_to(np.asarray(gain, dtype=float), (n,)).copy())
-        self.upper.append(np.broadcast_to(np.asarray(upper, dtype=float), (n,)).copy())
+        self.gain.append(np.full(n, gain) if np.isscalar(gain) else np.asarray(gain, dtype=float))
+        self.upper.append(np.full(n, upper) if np.isscalar(upper) else np.asarray(upper, dtype=float))
         self.integer.append(np.full(n, integer))
         self.columns += n
         return ids
@@ -138,13 +138,18 @@ class _Model:
         self.lo[row], self.hi[row] = lo, hi
 
     def entries(self, rows: np.ndarray | int, cols: np.ndarray | int, values: np.ndarray | float) -> None:
-        rows, cols = np.broadcast_arrays(np.asarray(rows, dtype=np.int64), np.asarray(cols, dtype=np.int64))
-        self.r.append(rows.ravel())
-        self.c.append(cols.ravel())
-        self.v.append(np.broadcast_to(np.asarray(values, dtype=float), rows.shape).ravel())
+        r = np.asarray(rows, dtype=np.int64).ravel()
+        c = np.asarray(cols, dtype=np.int64).ravel()
+        n = max(r.size, c.size)
+        self.r.append(r if r.size == n else np.full(n, r[0]))
+        self.c.append(c if c.size == n else np.full(n, c[0]))
+        self.v.append(np.full(n, values, dtype=float) if np.isscalar(values)
+                      else np.asarray(values, dtype=float).ravel())
 
-    def solve(self, integral: bool, time_limit_s: float) -> tuple[str, float, float, float]:
-        """(status, objective, dual bound, gap) of the LP (`integral` False) or the MIP."""
+    def solve(self, integral: bool, time_limit_s: float, mip_nodes: int | None = None
+              ) -> tuple[str, float, float, float]:
+        """(status, objective, dual bound, gap) of the LP (`integral` False) or the MIP (at most
+        `mip_nodes` branch-and-bound nodes)."""
         import highspy
 
         r = np.concatenate(self.r) if self.r else np.zeros(0, np.int64)
@@ -177,8 +182,10 @@ class _Model:
         h.setOptionValue("threads", 1)
         if integral:
             h.setOptionValue("mip_rel_gap", 1e-6)
+            if mip_nodes is not None:
+                h.setOptionValue("mip_max_nodes", int(mip_nodes))
         else:
-            h.setOptionValue("solver", "ipm")     # the interior point method: several times faster here
+            h.setOptionValue("solver", "ipm")     # the interior point method: faster than simplex here
         h.passModel(lp)
         h.run()
         status = h.getModelStatus()
@@ -513,11 +520,12 @@ def bound_model_size(scenario: Scenario, oc: OrientationConstraint = OC3, max_ar
 
 
 def success_bound(scenario: Scenario, oc: OrientationConstraint = OC3, time_limit_s: float = 5.0, mip: bool = True,
-                  max_arcs: int = DEFAULT_MAX_ARCS, model: BoundModel | None = None, block: int | None = None
-                  ) -> Bound:
+                  max_arcs: int = DEFAULT_MAX_ARCS, model: BoundModel | None = None, block: int | None = None,
+                  mip_nodes: int | None = None) -> Bound:
     """The upper bound of the module docstring on the expected finds of any closed plan of
     `scenario` under `oc`, within `time_limit_s` seconds (building the model included): the LP
-    first, then with `mip` the MIP in the time left. `model` (and `block` for `BLOCKS`) forces a
+    first, then with `mip` the MIP in the time left (at most `mip_nodes` branch-and-bound nodes:
+    its dual bound comes mostly from the cuts at the root). `model` (and `block` for `BLOCKS`) forces a
     model; by default the tightest whose arcs fit `max_arcs`."""
     start = time.perf_counter()
     if not scenario.uavs:
@@ -543,7 +551,7 @@ def success_bound(scenario: Scenario, oc: OrientationConstraint = OC3, time_limi
     dual, best, gap, optimal = math.inf, -math.inf, math.inf, False
     left = time_limit_s - (time.perf_counter() - start)
     if mip and left > 0:
-        status, best, dual, gap = built.solve(True, left)
+        status, best, dual, gap = built.solve(True, left, mip_nodes)
         optimal = status == "optimal"
     return Bound(min(lp, dual), lp, dual, best, gap, True, optimal, model, b, built.columns, len(built.lo),
                  time.perf_counter() - start)

@@ -45,13 +45,6 @@ def add_search_arguments(p: argparse._ActionsContainer) -> None:
     p.add_argument("--pf", type=float, default=d.pf, help="sensor false-alarm rate")
     p.add_argument("--footprint", type=int, default=d.footprint,
                    help="sensor footprint radius in cells (0: the cell below)")
-    p.add_argument("--camera-fov", dest="camera_fov_deg", metavar="DEG", type=float, default=d.camera_fov_deg,
-                   help="with --area: a downward camera's field of view across track; its swath at the altitude "
-                        "gives the footprint and Pc instead of --footprint and --pc (docs/plan.md)")
-    p.add_argument("--camera-pixels", dest="camera_pixels", metavar="N", type=int, default=d.camera_pixels,
-                   help="the camera's pixels across track (detection falls where a person gets under 2)")
-    p.add_argument("--camera-pd", dest="camera_pd", metavar="P", type=float, default=d.camera_pd,
-                   help="probability of detecting a person in the camera's image")
 
 
 def add_area_arguments(p: argparse.ArgumentParser) -> None:
@@ -127,4 +120,4 @@ def plan_options_from(args: argparse.Namespace) -> tuple[AreaOptions, SearchOpti
 def output_options_from(args: argparse.Namespace) -> OutputOptions:
     """What planning shows and records, from `add_output_arguments`'s options."""
     return OutputOptions(rrd=args.rrd, record=not args.no_rrd, rerun_connect=args.rerun_connect,
-                         progress=not args.quiet)
+                         progress=not args.quiet, bound_time_s=getattr(args, "bound_time", 0.0))

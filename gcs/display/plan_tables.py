@@ -17,12 +17,26 @@ if TYPE_CHECKING:
     from planner.plan import Plan
 
 
-def summary_table(plan: Plan) -> str:
+def bound_line(bound: dict | None) -> str | None:
+    """The plan against the upper bound on expected finds (plan.json's `summary.bound`), in one
+    line; None when no bound was asked for."""
+    if bound is None:
+        return None
+    if "share_of_max" not in bound:
+        return (f"bound: not had within --bound-time {bound['time_limit_s']:g} s ({bound['model']} model); a longer "
+                "--bound-time may have it")
+    model = bound["model"] + (f" {bound['block']}x{bound['block']}" if bound["block"] > 1 else "")
+    return (f"bound: at least {bound['share_of_max']:.1%} of the most any plan of these airports and ranges could "
+            f"expect (E <= {bound['expected_targets_found_max']:.2f}, PoS <= {bound['probability_of_success_max']:.1%};"
+            f" the LP over {model})")
+
+
+def summary_table(plan: Plan, bound: dict | None = None) -> str:
     """Per UAV its legs, range use (steps; over a real area the metres of range left for the
     grid, `grid m`, and the grid path's length, `flown m`: the mission table adds the airport legs
     and a plane's landing circuit to both) and probability of success
     (expected targets found, and that as a share of what the prior puts in the area); then the
-    totals, and the simulated finds."""
+    totals, the plan against the upper bound (`bound_line`), and the simulated finds."""
     found_by: dict[int, int] = {}
     for t in plan.targets:
         if t.found_by is not None:
@@ -45,6 +59,9 @@ def summary_table(plan: Plan) -> str:
     if pos is not None:
         rows.append(f"probability of success {pos.share:.1%}: expected targets found {pos.expected:.2f} of the "
                     f"{pos.available:.2f} the prior puts in the area")
+    line = bound_line(bound)
+    if line is not None:
+        rows.append(line)
     simulated = (f"targets found {plan.targets_found}/{len(plan.targets)}" if len(plan.targets)
                  else "no targets placed (none to find)")
     rows.append(f"simulated: {simulated}, false alarms {plan.false_alarms}, mean eta {plan.mean_eta:.1%}")
@@ -108,17 +125,9 @@ def campaign_table(rows: list[dict], available: float) -> str:
     return "\n".join(lines)
 
 
-def segments_table(files: dict[str, str]) -> str:
-    """POA, POD, POS, cumulative POD and POA after per segment, from plan.json in `files`
-    (`planner.search_theory`; the map's copy: segments.kml / segments.geojson)."""
-    from planner.search_theory import SearchTheory
-
-    return SearchTheory.from_dict(json.loads(files["plan.json"])["search_theory"]).table()
-
-
 def scenario_report(result: ScenarioResult) -> str:
     """The summary of a built-in scenario's plan and where its files went."""
-    return "\n".join([summary_table(result.plan),
+    return "\n".join([summary_table(result.plan, result.bound),
                       f"plan written to {result.path}, picture {result.picture}"
                       + (f", recording {result.rrd}" if result.rrd else "")])
 
@@ -139,9 +148,8 @@ def area_report(result: CampaignResult) -> str:
     for sortie in result.sorties:
         if several or len(result.rows) > 1:
             lines.append(f"-- sortie {sortie.setup.belief.sortie} ({sortie.folder}) --")
-        lines.append(summary_table(sortie.plan))
+        lines.append(summary_table(sortie.plan, json.loads(sortie.files["plan.json"])["summary"].get("bound")))
         lines.append(mission_table(sortie.setup, sortie.files))
-        lines.append(segments_table(sortie.files))
         lines.append(f"plan, missions and paths written to {sortie.folder}/ ({', '.join(sorted(sortie.files))}), "
                      f"picture {sortie.picture.name}" + (f", recording {sortie.rrd}" if sortie.rrd else ""))
     if len(result.rows) > 1:

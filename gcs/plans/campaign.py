@@ -23,6 +23,7 @@ from gcs.errors import UserError
 from gcs.plans.belief_file import BELIEF_FILE, SORTIE_FILE, belief_from_dict, belief_to_dict, file_sha256
 from gcs.plans.gis_formats import area_sha256
 from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions, options_from_record, options_record
+from gcs.plans.plan_bound import bound_summary
 from gcs.plans.planning import AreaSetup, area_out_dir, area_outputs, build_area_search, write_outputs
 from gcs.plans.vehicle_file import VEHICLES_FILE
 from planner.campaign import Belief, predicted_after
@@ -242,7 +243,8 @@ def plan_sorties(area_file: str | Path, area: AreaOptions, search: SearchOptions
         name = Path(area_file).stem + (f" sortie {sortie}" if sortie > 1 else "")
         plan = planning.fly(setup.search, rrd, name, setup.area.cells_lonlat)
         section = campaign_section(setup, start, plan, folder, search.seed, options, area_record)
-        mine = area_outputs(setup, plan, setup.search.seed, area.speed_m_s, section)
+        bound = bound_summary(plan, setup.search.scenario, setup.search.config.oc, planning.output.bound_time_s)
+        mine = area_outputs(setup, plan, setup.search.seed, area.speed_m_s, section, bound)
         mine[BELIEF_FILE] = json.dumps(belief_to_dict(start.belief, start.source)) + "\n"
         files.update({prefix + name: text for name, text in mine.items()})
         planned.append((folder, setup, plan, mine, rrd))

@@ -184,6 +184,7 @@ class ScenarioResult:
     path: Path
     picture: Path
     rrd: Path | None
+    bound: dict | None = None   # plan.json's summary.bound (`gcs.plans.plan_bound`)
 
 
 def plan_path(out: str | Path) -> Path:
@@ -200,6 +201,7 @@ def plan_scenario(scenario: str = "paper", search: SearchOptions | None = None, 
     search = search or SearchOptions()
     output = output or OutputOptions()
     with planning(output) as run:
+        from gcs.plans.plan_bound import bound_summary
         from gcs.plans.plan_file import plan_to_dict
         from gcs.plans.planning import build_scenario_search
 
@@ -207,9 +209,10 @@ def plan_scenario(scenario: str = "paper", search: SearchOptions | None = None, 
         path = plan_path(out)
         rrd = output.recording_path(path.with_suffix(".rrd"))
         plan = run.fly(closed, rrd, f"{scenario} seed {search.seed}")
-        write_json_atomic(path, plan_to_dict(plan, seed=search.seed))
+        bound = bound_summary(plan, closed.scenario, closed.config.oc, output.bound_time_s)
+        write_json_atomic(path, plan_to_dict(plan, seed=search.seed, bound=bound))
         [picture] = run.draw([(plan, closed.scenario, path.with_suffix(".png"))])
-    return ScenarioResult(plan, closed.scenario, path, picture, rrd)
+    return ScenarioResult(plan, closed.scenario, path, picture, rrd, bound)
 
 
 def plan_area(area_file: str | Path, area: AreaOptions | None = None, search: SearchOptions | None = None,

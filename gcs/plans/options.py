@@ -48,9 +48,7 @@ class SearchOptions:
     `planner.dtscs.RETURN_PLANNERS`, `reserve` the steps of range every range check keeps back,
     `range_aware_search` prunes search moves by range (eq. 8) instead of the paper's switch.
     `horizon_value` adds the value of where each path ends to J1; None: on for an area, off for a
-    built-in scenario (the paper's J1). `pc`, `pf` and `footprint` describe the sensor; over an area,
-    `camera_fov_deg` (with `camera_pixels` and `camera_pd`) derives the footprint and Pc from a
-    camera at the UAVs' altitude instead (`planner.camera`). `range_steps`
+    built-in scenario (the paper's J1). `pc`, `pf` and `footprint` describe the sensor. `range_steps`
     is every UAV's range in steps in a built-in scenario (an area's ranges come from its airports
     and `AreaOptions`). `seed` seeds the targets, the sensor draws and the optimisers."""
 
@@ -66,9 +64,6 @@ class SearchOptions:
     pc: float = 0.9
     pf: float = 0.1
     footprint: int = 0
-    camera_fov_deg: float | None = None
-    camera_pixels: int | None = None
-    camera_pd: float = 1.0
 
     def __post_init__(self) -> None:
         _as_declared(self)
@@ -115,12 +110,14 @@ class AreaOptions:
 class OutputOptions:
     """What planning shows and records, not how it plans: `rrd` the Rerun recording's path (None:
     beside the plan), none when `record` is False; `rerun_connect` also streams it to a running
-    viewer at that address; `progress` False shows no progress bar."""
+    viewer at that address; `progress` False shows no progress bar; `bound_time_s` > 0 gives
+    the upper bound on expected finds that many seconds (`gcs.plans.plan_bound`; 0: none)."""
 
     rrd: str | Path | None = None
     record: bool = True
     rerun_connect: str | None = None
     progress: bool = True
+    bound_time_s: float = 0.0
 
     def recording_path(self, default: Path) -> Path | None:
         """Where the Rerun recording goes: `rrd`, else `default`; None when nothing is recorded.

@@ -40,11 +40,14 @@ def georef_dict(area: AreaGrid) -> dict:
 
 
 def plan_to_dict(plan: Plan, seed: int | None = None, area: AreaGrid | None = None,
-                 uav_extra: dict[int, dict] | None = None) -> dict:
+                 uav_extra: dict[int, dict] | None = None, bound: dict | None = None) -> dict:
     """The JSON form of a plan (cells 1-based, x east, y north). With `area`, the grid's
-    geo-reference and every step's lat/lon are added; `uav_extra[uav_id]` adds members to a UAV."""
+    geo-reference and every step's lat/lon are added; `uav_extra[uav_id]` adds members to a UAV;
+    `bound` is `summary.bound` (`gcs.plans.plan_bound.bound_summary`)."""
     no_fly = [[int(x) + 1, int(y) + 1] for x, y in np.argwhere(plan.no_fly)]
     data = _core_dict(plan, seed, no_fly)
+    if bound is not None:
+        data["summary"]["bound"] = bound
     if area is not None:
         data["grid"]["georef"] = georef_dict(area)
         for uav, u in zip(data["uavs"], plan.uavs):

@@ -33,6 +33,15 @@ def test_plan_writes_a_valid_closed_plan(tmp_path):
         assert {p["stage"] for p in traj} <= {"search", "return"}
     assert data["summary"]["targets"] == 10
     assert "targets found" in run.stdout and "UAV" in run.stdout
+    bound = data["summary"]["bound"]    # by default, within --bound-time's default seconds (planner/bound.py)
+    assert bound["finished"] and bound["time_limit_s"] == 5
+    expected = data["summary"]["expected_targets_found"]
+    assert 0 < bound["share_of_max"] <= 1
+    assert bound["share_of_max"] == pytest.approx(expected / bound["expected_targets_found_max"], abs=1e-6)
+    assert bound["probability_of_success_max"] == pytest.approx(
+        bound["expected_targets_found_max"] / data["summary"]["expected_targets_in_area"], abs=1e-6)
+    [line] = [line for line in run.stdout.splitlines() if line.startswith("bound:")]
+    assert f"at least {bound['share_of_max']:.1%} of the most any plan of these airports and ranges" in line
 
 
 @pytest.mark.parametrize("args, message", [
@@ -42,7 +51,7 @@ def test_plan_writes_a_valid_closed_plan(tmp_path):
     (["--oc", "6"], "unknown orientation constraint"),
     (["--strategy", "magic"], "unknown search strategy"),
     (["--return", "teleport"], "unknown return planner"),
-    (["--camera-fov", "45"], "--camera-fov needs --area"),
+    (["--bound-time", "-1"], "--bound-time: must be 0 or more seconds"),
 ])
 def test_bad_arguments_give_one_line_exit_2_and_no_file(tmp_path, capsys, args, message):
     """In this process (each a planner start-up in a process of its own took 4-9 s in CI); the
@@ -98,5 +107,16 @@ def test_plan_records_the_run_and_draws_a_picture_by_default_and_the_same_seed_w
 
 def test_no_rrd_writes_no_recording(tmp_path):
     out = tmp_path / "plan.json"
-    assert gcs("plan", "--np", "2", "--range", "40", "--no-rrd", "--out", str(out), "--quiet").returncode == 0
+    assert gcs("plan", "--np", "2", "--range", "40", "--no-rrd", "--out", str(out), "--quiet",
+               "--bound-time", "0").returncode == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.json", "plan.png"]
+    assert "bound" not in json.loads(out.read_text())["summary"], "--bound-time 0: no bound"
+
+
+def test_a_bound_not_had_in_time_is_said_in_one_line(tmp_path, capsys):
+    out = tmp_path / "plan.json"
+    assert main(["plan", "--np", "2", "--range", "30", "--no-rrd", "--out", str(out), "--bound-time", "0.001"]) == 0
+    bound = json.loads(out.read_text())["summary"]["bound"]
+    assert not bound["finished"] and "expected_targets_found_max" not in bound
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("bound")]
+    assert lines == ["bound: not had within --bound-time 0.001 s (blocks model); a longer --bound-time may have it"]
