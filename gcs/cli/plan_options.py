@@ -45,6 +45,13 @@ def add_search_arguments(p: argparse._ActionsContainer) -> None:
     p.add_argument("--pf", type=float, default=d.pf, help="sensor false-alarm rate")
     p.add_argument("--footprint", type=int, default=d.footprint,
                    help="sensor footprint radius in cells (0: the cell below)")
+    p.add_argument("--camera-fov", dest="camera_fov_deg", metavar="DEG", type=float, default=d.camera_fov_deg,
+                   help="with --area: a downward camera's field of view across track; its swath at the altitude "
+                        "gives the footprint and Pc instead of --footprint and --pc (docs/plan.md)")
+    p.add_argument("--camera-pixels", dest="camera_pixels", metavar="N", type=int, default=d.camera_pixels,
+                   help="the camera's pixels across track (detection falls where a person gets under 2)")
+    p.add_argument("--camera-pd", dest="camera_pd", metavar="P", type=float, default=d.camera_pd,
+                   help="probability of detecting a person in the camera's image")
 
 
 def add_area_arguments(p: argparse.ArgumentParser) -> None:

@@ -125,6 +125,14 @@ def campaign_table(rows: list[dict], available: float) -> str:
     return "\n".join(lines)
 
 
+def segments_table(files: dict[str, str]) -> str:
+    """POA, POD, POS, cumulative POD and POA after per segment, from plan.json in `files`
+    (`planner.search_theory`; the map's copy: segments.kml / segments.geojson)."""
+    from planner.search_theory import SearchTheory
+
+    return SearchTheory.from_dict(json.loads(files["plan.json"])["search_theory"]).table()
+
+
 def scenario_report(result: ScenarioResult) -> str:
     """The summary of a built-in scenario's plan and where its files went."""
     return "\n".join([summary_table(result.plan, result.bound),
@@ -150,6 +158,7 @@ def area_report(result: CampaignResult) -> str:
             lines.append(f"-- sortie {sortie.setup.belief.sortie} ({sortie.folder}) --")
         lines.append(summary_table(sortie.plan, json.loads(sortie.files["plan.json"])["summary"].get("bound")))
         lines.append(mission_table(sortie.setup, sortie.files))
+        lines.append(segments_table(sortie.files))
         lines.append(f"plan, missions and paths written to {sortie.folder}/ ({', '.join(sorted(sortie.files))}), "
                      f"picture {sortie.picture.name}" + (f", recording {sortie.rrd}" if sortie.rrd else ""))
     if len(result.rows) > 1:

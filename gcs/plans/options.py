@@ -48,7 +48,9 @@ class SearchOptions:
     `planner.dtscs.RETURN_PLANNERS`, `reserve` the steps of range every range check keeps back,
     `range_aware_search` prunes search moves by range (eq. 8) instead of the paper's switch.
     `horizon_value` adds the value of where each path ends to J1; None: on for an area, off for a
-    built-in scenario (the paper's J1). `pc`, `pf` and `footprint` describe the sensor. `range_steps`
+    built-in scenario (the paper's J1). `pc`, `pf` and `footprint` describe the sensor; over an area,
+    `camera_fov_deg` (with `camera_pixels` and `camera_pd`) derives the footprint and Pc from a
+    camera at the UAVs' altitude instead (`planner.camera`). `range_steps`
     is every UAV's range in steps in a built-in scenario (an area's ranges come from its airports
     and `AreaOptions`). `seed` seeds the targets, the sensor draws and the optimisers."""
 
@@ -64,6 +66,9 @@ class SearchOptions:
     pc: float = 0.9
     pf: float = 0.1
     footprint: int = 0
+    camera_fov_deg: float | None = None
+    camera_pixels: int | None = None
+    camera_pd: float = 1.0
 
     def __post_init__(self) -> None:
         _as_declared(self)

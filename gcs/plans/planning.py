@@ -32,6 +32,7 @@ from gcs.plans.area_file import AreaFile, read_area_file
 from gcs.plans.area_prior import area_mass_prior
 from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, SearchOptions
 from gcs.plans.plan_file import plan_to_dict
+from gcs.plans.segments import area_segments, plan_theory, segments_for_teams, segments_geojson
 from gcs.plans.vehicle_file import load_vehicles, profile_for_uav
 from planner.area_grid import (
     AREA_MOVE_COSTS,
@@ -44,6 +45,7 @@ from planner.area_grid import (
     range_units,
     units_m,
 )
+from planner.camera import Camera, CameraSensor, camera_sensor
 from planner.campaign import Belief, sortie_seed
 from planner.dtscs import ClosedSearch, MissionConfig, uavs_that_cannot_leave
 from planner.environment import Sensor
@@ -72,10 +74,13 @@ class AreaSetup:
     grounded: dict[int, str] = field(default_factory=dict)  # UAV -> why its range cannot leave its airport
     fence: FittedFence | None = None  # the area's fence as the vehicles hold it (`area_fence`)
     prior_mass: MassPrior | None = None  # the subject's probability per cell, from rasters or an IPP
+    camera: CameraSensor | None = None  # the sensor derived from --camera-fov, when given
 
     def __post_init__(self) -> None:
         if self.belief is None:
-            self.belief = Belief.prior(self.search.scenario.search_map)
+            scenario = self.search.scenario
+            self.belief = Belief.prior(scenario.search_map) if scenario.p0 is None else Belief(
+                scenario.search_map.copy(), scenario.p0, np.zeros(scenario.search_map.shape, dtype=np.int64))
 
     def for_belief(self, belief: Belief, seed: int) -> AreaSetup:
         """The same area, airports and fresh ranges searching `belief` (sortie `belief.sortie` of
@@ -168,6 +173,8 @@ def build_scenario_search(scenario: str = "paper", search: SearchOptions | None 
     search = search or SearchOptions()
     if scenario not in SCENARIOS:
         raise UserError(f"unknown scenario {scenario!r} (choose from {', '.join(SCENARIOS)})")
+    if search.camera_fov_deg is not None:
+        raise UserError("--camera-fov needs --area: a built-in scenario's cells have no size in metres")
     try:
         sensor = Sensor(search.pc, search.pf, search.footprint)
         config = mission_config(search, horizon=False)
@@ -243,10 +250,13 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
             targets.append((east, north))
         priors = [PriorCells(grid.to_local(p.geometry), p.tep, p.eu) for p in source.priors]
         mass = area_mass_prior(source, grid)
-        sensor = Sensor(search.pc, search.pf, search.footprint)
+        camera = area_camera(search, [layers.altitudes_m[u.uav_id] for u in uavs], cell)
+        sensor = Sensor(search.pc, search.pf, search.footprint) if camera is None else camera.sensor(search.pf)
         config = mission_config(search, horizon=True)
         scenario = area_scenario(source.name, grid, priors, uavs, targets, area.default_tep, area.default_eu, sensor,
                                  None if mass is None else mass.tep)
+        if mass is not None:  # the probability of success counts the subject's probability, not the TEP
+            scenario = replace(scenario, p0=mass.mass)
         for spec in uavs_that_cannot_leave(scenario, config):
             grounded[spec.uav_id] = (f"range {ranges_m[spec.uav_id]:.0f} m ({units_m(spec.range_units, cell):.0f} m "
                                      f"over the {cell:g} m cells) is too short to leave its airport and come back "
@@ -261,7 +271,16 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
         raise UserError(f"{area_file}: {exc}") from None
     reference = AltitudeReference.TERRAIN if area.terrain_follow else AltitudeReference.HOME
     return AreaSetup(source, grid, closed, ranges_m, layers, overheads_m, vehicle, reference, approach, belief, sources,
-                     dict(sorted(grounded.items())), fence, mass)
+                     dict(sorted(grounded.items())), fence, mass, camera)
+
+
+def area_camera(search: SearchOptions, altitudes_m: list[float], cell_size_m: float) -> CameraSensor | None:
+    """The sensor of `search`'s camera over the area's cells, at the lowest altitude a UAV flies
+    (the narrowest swath: no UAV is credited with ground it did not see); None without a camera."""
+    if search.camera_fov_deg is None:
+        return None
+    camera = Camera(search.camera_fov_deg, search.camera_pixels, search.camera_pd)
+    return camera_sensor(camera, min(altitudes_m) if altitudes_m else 1.0, cell_size_m)
 
 
 def area_fence(source: AreaFile, vehicle: Vehicle, cell_size_m: float) -> FittedFence:
@@ -350,6 +369,9 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
                             for uid, why in setup.grounded.items()]
     if campaign is not None:
         data["campaign"] = campaign
+    segments = area_segments(area)
+    theory = plan_theory(setup, plan, segments)
+    data["search_theory"] = theory.as_dict()
     files = {"plan.json": json.dumps(data, indent=1) + "\n"}
     for m in missions:
         files[f"uav{m.uav_id}.waypoints"] = wpl_text(m)
@@ -360,6 +382,7 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
     collection = paths_geojson(missions, lengths, source.name)
     files["paths.geojson"] = json.dumps(collection, indent=1) + "\n"
     files.update(paths_for_teams(collection, missions, source.name))
+    files.update(segments_for_teams(segments_geojson(area, segments, theory, source.name), source.name))
     return files
 
 

@@ -52,6 +52,7 @@ def test_plan_writes_a_valid_closed_plan(tmp_path):
     (["--strategy", "magic"], "unknown search strategy"),
     (["--return", "teleport"], "unknown return planner"),
     (["--bound-time", "-1"], "--bound-time: must be 0 or more seconds"),
+    (["--camera-fov", "45"], "--camera-fov needs --area"),
 ])
 def test_bad_arguments_give_one_line_exit_2_and_no_file(tmp_path, capsys, args, message):
     """In this process (each a planner start-up in a process of its own took 4-9 s in CI); the
