@@ -22,6 +22,7 @@ import numpy as np
 
 from planner.environment import footprint_cells, sense
 from planner.horizon import Flyer, HorizonValue, block_size, horizon_window, team_fields, visit_reward
+from planner.improve import ImproveSettings, improve_plan
 from planner.motion import HEADING_DX, HEADING_DY, OC3, STEPS, MoveCosts, OrientationConstraint
 from planner.plan import Plan, ReturnReason, Stage, TargetOutcome, TrajectoryPoint, UavPlan
 from planner.range_check import check_return
@@ -50,7 +51,10 @@ class MissionConfig:
 
     `horizon` adds to J1 a value for where each Np-step path ends (`planner.horizon`): the belief
     mass the UAV can still reach and come back from, discounted by distance. None (the default)
-    keeps J1 as the paper defines it."""
+    keeps J1 as the paper defines it.
+
+    `improve` re-solves windows of the finished plan against the whole mission
+    (`planner.improve`); None (the default) keeps the plan DTSCS flew."""
 
     np_steps: int = 5
     oc: OrientationConstraint = OC3
@@ -61,6 +65,7 @@ class MissionConfig:
     range_aware_search: bool = False
     st_tracker: str = "pio"
     horizon: HorizonValue | None = None
+    improve: ImproveSettings | None = None
 
     def __post_init__(self) -> None:
         if self.np_steps < 1:
@@ -214,6 +219,7 @@ class ClosedSearch:
         self._horizon_ids: list[int] = []
         self._horizon_step = -1
         self._home_steps: dict[int, np.ndarray] = {}
+        self._improved: Plan | None = None
         self.uavs: dict[int, _Uav] = {}
         for spec in scenario.uavs:
             table = return_table(self.map.no_fly, spec.airport, self.config.oc, self.costs)
@@ -513,7 +519,17 @@ class ClosedSearch:
             yield self.step()
 
     def plan(self) -> Plan:
-        """The closed trajectories and outcomes so far."""
+        """The closed trajectories and outcomes so far; once every UAV has landed, improved by
+        `planner.improve` when the config asks for it."""
+        if self.config.improve is not None and self.done:
+            if self._improved is None:
+                tables = {uid: u.table for uid, u in self.uavs.items()}
+                self._improved = improve_plan(self._dtscs_plan(), self.scenario, self.config.oc, self.reserve,
+                                              self.seed, self.config.improve, tables)
+            return self._improved
+        return self._dtscs_plan()
+
+    def _dtscs_plan(self) -> Plan:
         uavs = [UavPlan(u.spec.uav_id, u.spec.airport, u.spec.heading, u.range_units, list(u.trajectory),
                         u.search_steps, u.return_steps, u.return_reason, u.return_step, u.tracking_efficiency,
                         u.flown)

@@ -41,6 +41,9 @@ def add_search_arguments(p: argparse._ActionsContainer) -> None:
                    help="add to J1 the value of where each Np-step path ends: the likely ground the UAV can "
                         "still reach and come back from, discounted by distance (docs/success.md); default: "
                         "on for --area plans, off for built-in scenarios (the paper's J1)")
+    p.add_argument("--improve", action=BooleanOption, default=d.improve,
+                   help="after DTSCS, re-solve windows of every UAV's path against the whole mission for more "
+                        "expected finds (docs/planner.md); default: on for --area plans, off for built-in scenarios")
     p.add_argument("--pc", type=float, default=d.pc, help="sensor detection probability")
     p.add_argument("--pf", type=float, default=d.pf, help="sensor false-alarm rate")
     p.add_argument("--footprint", type=int, default=d.footprint,

@@ -47,6 +47,8 @@ class SearchOptions:
     `"8"`), `strategy` one of `planner.search.STRATEGIES`, `return_planner` one of
     `planner.dtscs.RETURN_PLANNERS`, `reserve` the steps of range every range check keeps back,
     `range_aware_search` prunes search moves by range (eq. 8) instead of the paper's switch.
+    `improve` re-solves windows of the finished plan (`planner.improve`); None: on for an area,
+    off for a built-in scenario.
     `horizon_value` adds the value of where each path ends to J1; None: on for an area, off for a
     built-in scenario (the paper's J1). `pc`, `pf` and `footprint` describe the sensor; over an area,
     `camera_fov_deg` (with `camera_pixels` and `camera_pd`) derives the footprint and Pc from a
@@ -63,6 +65,7 @@ class SearchOptions:
     reserve: int = 0
     range_aware_search: bool = False
     horizon_value: bool | None = None
+    improve: bool | None = None
     pc: float = 0.9
     pf: float = 0.1
     footprint: int = 0

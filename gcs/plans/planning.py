@@ -50,6 +50,7 @@ from planner.campaign import Belief, sortie_seed
 from planner.dtscs import ClosedSearch, MissionConfig, uavs_that_cannot_leave
 from planner.environment import Sensor
 from planner.horizon import HorizonValue
+from planner.improve import ImproveSettings
 from planner.motion import constraint_by_name
 from planner.plan import Plan
 from planner.priors import MassPrior
@@ -160,7 +161,8 @@ def mission_config(search: SearchOptions, horizon: bool) -> MissionConfig:
     return MissionConfig(np_steps=search.np_steps, oc=constraint_by_name(search.oc), strategy=search.strategy,
                          return_planner=search.return_planner, reserve_steps=search.reserve,
                          range_aware_search=search.range_aware_search,
-                         horizon=HorizonValue() if _default(search.horizon_value, horizon) else None)
+                         horizon=HorizonValue() if _default(search.horizon_value, horizon) else None,
+                         improve=ImproveSettings() if _default(search.improve, horizon) else None)
 
 
 def _default(value: bool | None, default: bool) -> bool:
