@@ -50,6 +50,7 @@ from gcs.plans.belief_file import (
     file_sha256,
 )
 from planner.campaign import Belief
+from planner.search_theory import SearchTheory, block_segments, search_theory
 
 if TYPE_CHECKING:  # the flight modules load pymavlink: `gcs plan --continue` needs none of them
     from gcs.flight.controller import FlightController
@@ -248,7 +249,19 @@ class SortieLog:
                                 "expected_after": after, "expected_targets_found": after - before,
                                 "pos_before": before / available if available > 0 else 0.0,
                                 "pos_after": after / available if available > 0 else 0.0}
+            theory = self.search_theory()
+            if theory is not None:
+                data["search_theory"] = theory.as_dict()
         return data
+
+    def search_theory(self) -> SearchTheory | None:
+        """POA / POD / POS per segment of what this flight read (`planner.search_theory`, the
+        segments of the plan's: named blocks of the grid); None without a belief or prior mass."""
+        if self.belief is None or self.start is None or not self.start.available() > 0:
+            return None
+        searchable = self.belief.searchable
+        return search_theory(self.start.p0, searchable, self.pc, self.belief.search_map.visits,
+                             block_segments(searchable), looks_before=self.start.looks_before)
 
     def tracks_geojson(self, controller: FlightController) -> dict:
         features = []
@@ -308,6 +321,9 @@ class SortieLog:
         elif self.belief is not None:
             before, after = self.start.expected(self.pc), self.belief.expected(self.pc)
             available = self.belief.available()
+            theory = self.search_theory()
+            if theory is not None:
+                lines.append(theory.table())
             if available > 0:
                 lines.append(f"campaign probability of success {before / available:.1%} -> {after / available:.1%} "
                              f"after sortie {self.sortie}; plan the next with: gcs plan --continue {self.folder}")

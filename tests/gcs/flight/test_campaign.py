@@ -106,6 +106,11 @@ def test_a_flight_leaves_the_posterior_of_its_readings_its_tracks_and_its_detect
         searchable[x - 1, y - 1] = False
     assert record["campaign"]["expected_after"] == pytest.approx(expected_finds(p0, searchable, pc, looks), rel=1e-12)
     assert record["campaign"]["expected_before"] == 0.0
+    theory = record["search_theory"]  # the crew's figures of what the flight read, over the plan's segments
+    assert [g["name"] for g in theory["segments"]] == [g["name"] for g in plan["search_theory"]["segments"]]
+    assert sum(g["poa"] for g in theory["segments"]) == pytest.approx(1.0, abs=1e-5)
+    assert theory["pos"] == pytest.approx(record["campaign"]["pos_after"], abs=1e-5)
+    assert all(g["pos"] == pytest.approx(g["poa"] * g["pod"], abs=2e-6) for g in theory["segments"])
 
     tracks = _json(folder / "tracks.geojson")["features"]
     fleet = load_plan_dir(folder)
