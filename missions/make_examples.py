@@ -169,7 +169,7 @@ def hiker_example() -> dict:
     feats.append(_line(frame, stream, role="feature", kind="drainage", name="stream"))
     feats.append(_point(frame, 700, 900, role="feature", kind="structure", name="hut"))
     for i in range(3):
-        feats.append(_point(frame, *car_park, role="airport", name=f"car park {i + 1}", heading="N"))
+        feats.append(_point(frame, *car_park, role="airport", name=f"car park {i + 1}", heading="N", range_m=5500))
     feats.append(_point(frame, 380, 520, role="target", name="hiker"))
     return _collection("hiker", 50.0, "A hiker missing in the mountains: the prior from the IPP alone, three UAVs "
                        "launched from the trailhead", feats)
