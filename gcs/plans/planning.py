@@ -371,7 +371,7 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
                             for uid, why in setup.grounded.items()]
     if campaign is not None:
         data["campaign"] = campaign
-    segments = area_segments(area)
+    segments = area_segments(area, source)
     theory = plan_theory(setup, plan, segments)
     data["search_theory"] = theory.as_dict()
     files = {"plan.json": json.dumps(data, indent=1) + "\n"}
@@ -384,7 +384,7 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
     collection = paths_geojson(missions, lengths, source.name)
     files["paths.geojson"] = json.dumps(collection, indent=1) + "\n"
     files.update(paths_for_teams(collection, missions, source.name))
-    files.update(segments_for_teams(segments_geojson(area, segments, theory, source.name), source.name))
+    files.update(segments_for_teams(segments_geojson(area, segments, theory, source.name, source), source.name))
     return files
 
 

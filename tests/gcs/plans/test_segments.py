@@ -20,7 +20,8 @@ AREA = Path(__file__).parent / "gis" / "caltopo.kml"
 @pytest.fixture(scope="module")
 def campaign(tmp_path_factory):
     out = tmp_path_factory.mktemp("segments")
-    result = plan_area(AREA, AreaOptions(), SearchOptions(seed=1), out, OutputOptions(record=False, progress=False),
+    result = plan_area(AREA, AreaOptions(), SearchOptions(seed=1, improve=False), out,
+                       OutputOptions(record=False, progress=False),
                        sorties=2)
     return out, result
 
@@ -64,3 +65,31 @@ def test_the_map_files_and_the_summary_carry_the_figures(campaign) -> None:
     report = area_report(result)
     assert "segment  cells    POA    POD    POS cum POD POA after" in report
     assert f"POS this sortie {theory['pos']:.1%}" in report
+
+
+def test_the_area_files_own_segments_are_the_ones_reported(tmp_path) -> None:
+    """Segments drawn in the area file (west 70 %, east 30 %) replace the grid's blocks."""
+    west, east, south, north = 7.996056, 8.003944, 46.997301, 47.002698
+    middle = (west + east) / 2
+
+    def box(w, s, e, n):
+        return {"type": "Polygon", "coordinates": [[[w, s], [e, s], [e, n], [w, n], [w, s]]]}
+
+    doc = {"type": "FeatureCollection", "properties": {"cell_size_m": 30}, "features": [
+        {"type": "Feature", "properties": {"role": "area", "name": "square"},
+         "geometry": box(west, south, east, north)},
+        {"type": "Feature", "properties": {"role": "segment", "name": "West", "poa": 70},
+         "geometry": box(west, south, middle, north)},
+        {"type": "Feature", "properties": {"role": "segment", "name": "East", "poa": 30},
+         "geometry": box(middle, south, east, north)},
+        {"type": "Feature", "properties": {"role": "airport", "name": "a", "heading": "E", "range_m": 1500},
+         "geometry": {"type": "Point", "coordinates": [7.996647, 46.999865]}}]}
+    area = tmp_path / "segments.geojson"
+    area.write_text(json.dumps(doc))
+    plan_area(area, AreaOptions(), SearchOptions(np_steps=2, strategy="exhaustive", improve=False), tmp_path / "out",
+              OutputOptions(record=False, progress=False))
+    theory = json.loads((tmp_path / "out" / "plan.json").read_text())["search_theory"]
+    poa = {s["name"]: s["poa"] for s in theory["segments"]}
+    assert set(poa) == {"West", "East"} and poa["West"] == pytest.approx(0.7, abs=1e-3)
+    kml = (tmp_path / "out" / "segments.kml").read_text()
+    assert kml.count("<Polygon>") == 2 and "<name>West POA 70.0%" in kml
