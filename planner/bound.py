@@ -140,6 +140,8 @@ class _Model:
     def entries(self, rows: np.ndarray | int, cols: np.ndarray | int, values: np.ndarray | float) -> None:
         r = np.asarray(rows, dtype=np.int64).ravel()
         c = np.asarray(cols, dtype=np.int64).ravel()
+        if r.size == 0 or c.size == 0:
+            return
         n = max(r.size, c.size)
         self.r.append(r if r.size == n else np.full(n, r[0]))
         self.c.append(c if c.size == n else np.full(n, c[0]))
