@@ -104,7 +104,7 @@ def test_success_bound_figures_and_gap(monkeypatch: pytest.MonkeyPatch, capsys) 
     assert len(rows) == 2 and all(re.search(r"\*\*\d+\.\d%\*\*", row) for row in rows)
     run_main(module, monkeypatch, "gap", "--smoke")
     out = capsys.readouterr().out
-    assert re.search(r"bound over optimum: mean \+\d+\.\d%.*\(1 of 1 solved\)", out)
+    assert re.search(r"LP bound over optimum: mean \+\d+\.\d%.*\(1 of 1 solved\)", out)
 
 
 def test_stress_safety_one_seed(monkeypatch: pytest.MonkeyPatch, capsys) -> None:
