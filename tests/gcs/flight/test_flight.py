@@ -408,7 +408,7 @@ def _observed_paper_search(area: Path, seed: int, horizon_value: bool | None = N
 
 
 @BATTERY_BY_THE_CLOCK
-@pytest.mark.parametrize("seed, horizon", [(0, False), (4, False), (0, True)])
+@pytest.mark.parametrize("seed, horizon", [(0, False), (0, True)])
 def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_seed(tmp_path, flight_area, seed,
                                                                                     horizon):
     """The planner in the loop and the precomputed plan, both flown through the simulator on the
@@ -422,7 +422,8 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     lost, late or misplaced reading, or a step decided from a stale position, breaks that. The
     horizon value (the default for area plans) weighs what lies within the range left, and online
     the range is the live battery's, so decisions may rightly part from the precomputed plan's:
-    there only the finds are compared. (Seed 4: other targets and other sensor noise.)"""
+    there only the finds are compared. (Seed 4, other targets and other sensor noise, flew a third
+    such flight until 2026-12-02: 34 s of CI for a check its seed 0 makes.)"""
     from gcs.display.status_table import targets_found
     from gcs.flight.fly import fly_async
     from gcs.plans.plan_folder import load_plan_dir
