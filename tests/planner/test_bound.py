@@ -99,3 +99,14 @@ def test_time_out_is_said_not_guessed() -> None:
     assert scenario is not None
     late = success_bound(scenario, OC3, time_limit_s=0.0)
     assert not late.finished and late.share(1.0) is None
+
+
+def test_a_block_no_node_can_read_then_builds() -> None:
+    """Tiny area 11 of benchmarks/success_bound.py: in 2 x 2 blocks, a block readable in a window
+    with no node of that window near it (its reading cap holds no occupancy) once failed to build."""
+    from benchmarks.success_bound import tiny_instance
+
+    scenario = tiny_instance(11)
+    bound = success_bound(scenario, OC3, 60, mip=False, model=BoundModel.BLOCKS, block=2)
+    assert bound.finished
+    assert max(_plans(scenario, 11).values()) <= bound.value
