@@ -14,6 +14,7 @@ from planner.bound import BoundModel, exact_optimum, success_bound
 from planner.dtscs import MissionConfig, fly
 from planner.environment import Sensor
 from planner.horizon import HorizonValue
+from planner.improve import ImproveSettings
 from planner.motion import OC3, STEPS, cell_lengths
 from planner.plan import Plan
 from planner.scenario import Scenario
@@ -36,9 +37,12 @@ def _expected(plan: Plan) -> float:
 
 
 def _plans(scenario: Scenario, seed: int) -> dict[str, float]:
-    """Expected finds of the planner's default plan (CPIO + horizon value) and of paper CPIO."""
-    return {name: _expected(fly(scenario, MissionConfig(strategy="cpio", horizon=horizon), seed=seed))
-            for name, horizon in (("cpio + horizon", HorizonValue()), ("cpio", None))}
+    """Expected finds of the planner's default plan for an area (CPIO + horizon value, the whole
+    mission improved), of DTSCS's (the same, not improved) and of paper CPIO."""
+    configs = {"default": MissionConfig(strategy="cpio", horizon=HorizonValue(), improve=ImproveSettings()),
+               "cpio + horizon": MissionConfig(strategy="cpio", horizon=HorizonValue()),
+               "cpio": MissionConfig(strategy="cpio")}
+    return {name: _expected(fly(scenario, config, seed=seed)) for name, config in configs.items()}
 
 
 @settings(max_examples=6)
