@@ -41,6 +41,7 @@ UAV_COLOURS = (_argb(0, 170, 255), _argb(255, 140, 0), _argb(170, 0, 255), _argb
                _argb(140, 100, 40))
 AREA_STROKE, AREA_FILL = _argb(255, 255, 0), _argb(255, 255, 0, 40)
 KEEP_OUT_STROKE, KEEP_OUT_FILL = _argb(255, 0, 0), _argb(255, 0, 0, 60)
+SEGMENT_STROKE, SEGMENT_FILL = _argb(139, 69, 0), _argb(255, 140, 0, 25)
 MARKER_COLOURS = {"reading": _argb(255, 0, 0), "return": _argb(255, 165, 0), "landed": _argb(0, 200, 0),
                   "failed": _argb(255, 0, 255)}
 MARKER_KINDS = ("return", "landed", "failed")  # the stage markers; "reading" is the positive reading's
@@ -144,6 +145,20 @@ def area_shape(naming: Naming, key: str, label: str, ring: Sequence[tuple[float,
     lat, lon = _centre(vertices)
     return _event(naming.uid(key), SHAPE_TYPE, lat, lon, when, stale, how="h-e", callsign=f"{naming.name} {label}",
                   children=children, remarks=[f"{naming.name}: {label}", "no UAV enters it" if keep_out else None])
+
+
+def segment_shape(naming: Naming, key: str, name: str, ring: Sequence[tuple[float, float]], remark: str,
+                  when: datetime, stale: datetime) -> ET.Element:
+    """A search segment over `ring` (lat, lon), labelled with its name, its POA, POD and POS in
+    the remarks (`gcs.plans.segments`)."""
+    vertices = list(ring[:-1]) if len(ring) > 1 and tuple(ring[0]) == tuple(ring[-1]) else list(ring)
+    children = [_element("link", point=_point_text(lat, lon)) for lat, lon in [*vertices, vertices[0]]]
+    children += [_element("strokeColor", value=SEGMENT_STROKE), _element("strokeWeight", value="2.0"),
+                 _element("fillColor", value=SEGMENT_FILL), _element("labels_on", value="true")]
+    lat, lon = _centre(vertices)
+    return _event(naming.uid(key), SHAPE_TYPE, lat, lon, when, stale, how="h-e",
+                  callsign=f"{naming.name} segment {name}", children=children,
+                  remarks=[f"{naming.name}: segment {name}", remark])
 
 
 def path_route(naming: Naming, uav: int, waypoints: Sequence[tuple[float, float]], alt_m: float, when: datetime,

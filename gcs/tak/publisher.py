@@ -12,9 +12,11 @@ sender. The flight's feed (`gcs.tak.flight_feed`) and the bus's (`gcs.tak.bus_fe
 from __future__ import annotations
 
 import asyncio
+import json
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from datetime import datetime, timedelta
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gcs.tak import cot
@@ -47,9 +49,30 @@ def plan_events(naming: Naming, plan: FleetPlan, when: datetime, stale: datetime
         n = counts[keep_out]
         key, label = ("keep-out", f"keep-out {n}") if keep_out else ("area", "search area" + (f" {n}" if n > 1 else ""))
         events.append(cot.area_shape(naming, f"{key}.{n}", label, list(ring), keep_out, when, stale))
+    events += segment_events(naming, plan.folder / "segments.geojson", when, stale)
     for uav, task in sorted(plan.uavs.items()):
         airport = tuple(task.airport_lat_lon)
         events.append(cot.path_route(naming, uav, [airport, *task.waypoints, airport], task.altitude_m, when, stale))
+    return events
+
+
+def segment_events(naming: Naming, path: Path, when: datetime, stale: datetime) -> list[ET.Element]:
+    """The plan's search segments with their POA, POD and POS (the folder's segments.geojson,
+    `gcs.plans.segments`); none when the folder has none."""
+    try:
+        features = json.loads(path.read_text())["features"]
+    except (OSError, ValueError, KeyError):
+        return []
+    events = []
+    for feature in features:
+        geometry, props = feature.get("geometry") or {}, feature.get("properties") or {}
+        parts = {"Polygon": [geometry.get("coordinates")], "MultiPolygon": geometry.get("coordinates")}.get(
+            geometry.get("type"), [])
+        for k, rings in enumerate(parts or []):
+            ring = [(lat, lon) for lon, lat, *_ in rings[0]]
+            key = f"segment.{props.get('segment')}" + (f".{k + 1}" if len(parts) > 1 else "")
+            events.append(cot.segment_shape(naming, key, str(props.get("segment")), ring,
+                                            str(props.get("description", "")), when, stale))
     return events
 
 

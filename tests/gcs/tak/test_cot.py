@@ -103,3 +103,25 @@ def test_tak_protocol_1_carries_the_same_event():
     assert event.detail.contact.callsign == "valley UAV3"
     assert (event.detail.track.course, event.detail.track.speed) == pytest.approx((12.0, 9.5))
     assert "stage return" in event.detail.xmlDetail
+
+
+def test_a_plans_segments_are_shapes_with_their_poa_pod_and_pos(tmp_path):
+    """segments.geojson (as an area plan writes it) becomes one shape per polygon, its figures
+    in the remarks; a folder without one gives none."""
+    import json
+
+    from gcs.tak.publisher import segment_events
+
+    square = [[7.0, 46.0], [7.01, 46.0], [7.01, 46.01], [7.0, 46.01], [7.0, 46.0]]
+    segments = {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "geometry": {"type": "Polygon", "coordinates": [square]},
+         "properties": {"segment": "A1", "poa_pct": 12.5, "description": "POA 12.5%, POD 80.0%, POS 10.0%"}},
+        {"type": "Feature", "geometry": None, "properties": {"segment": "rest of the area"}}]}
+    (tmp_path / "segments.geojson").write_text(json.dumps(segments))
+    events = segment_events(NAMING, tmp_path / "segments.geojson", NOW, LATER)
+    assert len(events) == 1
+    got = _read(events[0])
+    assert got.type == "u-d-f" and got.uid == "gcs.valley.segment.A1" and got.callsign == "valley segment A1"
+    assert [link.get("point") for link in got.element.findall("detail/link")][:2] == ["46.0,7.0", "46.0,7.01"]
+    assert "POA 12.5%, POD 80.0%, POS 10.0%" in got.remarks
+    assert segment_events(NAMING, tmp_path / "none.geojson", NOW, LATER) == []

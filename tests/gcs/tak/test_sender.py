@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import ssl
 import time
 from datetime import timedelta
@@ -52,13 +53,17 @@ def test_the_mesh_gets_the_plan_the_tracks_and_the_markers(square_plan_dir, prot
     else:
         assert all(d.startswith(b"<?xml") for d in reader.datagrams)
     kinds = {e.uid: e.type for e in reader.events}
+    segments = {uid: kind for uid, kind in kinds.items() if uid.startswith("gcs.mesh.segment.")}
+    assert len(segments) == len(json.loads((plan.folder / "segments.geojson").read_text())["features"]) > 1
+    assert set(segments.values()) == {"u-d-f"}
+    kinds = {uid: kind for uid, kind in kinds.items() if uid not in segments}
     assert kinds == {"gcs.mesh.area.1": "u-d-f", "gcs.mesh.keep-out.1": "u-d-f", "gcs.mesh.uav.1.path": "b-m-r",
                      "gcs.mesh.uav.2.path": "b-m-r", "gcs.mesh.uav.1": "a-f-A-M-F-Q",
                      "gcs.mesh.uav.1.reading.7": "b-m-p-s-m", "gcs.mesh.uav.2.landed": "b-m-p-s-m"}
     path = reader.of("gcs.mesh.uav.2.path")[0]
     assert len(path.element.findall("detail/link")) == len(plan.uavs[2].waypoints) + 2  # from the airport and back
     assert "positive reading: cell (3, 4)" in reader.of("gcs.mesh.uav.1.reading")[0].remarks
-    assert lines == [f"TAK {mesh}: sending to the multicast group", f"TAK {mesh}: 7 CoT events sent"]
+    assert lines == [f"TAK {mesh}: sending to the multicast group", f"TAK {mesh}: {7 + len(segments)} CoT events sent"]
 
 
 def test_tracks_keep_to_their_rate_and_fade_on_time():
