@@ -30,8 +30,10 @@ OLD_RECORD = {"altitude_m": 50.0, "altitude_step_m": 10.0, "approach_alt_m": 30.
               "return_planner": "exact", "seed": 2, "speed_m_s": 12.0, "strategy": "cpio", "terrain_follow": False,
               "vehicle": "copter"}
 
-#: the keys a record gained since: the vehicles file ranges are planned from, and the reserve kept
-NEW_KEYS = {"reserve_pct": 30.0, "vehicles": None}
+#: the keys a record gained since: the vehicles file ranges are planned from, the reserve kept, the camera,
+#: whether the finished plan is improved
+NEW_KEYS = {"reserve_pct": 30.0, "vehicles": None, "camera_fov_deg": None, "camera_pixels": None, "camera_pd": 1.0,
+            "improve": None}
 
 
 @pytest.fixture
