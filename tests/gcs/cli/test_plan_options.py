@@ -40,10 +40,10 @@ def test_with_no_options_both_commands_plan_with_the_typed_defaults():
 
 def test_given_options_become_typed_options():
     args = build_parser().parse_args(["fly", "--area", "a.geojson", "--np", "3", "--oc", "8", "--strategy", "pio",
-                                      "--no-horizon-value", "--pc", "0.8", "--vehicle", "plane", "--margin", "5",
-                                      "--cell-size", "20", "--terrain-follow", "--quiet", "--no-rrd"])
+                                      "--no-horizon-value", "--no-improve", "--pc", "0.8", "--vehicle", "plane",
+                                      "--margin", "5", "--cell-size", "20", "--terrain-follow", "--quiet", "--no-rrd"])
     area, search = plan_options_from(args)
-    assert search == SearchOptions(np_steps=3, oc="8", strategy="pio", horizon_value=False, pc=0.8)
+    assert search == SearchOptions(np_steps=3, oc="8", strategy="pio", horizon_value=False, improve=False, pc=0.8)
     assert area == AreaOptions(vehicle=Vehicle.PLANE, margin_m=5.0, cell_size_m=20.0, terrain_follow=True)
     assert output_options_from(args) == OutputOptions(record=False, progress=False)
 
