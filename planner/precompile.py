@@ -1,7 +1,7 @@
 """Compile every numba kernel into its on-disk cache (`planner.config.CACHE`) before the first
 plan needs it: short closed searches of the paper scenario with every strategy and return
-planner, in the paper's unit steps and in metres with the horizon value (what `gcs plan --area`
-flies), reach every kernel with the argument types a plan gives it. A fresh install's first plan
+planner, in the paper's unit steps and in metres with the horizon value and the improvement (what
+`gcs plan --area` flies), reach every kernel with the argument types a plan gives it. A fresh install's first plan
 then loads the kernels instead of spending some 25 s compiling them (`tools/setup` runs this).
 Kernels compiled before any planner source changed are dropped first (`drop_stale_kernels`).
 
@@ -16,6 +16,7 @@ from pathlib import Path
 from planner.area_grid import AREA_MOVE_COSTS
 from planner.dtscs import ClosedSearch, MissionConfig
 from planner.horizon import HorizonValue
+from planner.improve import ImproveSettings
 from planner.scenario import Scenario, paper_scenario
 from planner.search import STRATEGIES
 
@@ -71,11 +72,13 @@ def precompile(seed: int = 0) -> None:
     metres = _in_metres(steps)
     searches = [(steps, MissionConfig(strategy=name)) for name in sorted(STRATEGIES)]
     searches += [(steps, MissionConfig(return_planner="st")),
-                 (metres, MissionConfig(strategy="cpio", horizon=HorizonValue())),
+                 (metres, MissionConfig(strategy="cpio", horizon=HorizonValue(), improve=ImproveSettings())),
                  (metres, MissionConfig(strategy="cpio", horizon=HorizonValue(), return_planner="st"))]
     for scenario, config in searches:
-        for _ in ClosedSearch(scenario, config, seed=seed).run():
+        search = ClosedSearch(scenario, config, seed=seed)
+        for _ in search.run():
             pass
+        search.plan()
 
 
 if __name__ == "__main__":
