@@ -49,6 +49,7 @@ from gcs.plans.belief_file import (
     belief_to_dict,
     file_sha256,
 )
+from planner.camera import Camera, camera_sensor
 from planner.campaign import Belief
 from planner.search_theory import SearchTheory, block_segments, search_theory
 
@@ -81,6 +82,16 @@ def plan_sortie(plan: FleetPlan) -> int:
     return int((plan.raw.get("campaign") or {}).get("sortie", 1))
 
 
+def planned_pc(options: dict, plan: FleetPlan) -> float:
+    """The Pc per look `plan` was made with: its camera's (`planner.camera`, at the lowest altitude
+    it flies, as `gcs plan` derived it) when its options name one, else its `pc`."""
+    fov = options.get("camera_fov_deg")
+    if fov is None:
+        return float(options.get("pc", 0.9))
+    camera = Camera(float(fov), options.get("camera_pixels"), float(options.get("camera_pd", 1.0)))
+    return camera_sensor(camera, min(float(u["altitude_m"]) for u in plan.raw["uavs"]), plan.cell_size_m).pc
+
+
 class SortieLog:
     """Folds a flight's readings into the plan's belief and keeps each vehicle's track; writes
     the sortie record when the flight ends (`attach`)."""
@@ -92,7 +103,7 @@ class SortieLog:
         options = campaign.get("options") or {}
         self.sortie = plan_sortie(plan)
         self.area = campaign.get("area")
-        self.pc = float(options.get("pc", 0.9))
+        self.pc = planned_pc(options, plan)
         self.pf = float(options.get("pf", 0.1))
         self.poll_s = poll_s
         self.min_move_m = min_move_m if min_move_m is not None else plan.cell_size_m / 5.0

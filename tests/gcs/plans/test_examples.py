@@ -14,7 +14,10 @@ from shapely.geometry import shape
 from shapely.ops import unary_union
 
 from gcs.cli import main
+from gcs.flight.sortie import SortieLog
 from gcs.plans.plan_file import validate_plan_dict
+from gcs.plans.plan_folder import load_plan_dir
+from planner.camera import Camera, camera_sensor
 
 MISSIONS = Path(__file__).resolve().parents[3] / "missions"
 EXAMPLES = ("paper", "irregular", "large", "hiker")
@@ -218,6 +221,8 @@ def test_the_hiker_is_searched_from_the_ipp_alone_by_three_uavs_from_one_car_par
     assert len({tuple(u["airport_lat_lon"]) for u in plan["uavs"]}) == 1 and len(plan["uavs"]) == 3
     assert len({tuple(u["airport"]) for u in plan["uavs"]}) == 3
     assert plan["campaign"]["options"]["camera_fov_deg"] == 45.0
+    camera = camera_sensor(Camera(45.0), 50.0, 50.0)
+    assert SortieLog(load_plan_dir(planned["hiker"])).pc == pytest.approx(camera.pc)  # a flight's posterior reads alike
 
 
 def test_merging_shortens_the_missions(planned):
