@@ -442,6 +442,8 @@ def main(argv: list[str] | None = None) -> int:
             results[scenario.ident] = run_scenario(sarenv, scenario, args.drones, args.budget, args.seed, args.victims,
                                                    chosen, repeats=args.repeats)
             bounds[scenario.ident] = likelihood_bound(scenario, args.drones, args.budget)
+            rows = table({scenario.ident: results[scenario.ident]}, bounds, args.drones, args.budget)
+            print("\n".join(rows.splitlines()[1:-1]), file=sys.stderr, flush=True)
     except BenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
