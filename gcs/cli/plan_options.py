@@ -10,6 +10,7 @@ from dataclasses import fields
 from gcs.cli import BooleanOption
 from gcs.missions.items import Vehicle
 from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, OutputOptions, SearchOptions
+from gcs.plans.plan_bound import DEFAULT_BOUND_TIME_S
 
 VIEWER = "rerun+http://127.0.0.1:9876/proxy"
 
@@ -130,4 +131,4 @@ def plan_options_from(args: argparse.Namespace) -> tuple[AreaOptions, SearchOpti
 def output_options_from(args: argparse.Namespace) -> OutputOptions:
     """What planning shows and records, from `add_output_arguments`'s options."""
     return OutputOptions(rrd=args.rrd, record=not args.no_rrd, rerun_connect=args.rerun_connect,
-                         progress=not args.quiet, bound_time_s=getattr(args, "bound_time", 0.0))
+                         progress=not args.quiet, bound_time_s=getattr(args, "bound_time", DEFAULT_BOUND_TIME_S))

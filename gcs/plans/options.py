@@ -20,6 +20,7 @@ from typing import Any
 
 from gcs.errors import UserError
 from gcs.missions.items import Vehicle
+from gcs.plans.plan_bound import DEFAULT_BOUND_TIME_S
 
 #: The grid cell side of an area whose file gives none (`AreaOptions.cell_size_m` None).
 DEFAULT_CELL_SIZE_M = 50.0
@@ -119,13 +120,14 @@ class OutputOptions:
     """What planning shows and records, not how it plans: `rrd` the Rerun recording's path (None:
     beside the plan), none when `record` is False; `rerun_connect` also streams it to a running
     viewer at that address; `progress` False shows no progress bar; `bound_time_s` > 0 gives
-    the upper bound on expected finds that many seconds (`gcs.plans.plan_bound`; 0: none)."""
+    the upper bound on expected finds that many seconds (`gcs.plans.plan_bound`; 0: none), as
+    `gcs plan` does by default."""
 
     rrd: str | Path | None = None
     record: bool = True
     rerun_connect: str | None = None
     progress: bool = True
-    bound_time_s: float = 0.0
+    bound_time_s: float = DEFAULT_BOUND_TIME_S
 
     def recording_path(self, default: Path) -> Path | None:
         """Where the Rerun recording goes: `rrd`, else `default`; None when nothing is recorded.
