@@ -118,8 +118,7 @@ def plan_for_flight(args: argparse.Namespace) -> tuple[FleetPlan, AreaSetup | No
         if args.plan:
             raise UserError("give --plan or --area, not both")
         area, search = plan_options_from(args)
-        result = plan_area(args.area, area, search, args.out, OutputOptions(record=False, progress=not args.quiet,
-                                                                            bound_time_s=0.0))
+        result = plan_area(args.area, area, search, args.out, OutputOptions(record=False, progress=not args.quiet))
         for line in grounded_lines(result):
             print(line, file=sys.stderr)
         if not args.quiet:

@@ -402,7 +402,7 @@ def _observed_paper_search(area: Path, seed: int, horizon_value: bool | None = N
     from gcs.plans import planning as area_plan
     from gcs.plans.options import SearchOptions
 
-    options = SearchOptions(seed=seed, strategy="exhaustive", horizon_value=horizon_value)
+    options = SearchOptions(seed=seed, strategy="exhaustive", horizon_value=horizon_value, improve=False)
     setup = area_plan.build_area_search(str(area), search=options)
     return observed_search(setup.search.scenario, setup.search.config, seed=seed)
 
@@ -430,7 +430,10 @@ def test_online_mode_finds_at_least_what_the_precomputed_plan_finds_on_the_same_
     from sim.plan_fleet import fleet_for_plan
 
     area = str(flight_area)
-    options = ["--seed", str(seed), "--strategy", "exhaustive"] + ([] if horizon else ["--no-horizon-value"])
+    # --no-improve: the planner in the loop decides step by step, as DTSCS does; the improvement
+    # re-solves the whole mission once it is planned (planner/improve.py), which no step can
+    options = ["--seed", str(seed), "--strategy", "exhaustive", "--no-improve",
+               *([] if horizon else ["--no-horizon-value"])]
     assert main(["plan", "--area", area, *options, "--out", str(tmp_path), "--quiet", "--no-rrd"]) == 0
     plan = load_plan_dir(tmp_path)
     predicted = {(t["x"] - 1, t["y"] - 1) for t in plan.raw["targets"] if t["found_step"] is not None}
