@@ -149,6 +149,9 @@ def _answered_capacity(exc: MissionTransferError, autopilot: Autopilot, fixed_wi
     return None
 
 
+MAX_REASONS = 4  # the autopilot's distinct reasons a failed wait repeats
+
+
 async def wait_until(predicate: Callable[[], bool], timeout_s: float) -> bool:
     """Poll `predicate` (every 20 ms) until it holds: True; False after `timeout_s`."""
     end = time.monotonic() + timeout_s
@@ -161,11 +164,16 @@ async def wait_until(predicate: Callable[[], bool], timeout_s: float) -> bool:
 
 async def wait_ready(vehicle: VehicleFlight) -> bool:
     """Until `VehicleStatus.waiting_for` is empty, showing what is missing (and the autopilot's
-    own words) whenever that changes; FAILED after `ready_timeout_s`."""
+    own words) whenever that changes; FAILED after `ready_timeout_s`, naming every reason the
+    autopilot gave while it waited (PX4 takes turns between its failing checks), latest last."""
     st, timeout_s = vehicle.status, vehicle.options.ready_timeout_s
     end = time.monotonic() + timeout_s
     shown: tuple = ()
+    reasons: dict[str, None] = {}
     while missing := st.waiting_for():
+        if st.last_text:
+            reasons.pop(st.last_text, None)
+            reasons[st.last_text] = None
         now = (tuple(missing), st.last_text)
         if now != shown:
             shown = now
@@ -173,7 +181,7 @@ async def wait_ready(vehicle: VehicleFlight) -> bool:
             vehicle.set_stage(Stage.PREPARING, f"waiting for {', '.join(missing)}{said}")
             vehicle.say(f"waiting for {', '.join(missing)}{said}")
         if time.monotonic() > end:
-            autopilot = f" ({st.last_text})" if st.last_text else ""
+            autopilot = f" ({'; '.join(list(reasons)[-MAX_REASONS:])})" if reasons else ""
             vehicle.set_stage(Stage.FAILED, f"not ready after {timeout_s:g} s: no {', '.join(missing)}{autopilot}")
             return False
         await asyncio.sleep(0.05)
