@@ -95,10 +95,11 @@ class SearchTheory:
 
     def table(self) -> str:
         """The segments as a search manager's table, then the sortie's POS."""
-        rows = [f"{'segment':<8} {'cells':>5} {'POA':>6} {'POD':>6} {'POS':>6} {'cum POD':>7} {'POA after':>9}"]
+        w = max([8, *(len(s.name) for s in self.segments)])  # the area file's names may be long
+        rows = [f"{'segment':<{w}} {'cells':>5} {'POA':>6} {'POD':>6} {'POS':>6} {'cum POD':>7} {'POA after':>9}"]
         for s in self.segments:
-            rows.append(f"{s.name:<8} {s.cells:>5} {s.poa:>6.1%} {s.pod:>6.1%} {s.pos:>6.1%} {s.cumulative_pod:>7.1%} "
-                        f"{s.poa_after:>9.1%}")
+            rows.append(f"{s.name:<{w}} {s.cells:>5} {s.poa:>6.1%} {s.pod:>6.1%} {s.pos:>6.1%} "
+                        f"{s.cumulative_pod:>7.1%} {s.poa_after:>9.1%}")
         rest = (f"; rest of the world POA {self.rest_poa:.1%} -> {self.rest_poa_after:.1%}" if self.rest_poa > 0
                 else "")
         rows.append(f"POS this sortie {self.pos:.1%} (sum of POA x POD), campaign {self.cumulative_pos:.1%}; "

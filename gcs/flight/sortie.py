@@ -49,9 +49,10 @@ from gcs.plans.belief_file import (
     belief_to_dict,
     file_sha256,
 )
+from gcs.plans.segments import FROM_AREA_FILE, FROM_GRID, plan_folder_segments
 from planner.camera import Camera, camera_sensor
 from planner.campaign import Belief
-from planner.search_theory import SearchTheory, block_segments, search_theory
+from planner.search_theory import SearchTheory, Segment, block_segments, search_theory
 
 if TYPE_CHECKING:  # the flight modules load pymavlink: `gcs plan --continue` needs none of them
     from gcs.flight.controller import FlightController
@@ -111,6 +112,7 @@ class SortieLog:
         self.start, self.no_belief = self._read_start()
         self.belief = None if self.start is None else Belief(self.start.search_map.copy(), self.start.p0,
                                                              self.start.looks_before, self.start.sortie)
+        self.segments, self.segments_from, self.segments_note = self._plan_segments()
         self.readings: list[_Reading] = []
         self.tracks: dict[int, list[tuple[float, float]]] = {uid: [] for uid in plan.uavs}
         self.started_utc = datetime.now(UTC)
@@ -132,6 +134,17 @@ class SortieLog:
             return belief_from_dict(data, self.plan.no_fly), None
         except ValueError as exc:
             return None, f"{BELIEF_FILE}: {exc}"
+
+    def _plan_segments(self) -> tuple[list[Segment], str, str | None]:
+        """The segments the plan reported (`gcs.plans.segments.plan_folder_segments`), where they
+        came from, and why the grid's blocks stand in for the area file's when they must."""
+        searchable = ~self.plan.no_fly
+        try:
+            segments = plan_folder_segments(self.plan, searchable)
+        except ValueError as exc:
+            return block_segments(searchable), FROM_GRID, f"the area file's segments are not reported: {exc}"
+        theory = self.plan.raw.get("search_theory") or {}
+        return segments, FROM_AREA_FILE if theory.get("segments_from") == FROM_AREA_FILE else FROM_GRID, None
 
     # ---- during the flight -------------------------------------------------------------
 
@@ -262,17 +275,17 @@ class SortieLog:
                                 "pos_after": after / available if available > 0 else 0.0}
             theory = self.search_theory()
             if theory is not None:
-                data["search_theory"] = theory.as_dict()
+                data["search_theory"] = theory.as_dict() | {"segments_from": self.segments_from}
         return data
 
     def search_theory(self) -> SearchTheory | None:
-        """POA / POD / POS per segment of what this flight read (`planner.search_theory`, the
-        segments of the plan's: named blocks of the grid); None without a belief or prior mass."""
+        """POA / POD / POS per segment of what this flight read (`planner.search_theory`, over the
+        plan's segments: the area file's, else named blocks of the grid); None without a belief
+        or prior mass."""
         if self.belief is None or self.start is None or not self.start.available() > 0:
             return None
-        searchable = self.belief.searchable
-        return search_theory(self.start.p0, searchable, self.pc, self.belief.search_map.visits,
-                             block_segments(searchable), looks_before=self.start.looks_before)
+        return search_theory(self.start.p0, self.belief.searchable, self.pc, self.belief.search_map.visits,
+                             self.segments, looks_before=self.start.looks_before)
 
     def tracks_geojson(self, controller: FlightController) -> dict:
         features = []
@@ -335,6 +348,8 @@ class SortieLog:
             theory = self.search_theory()
             if theory is not None:
                 lines.append(theory.table())
+            if self.segments_note is not None:
+                lines.append(self.segments_note)
             if available > 0:
                 lines.append(f"campaign probability of success {before / available:.1%} -> {after / available:.1%} "
                              f"after sortie {self.sortie}; plan the next with: gcs plan --continue {self.folder}")

@@ -1,28 +1,40 @@
 """The search team's figures per segment for a plan or a flight (`planner.search_theory`): POA
 before, the POD the sortie gives, the campaign's cumulative POD, POS = POA x POD and the POAs
-shifted after an unsuccessful sortie, over named blocks of the grid (A1 north-west; the area
-file's segments once it has them). In plan.json / sortie.json (`search_theory`), as polygons with
-those figures in `segments.geojson` and `segments.kml`, and in the printed summaries."""
+shifted after an unsuccessful sortie, over the area file's own segments when it has them, else
+named blocks of the grid (A1 north-west). In plan.json / sortie.json (`search_theory`, whose
+`segments_from` says which), as polygons with those figures in `segments.geojson` and
+`segments.kml`, and in the printed summaries. A flight reports over the segments its plan did
+(`plan_folder_segments`: the plan folder's `segments.geojson` laid again on the plan's grid)."""
 
 from __future__ import annotations
 
+import json
+from collections.abc import Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from shapely.geometry import box, mapping
+import shapely
+from shapely.geometry import box, mapping, shape
+from shapely.geometry.base import BaseGeometry
 
 from gcs.plans.area_file import AreaFile
 from planner.area_grid import AreaGrid
 from planner.campaign import look_counts
+from planner.georef import Grid
 from planner.rasterise import cells_inside
 from planner.search_theory import SearchTheory, Segment, block_segments, search_theory
 
 if TYPE_CHECKING:
+    from gcs.plans.plan_folder import FleetPlan
     from gcs.plans.planning import AreaSetup
     from planner.plan import Plan
 
 #: The name of the searchable cells no segment of the area file covers.
 REST = "rest of the area"
+#: `search_theory.segments_from` in plan.json and sortie.json: the area file's segments, or the grid's blocks.
+FROM_AREA_FILE, FROM_GRID = "area file", "grid blocks"
+SEGMENTS_FILE = "segments.geojson"
 
 #: The figures a segment's map feature carries, in per cent (attribute name -> SegmentFigures field).
 MAP_FIELDS = {"poa_pct": "poa", "pod_pct": "pod", "pos_pct": "pos", "cumulative_pod_pct": "cumulative_pod",
@@ -34,15 +46,50 @@ def area_segments(area: AreaGrid, source: AreaFile | None = None) -> list[Segmen
     and `REST` for searchable cells none of them covers), else named blocks of its grid."""
     if source is None or not source.segments:
         return block_segments(area.free)
-    out, covered = [], np.zeros(area.grid.shape, dtype=bool)
-    for seg in source.segments:
-        cells = cells_inside(area.to_local(seg.geometry), area.grid) & area.free & ~covered
+    return drawn_segments([(seg.name, area.to_local(seg.geometry)) for seg in source.segments], area.grid, area.free)
+
+
+def segments_from(source: AreaFile | None) -> str:
+    """Where `area_segments` takes an area's segments from: `FROM_AREA_FILE` or `FROM_GRID`."""
+    return FROM_AREA_FILE if source is not None and source.segments else FROM_GRID
+
+
+def drawn_segments(polygons_m: Sequence[tuple[str, BaseGeometry]], grid: Grid, free: np.ndarray) -> list[Segment]:
+    """Named polygons (local metres) as segments of `grid`: each the free cells whose centre it
+    holds and no earlier polygon took, then `REST` for the free cells none holds."""
+    out, covered = [], np.zeros(grid.shape, dtype=bool)
+    for name, polygon_m in polygons_m:
+        cells = cells_inside(polygon_m, grid) & free & ~covered
         covered |= cells
-        out.append(Segment(seg.name, cells))
-    rest = area.free & ~covered
+        out.append(Segment(name, cells))
+    rest = free & ~covered
     if rest.any():
         out.append(Segment(REST, rest))
     return out
+
+
+def plan_folder_segments(plan: FleetPlan, searchable: np.ndarray) -> list[Segment]:
+    """The segments `plan`'s figures were reported over (plan.json's `search_theory`): the area
+    file's, read back from the folder's `segments.geojson` and laid on the plan's grid as
+    `area_segments` laid them, else the grid's blocks. ValueError when segments.geojson is missing
+    or no longer gives the plan's segments (their names and cells)."""
+    theory = plan.raw.get("search_theory") or {}
+    if theory.get("segments_from") != FROM_AREA_FILE:
+        return block_segments(searchable)
+    path = Path(plan.folder) / SEGMENTS_FILE
+    try:
+        features = json.loads(path.read_text(encoding="utf-8"))["features"]
+        polygons = [(str(f["properties"]["segment"]), shape(f["geometry"])) for f in features
+                    if f.get("geometry") is not None]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise ValueError(f"{SEGMENTS_FILE} is not readable ({type(exc).__name__}: {exc})") from None
+    to_local = plan.frame.lonlat2local_coords
+    segments = drawn_segments([(name, shapely.transform(p, to_local)) for name, p in polygons], plan.grid,
+                              searchable)
+    planned = [(s.get("name"), s.get("cells")) for s in theory.get("segments", [])]
+    if [(s.name, int(s.cells.sum())) for s in segments] != planned:
+        raise ValueError(f"{SEGMENTS_FILE} no longer gives plan.json's segments (changed since the plan?)")
+    return segments
 
 
 def plan_theory(setup: AreaSetup, plan: Plan, segments: list[Segment]) -> SearchTheory:

@@ -1,0 +1,111 @@
+"""A flight over an area file with its own segments (`gcs fly --plan ... --sim`): the sortie record
+and the summary at the end report the area file's segments, by name, as the plan did, not the
+grid's blocks. A 600 m square, 30 m cells, one copter with 1500 m of range, at 60 times real time."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from gcs.cli import main
+from gcs.flight.sortie import SortieLog
+from gcs.plans.belief_file import validate_sortie_dict
+from gcs.plans.plan_folder import load_plan_dir
+from gcs.plans.segments import FROM_AREA_FILE, FROM_GRID, REST, SEGMENTS_FILE
+from planner.search_theory import block_segments
+
+WEST, EAST, SOUTH, NORTH = 7.996056, 8.003944, 46.997301, 47.002698
+MIDDLE_LON, MIDDLE_LAT = (WEST + EAST) / 2, (SOUTH + NORTH) / 2
+
+
+def _box(w: float, s: float, e: float, n: float) -> dict:
+    return {"type": "Polygon", "coordinates": [[[w, s], [e, s], [e, n], [w, n], [w, s]]]}
+
+
+def _feature(geometry: dict, **props) -> dict:
+    return {"type": "Feature", "properties": props, "geometry": geometry}
+
+
+def segments_area(folder: Path) -> Path:
+    """The square with two segments (north-west 70 %, east 30 %): the south-west quarter is the
+    rest of the area; a likelier west half, one airport, one target."""
+    doc = {"type": "FeatureCollection", "properties": {"cell_size_m": 30}, "features": [
+        _feature(_box(WEST, SOUTH, EAST, NORTH), role="area", name="square"),
+        _feature(_box(WEST, SOUTH, MIDDLE_LON, NORTH), role="prior", name="west", tep=0.6, eu=0.5),
+        _feature(_box(WEST, MIDDLE_LAT, MIDDLE_LON, NORTH), role="segment", name="North-west", poa=70),
+        _feature(_box(MIDDLE_LON, SOUTH, EAST, NORTH), role="segment", name="East", poa=30),
+        _feature({"type": "Point", "coordinates": [7.996647, 46.999865]}, role="airport", name="a", heading="E",
+                 range_m=1500),
+        _feature({"type": "Point", "coordinates": [7.998, 47.001]}, role="target", name="t")]}
+    path = folder / "segments.geojson"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+@pytest.fixture(scope="module")
+def flown(tmp_path_factory):
+    """The square planned by `gcs plan --area` (no bound: it costs 5 s) and flown by `gcs fly
+    --plan ... --sim`; what the flight printed."""
+    base = tmp_path_factory.mktemp("sortie-segments")
+    out = base / "square"
+    assert main(["plan", "--area", str(segments_area(base)), "--out", str(out), "--strategy", "exhaustive",
+                 "--no-improve", "--bound-time", "0", "--no-rrd", "--quiet"]) == 0
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert main(["fly", "--plan", str(out), "--sim", "--speedup", "60", "--no-rrd", "--link-timeout", "2"]) == 0
+    return SimpleNamespace(folder=out, printed=printed.getvalue())
+
+
+def _json(path: Path) -> dict:
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def test_the_sortie_reports_the_area_files_segments_by_name(flown):
+    record, plan = _json(flown.folder / "sortie.json"), _json(flown.folder / "plan.json")
+    validate_sortie_dict(record)
+    assert record["finished"] and record["observed"]
+    theory, planned = record["search_theory"], plan["search_theory"]
+    assert theory["segments_from"] == planned["segments_from"] == FROM_AREA_FILE
+    names = [s["name"] for s in theory["segments"]]
+    assert names == ["North-west", "East", REST] == [s["name"] for s in planned["segments"]]
+    assert [s["cells"] for s in theory["segments"]] == [s["cells"] for s in planned["segments"]]
+    # the flight's POAs before are the plan's (sortie 1: the prior's shares), and sum to the area's total
+    assert [s["poa"] for s in theory["segments"]] == pytest.approx([s["poa"] for s in planned["segments"]], abs=2e-6)
+    assert sum(s["poa"] for s in theory["segments"]) + theory["rest_of_world_poa"] == pytest.approx(1.0, abs=1e-5)
+    assert theory["pos"] == pytest.approx(record["campaign"]["pos_after"], abs=1e-5)
+    assert any(s["pod"] > 0 for s in theory["segments"])
+    # the summary at the end of gcs fly: the same table
+    assert "segment          cells    POA    POD    POS cum POD POA after" in flown.printed
+    assert all(f"\n{name:<16} " in flown.printed for name in names)
+
+
+def test_a_changed_segments_file_falls_back_to_the_grids_blocks_and_says_why(flown, tmp_path):
+    """segments.geojson no longer the plan's (a team edited it): blocks, and the summary says so."""
+    import shutil
+
+    folder = tmp_path / "square"
+    shutil.copytree(flown.folder, folder)
+    geo = _json(folder / SEGMENTS_FILE)
+    geo["features"][0]["properties"]["segment"] = "Renamed"
+    (folder / SEGMENTS_FILE).write_text(json.dumps(geo))
+    log = SortieLog(load_plan_dir(folder))
+    assert log.segments_from == FROM_GRID
+    assert [s.name for s in log.segments] == [b.name for b in block_segments(~log.plan.no_fly)]
+    assert "changed since the plan?" in (log.segments_note or "")
+    (folder / SEGMENTS_FILE).unlink()
+    assert "segments.geojson is not readable" in (SortieLog(load_plan_dir(folder)).segments_note or "")
+
+
+def test_the_segments_are_laid_on_the_plans_grid_as_the_plan_laid_them(flown):
+    log = SortieLog(load_plan_dir(flown.folder))
+    assert log.segments_note is None and log.segments_from == FROM_AREA_FILE
+    cells = np.zeros(log.plan.no_fly.shape, dtype=int)
+    for seg in log.segments:
+        cells += seg.cells
+    assert np.array_equal(cells, ~log.plan.no_fly)  # every searchable cell in exactly one segment
