@@ -1,12 +1,14 @@
 """Command-line options of the commands that can work the built-in simulated fleet instead of
 real vehicles (`fly`, `upload`): `--sim` and its settings, and the choice between it and
-`--connect`."""
+`--connect`; and the simulated sensor's Pc and Pf over a plan (`fly --sim`, `sim --plan`,
+`detector --plan`)."""
 
 from __future__ import annotations
 
 import argparse
 from typing import TYPE_CHECKING
 
+from gcs.cli import given_options
 from gcs.cli.link_options import connections_from
 from gcs.errors import UserError
 
@@ -40,3 +42,11 @@ def simulated_fleet(plan: FleetPlan, **settings) -> SimFleet:
         return fleet_for_plan(plan, **settings)
     except ValueError as exc:
         raise UserError(f"--sim: {exc}") from None
+
+
+def sim_sensor(args: argparse.Namespace, plan: FleetPlan) -> tuple[float, float]:
+    """The Pc and Pf the simulated sensor reads `plan`'s world at: `--pc` and `--pf` when given on
+    the command line, else the plan's (`FleetPlan.pc`: its camera's Pc when it was made with
+    one), so that the readings are drawn as the plan and the sortie record count them."""
+    given = given_options(args)
+    return (float(args.pc) if "pc" in given else plan.pc), (float(args.pf) if "pf" in given else plan.pf)

@@ -50,7 +50,6 @@ from gcs.plans.belief_file import (
     file_sha256,
 )
 from gcs.plans.segments import FROM_AREA_FILE, FROM_GRID, plan_folder_segments
-from planner.camera import Camera, camera_sensor
 from planner.campaign import Belief
 from planner.search_theory import SearchTheory, Segment, block_segments, search_theory
 
@@ -83,16 +82,6 @@ def plan_sortie(plan: FleetPlan) -> int:
     return int((plan.raw.get("campaign") or {}).get("sortie", 1))
 
 
-def planned_pc(options: dict, plan: FleetPlan) -> float:
-    """The Pc per look `plan` was made with: its camera's (`planner.camera`, at the lowest altitude
-    it flies, as `gcs plan` derived it) when its options name one, else its `pc`."""
-    fov = options.get("camera_fov_deg")
-    if fov is None:
-        return float(options.get("pc", 0.9))
-    camera = Camera(float(fov), options.get("camera_pixels"), float(options.get("camera_pd", 1.0)))
-    return camera_sensor(camera, min(float(u["altitude_m"]) for u in plan.raw["uavs"]), plan.cell_size_m).pc
-
-
 class SortieLog:
     """Folds a flight's readings into the plan's belief and keeps each vehicle's track; writes
     the sortie record when the flight ends (`attach`)."""
@@ -100,12 +89,9 @@ class SortieLog:
     def __init__(self, plan: FleetPlan, *, poll_s: float = 0.05, min_move_m: float | None = None) -> None:
         self.plan = plan
         self.folder = Path(plan.folder)
-        campaign = plan.raw.get("campaign") or {}
-        options = campaign.get("options") or {}
         self.sortie = plan_sortie(plan)
-        self.area = campaign.get("area")
-        self.pc = planned_pc(options, plan)
-        self.pf = float(options.get("pf", 0.1))
+        self.area = (plan.raw.get("campaign") or {}).get("area")
+        self.pc, self.pf = plan.pc, plan.pf  # the camera's Pc when the plan was made with one
         self.poll_s = poll_s
         self.min_move_m = min_move_m if min_move_m is not None else plan.cell_size_m / 5.0
         self.plan_sha256 = file_sha256(self.folder / "plan.json")

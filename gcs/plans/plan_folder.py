@@ -28,6 +28,7 @@ from gcs.missions.items import (
     mission_items,
     waypoint_items,
 )
+from planner.camera import Camera, camera_sensor
 from planner.georef import Grid, LocalFrame
 from planner.motion import STEPS, MoveCosts, OrientationConstraint, constraint_by_name
 from planner.return_exact import UNREACHABLE, follow_table, return_table
@@ -120,6 +121,24 @@ class FleetPlan:
     @property
     def cell_size_m(self) -> float:
         return self.grid.cell_size_m
+
+    @property
+    def pc(self) -> float:
+        """The Pc per look the plan was made with: its camera's (`planner.camera`, at the lowest
+        altitude it flies, as `gcs plan` derived it) when its campaign options name one, else its
+        `pc` (0.9 for a plan that records none)."""
+        options = (self.raw.get("campaign") or {}).get("options") or {}
+        fov = options.get("camera_fov_deg")
+        if fov is None:
+            return float(options.get("pc", 0.9))
+        camera = Camera(float(fov), options.get("camera_pixels"), float(options.get("camera_pd", 1.0)))
+        return camera_sensor(camera, min(float(u["altitude_m"]) for u in self.raw["uavs"]), self.cell_size_m).pc
+
+    @property
+    def pf(self) -> float:
+        """The false-alarm probability per look the plan was made with (0.1 for one that records none)."""
+        options = (self.raw.get("campaign") or {}).get("options") or {}
+        return float(options.get("pf", 0.1))
 
     def cell_of(self, lat_deg: float, lon_deg: float) -> tuple[int, int] | None:
         east, north = self.frame.geodetic2local(lat_deg, lon_deg)

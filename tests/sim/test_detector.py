@@ -118,8 +118,10 @@ def test_an_area_file_gives_the_world_of_its_plan_folder(plan, plan_dir):
     def world(*source: str):
         return _world(build_parser().parse_args(["detector", *source, "--uav", "1", "--connect", "tcp:127.0.0.1:5763"]))
 
-    assert world("--area", str(ROOT / "missions" / "paper.geojson")) == (World.of_plan(plan), [1, 2, 3, 4], 0)
-    assert world("--plan", str(plan_dir)) == (World.of_plan(plan), [1, 2, 3, 4], 0)  # the plan's seed: 0
+    # the world, the UAVs, the seed (the plan's: 0) and the sensor's Pc and Pf (the plan's: 0.9, 0.1)
+    assert world("--area", str(ROOT / "missions" / "paper.geojson")) == (World.of_plan(plan), [1, 2, 3, 4], 0,
+                                                                         (PC, PF))
+    assert world("--plan", str(plan_dir)) == (World.of_plan(plan), [1, 2, 3, 4], 0, (PC, PF))
 
 
 @pytest.mark.parametrize("seed, offset_m", [(0, (0.0, 0.0)), (1, (6.0, -4.0)), (2, (-8.5, 3.0))])

@@ -33,28 +33,32 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_link_arguments(p)
     p.add_argument("--seed", type=int, default=None,
                    help="seed of the sensor noise (default: the plan's, 0 with --area)")
-    p.add_argument("--pc", type=float, default=SearchOptions.pc, help="probability of reporting a target in the cell")
+    p.add_argument("--pc", type=float, default=SearchOptions.pc,
+                   help="probability of reporting a target in the cell (default with --plan: the plan's, its "
+                        "camera's Pc when it was made with --camera-fov)")
     p.add_argument("--pf", type=float, default=SearchOptions.pf,
-                   help="probability of reporting an empty cell (false alarm)")
+                   help="probability of reporting an empty cell, a false alarm (default with --plan: the plan's)")
     p.set_defaults(func=run)
 
 
 def _world(args: argparse.Namespace):
-    """The simulated world and the default seed, from --plan or --area."""
+    """The simulated world, the default seed and the sensor's Pc and Pf, from --plan (the plan's
+    sensor unless --pc / --pf are given) or --area."""
     from sim.detector import World
 
     if bool(args.plan) == bool(args.area):
         raise UserError("give --plan DIR (a gcs plan --area folder) or --area FILE")
     if args.plan:
+        from gcs.cli.sim_options import sim_sensor
         from gcs.plans.plan_folder import load_plan_dir
 
         plan = load_plan_dir(args.plan)
-        return World.of_plan(plan), sorted(plan.uavs), int(plan.raw.get("seed") or 0)
+        return World.of_plan(plan), sorted(plan.uavs), int(plan.raw.get("seed") or 0), sim_sensor(args, plan)
     from gcs.plans.options import AreaOptions
     from gcs.plans.planning import build_area_search
 
     setup = build_area_search(args.area, AreaOptions(cell_size_m=args.cell_size_m, margin_m=args.margin_m))
-    return World.of_area(setup), [ap.index + 1 for ap in setup.source.airports], 0
+    return World.of_area(setup), [ap.index + 1 for ap in setup.source.airports], 0, (args.pc, args.pf)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -71,19 +75,19 @@ def run(args: argparse.Namespace) -> int:
         if not 0.0 <= getattr(args, name) <= 1.0:
             raise UserError(f"--{name} must be a probability in [0, 1], got {getattr(args, name):g}")
     signing = signing_from(args)
-    world, uav_ids, plan_seed = _world(args)
+    world, uav_ids, plan_seed, (pc, pf) = _world(args)
     unknown = [u for u in args.uav if u not in uav_ids]
     if unknown:
         raise UserError(f"--uav {unknown[0]}: not a UAV of the plan (it has {', '.join(map(str, uav_ids))})")
     seed = plan_seed if args.seed is None else args.seed
-    detectors = [Detector(world.sensor(uid, seed=seed, pc=args.pc, pf=args.pf), uid) for uid in args.uav]
+    detectors = [Detector(world.sensor(uid, seed=seed, pc=pc, pf=pf), uid) for uid in args.uav]
     t0 = time.monotonic()
 
     def say(uid: int, line: str) -> None:
         print(f"[{time.monotonic() - t0:6.1f}s] UAV {uid}: {line}", flush=True)
 
     print(f"world of {args.plan or args.area}: {world.cell_size_m:g} m cells, {len(world.targets)} targets, "
-          f"seed {seed}, pc {args.pc:g}, pf {args.pf:g}", flush=True)
+          f"seed {seed}, pc {pc:.3g}, pf {pf:.3g}", flush=True)
     asyncio.run(_serve(list(zip(connections, detectors)), signing, say))
     for det in detectors:
         hits = sum(obs.reported for obs in det.observations)

@@ -28,7 +28,7 @@ from gcs.cli.plan_options import (
     output_options_from,
     plan_options_from,
 )
-from gcs.cli.sim_options import connections_or_sim, simulated_fleet
+from gcs.cli.sim_options import connections_or_sim, sim_sensor, simulated_fleet
 from gcs.cli.tak_options import TAK_FLAGS, add_tak_arguments, tak_feed_from
 from gcs.display.status_table import LiveTable, render_summary
 from gcs.errors import UserError
@@ -207,12 +207,13 @@ def run(args: argparse.Namespace) -> int:
     fleet = None
     if args.sim:
         # a later sortie's readings draw new noise (planner.campaign.sortie_seed)
+        pc, pf = sim_sensor(args, plan)  # the plan's (its camera's Pc) unless --pc / --pf are given
         fleet = simulated_fleet(plan, speedup=args.speedup, profile=args.sim_profile,
-                                seed=sortie_seed(args.seed, plan_sortie(plan)), pc=args.pc, pf=args.pf, drain=drains,
+                                seed=sortie_seed(args.seed, plan_sortie(plan)), pc=pc, pf=pf, drain=drains,
                                 loss=args.sim_loss, endurance_s=args.sim_endurance, signing=signing)
         connections = fleet.start().connection_strings()
-        print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}",
-              flush=True)
+        print(f"simulated fleet: {len(connections)} vehicles ({args.sim_profile}), speedup {args.speedup:g}, "
+              f"sensor Pc {pc:.3g} Pf {pf:.3g}", flush=True)
     try:
         outcome = fly_plan(plan, connections, options, signing=signing, simulated=args.sim, online=online,
                            recorder=recorder, bus=bus, display=_display(), stdin_orders=_stdin_orders(args),

@@ -2,8 +2,10 @@
 
 With `--area` the vehicles stand at the area's airports and sense the world `gcs plan --area`
 lays out from the same file and options: its grid (cell size, south-west corner) and its target
-cells, so a plan of that area flown against them reads the cells it planned. The sensor's Pc
-and Pf default to the planner's."""
+cells, so a plan of that area flown against them reads the cells it planned. With `--plan` they
+stand at a plan folder's airports and sense its world as `gcs fly --sim` does. The sensor's Pc
+and Pf default to the planner's; with `--plan`, to the plan's (its camera's Pc when it was made
+with `--camera-fov`)."""
 
 from __future__ import annotations
 
@@ -30,6 +32,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help=f"home pose, once per vehicle or once for all (default {DEFAULT_HOME})")
     p.add_argument("--area", default=None, metavar="FILE",
                    help="one vehicle per airport of an area file (home, heading), with its targets")
+    p.add_argument("--plan", default=None, metavar="DIR",
+                   help="or one vehicle per airport of a gcs plan --area folder, in its world (grid, targets, and "
+                        "the plan's Pc and Pf unless --pc / --pf are given)")
     p.add_argument("--home-alt-m", type=float, default=0.0, help="ground altitude AMSL of every home")
     p.add_argument("--base-port", type=int, default=14540, help="UDP port of vehicle 1 (default 14540)")
     p.add_argument("--bind", default="127.0.0.1", help="address to listen on (default loopback only)")
@@ -62,9 +67,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--margin", dest="margin_m", metavar="METRES", type=float, default=0.0,
                    help="with --area: the safety margin the plan uses (it shapes the grid)")
     p.add_argument("--pc", type=float, default=SearchOptions.pc,
-                   help=f"sensor detection probability (default {SearchOptions.pc:g}, as gcs plan)")
+                   help=f"sensor detection probability (default {SearchOptions.pc:g}, as gcs plan; with --plan the "
+                        f"plan's, its camera's Pc when it was made with --camera-fov)")
     p.add_argument("--pf", type=float, default=SearchOptions.pf,
-                   help=f"sensor false-alarm probability (default {SearchOptions.pf:g}, as gcs plan)")
+                   help=f"sensor false-alarm probability (default {SearchOptions.pf:g}, as gcs plan; with --plan the "
+                        f"plan's)")
     p.add_argument("--signing-key", default=None, metavar="HEX|PASSPHRASE",
                    help="MAVLink 2 signing: 64 hex digits, or a passphrase (SHA-256, as MAVProxy)")
     p.set_defaults(func=run)
@@ -77,6 +84,12 @@ class _Silent:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.plan is not None:
+        if args.home or args.area is not None:
+            raise UserError("give one of --plan, --area or --home")
+        homes, world = _plan_world(args)
+        args.vehicles = len(homes)
+        return serve(homes, args, world)
     if args.area is not None:
         if args.home:
             raise UserError("give either --area or --home, not both")
@@ -98,6 +111,27 @@ def _area_world(args: argparse.Namespace):
     setup = build_area_search(args.area, AreaOptions(cell_size_m=args.cell_size_m, margin_m=args.margin_m))
     homes = [HomePose(a.lat_deg, a.lon_deg, args.home_alt_m, a.heading * 45.0) for a in setup.source.airports]
     return homes, World.of_area(setup)
+
+
+def _plan_world(args: argparse.Namespace):
+    """Home poses at a plan folder's airports (vehicle i flies UAV i, as `gcs fly --sim` puts
+    them) and its world (`sim.detector.World.of_plan`); `args.pc`, `args.pf` and
+    `args.vehicle_type` become the plan's unless given (`gcs.cli.sim_options.sim_sensor`)."""
+    from gcs.cli import given_options
+    from gcs.cli.sim_options import sim_sensor
+    from gcs.plans.plan_folder import load_plan_dir
+    from sim.detector import World
+    from sim.plan_fleet import plan_homes
+
+    plan = load_plan_dir(args.plan)
+    try:
+        homes = plan_homes(plan, args.home_alt_m)
+    except ValueError as exc:
+        raise UserError(f"--plan: {exc}") from None
+    args.pc, args.pf = sim_sensor(args, plan)
+    if "vehicle_type" not in given_options(args):
+        args.vehicle_type = next(iter(plan.uavs.values())).vehicle.value
+    return homes, World.of_plan(plan)
 
 
 def serve(poses: list, args: argparse.Namespace, world=None) -> int:
@@ -182,7 +216,8 @@ async def _serve(fleet, duration_s: float | None) -> None:
     async with fleet:
         cfg, opts = fleet.config, fleet.options
         print(f"gcs sim: {len(fleet.vehicles)} {cfg.vehicle_type}(s), profile {cfg.profile}, "
-              f"speedup {opts.speedup:g}{', signing on' if opts.signing_key else ''}", flush=True)
+              f"speedup {opts.speedup:g}, sensor Pc {cfg.sensor.pc:.3g} Pf {cfg.sensor.pf:.3g}"
+              f"{', signing on' if opts.signing_key else ''}", flush=True)
         for v, (host, port) in zip(fleet.vehicles, fleet.addresses, strict=True):
             print(f"vehicle {v.sysid}: sysid {v.sysid} comp 1  udpout:{host}:{port}  "
                   f"(MAVSDK: udpout://{host}:{port})", flush=True)

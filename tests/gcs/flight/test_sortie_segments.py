@@ -1,6 +1,8 @@
 """A flight over an area file with its own segments (`gcs fly --plan ... --sim`): the sortie record
 and the summary at the end report the area file's segments, by name, as the plan did, not the
-grid's blocks. A 600 m square, 30 m cells, one copter with 1500 m of range, at 60 times real time."""
+grid's blocks. A 600 m square, 30 m cells, one copter with 1500 m of range and a 45 degree camera,
+at 60 times real time: the simulated vehicle reads at the camera's Pc, as the plan and the sortie
+record count its readings."""
 
 from __future__ import annotations
 
@@ -50,12 +52,12 @@ def segments_area(folder: Path) -> Path:
 
 @pytest.fixture(scope="module")
 def flown(tmp_path_factory):
-    """The square planned by `gcs plan --area` (no bound: it costs 5 s) and flown by `gcs fly
-    --plan ... --sim`; what the flight printed."""
+    """The square planned with a camera by `gcs plan --area` (no bound: it costs 5 s) and flown by
+    `gcs fly --plan ... --sim`; what the flight printed."""
     base = tmp_path_factory.mktemp("sortie-segments")
     out = base / "square"
     assert main(["plan", "--area", str(segments_area(base)), "--out", str(out), "--strategy", "exhaustive",
-                 "--no-improve", "--bound-time", "0", "--no-rrd", "--quiet"]) == 0
+                 "--no-improve", "--bound-time", "0", "--no-rrd", "--quiet", "--camera-fov", "45"]) == 0
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
         assert main(["fly", "--plan", str(out), "--sim", "--speedup", "60", "--no-rrd", "--link-timeout", "2"]) == 0
@@ -109,3 +111,10 @@ def test_the_segments_are_laid_on_the_plans_grid_as_the_plan_laid_them(flown):
     for seg in log.segments:
         cells += seg.cells
     assert np.array_equal(cells, ~log.plan.no_fly)  # every searchable cell in exactly one segment
+
+
+def test_the_simulated_vehicle_read_at_the_cameras_pc(flown):
+    plan, record = load_plan_dir(flown.folder), _json(flown.folder / "sortie.json")
+    assert abs(plan.pc - 0.9) > 0.05  # the camera's, not --pc's default
+    assert f"simulated fleet: 1 vehicles (ardupilot), speedup 60, sensor Pc {plan.pc:.3g} Pf 0.1" in flown.printed
+    assert record["sensor"]["pc"] == plan.pc == pytest.approx(record["search_theory"]["pc"])
