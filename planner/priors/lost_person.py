@@ -22,14 +22,80 @@ from planner.georef import Grid
 QUANTILE_Z = (-0.6744897501960817, 0.0, 0.6744897501960817, 1.6448536269514722)
 QUANTILES = (0.25, 0.50, 0.75, 0.95)
 
-#: (subject, terrain, climate) -> km within which 25 / 50 / 75 / 95 % of subjects were found.
-#: Koester 2008 (ISRID), hiker, as SAREnv's `sarenv/utils/lost_person_behavior.py` tabulates it
-#: (the only rows checked against a published source here; docs/areas.md).
+#: (subject, terrain, climate) -> km within which 25 / 50 / 75 / 95 % of subjects were found:
+#: Koester, Lost Person Behavior (dbS Productions, 2008), the ISRID "distance from the IPP"
+#: tables, whose kilometre column is given here. A row is here only when two independent sources
+#: agree on it: the kilometre column as transcribed in public code, and the mile column of the
+#: same table in IGT4SAR (github.com/dferguso/IGT4SAR, IPP_EuclideanDistance2.py at 18e222b6,
+#: "IPP Distances are provided by Robert Koester (dbs Productions - Lost Person Behavior)"), every
+#: radius within 0.15 km of miles x 1.609344 (the two columns' rounding). `n` in the comments is
+#: the cases behind a row. The book's urban ecoregion (one column, no terrain) has no place in
+#: this table's terrains and is not here. Sources per category: docs/areas.md#lost-person-priors.
 DISTANCE_KM: dict[tuple[str, str, str], tuple[float, float, float, float]] = {
-    ("hiker", "flat", "temperate"): (0.6, 1.8, 3.2, 9.9),
-    ("hiker", "flat", "dry"): (1.3, 2.1, 6.6, 13.1),
-    ("hiker", "mountainous", "temperate"): (1.1, 3.1, 5.8, 18.3),
-    ("hiker", "mountainous", "dry"): (1.6, 3.2, 6.5, 19.3),
+    # Hiker: as SAREnv's `sarenv/utils/lost_person_behavior.py` tabulates it, and as the km
+    # transcriptions and IGT4SAR's miles give it.
+    ("hiker", "flat", "temperate"): (0.6, 1.8, 3.2, 9.9),  # n 274
+    ("hiker", "flat", "dry"): (1.3, 2.1, 6.6, 13.1),  # n 58
+    ("hiker", "mountainous", "temperate"): (1.1, 3.1, 5.8, 18.3),  # n 568
+    ("hiker", "mountainous", "dry"): (1.6, 3.2, 6.5, 19.3),  # n 221
+    # Dementia: the book's Dementia chapter as github.com/benfirth-parks/lost-person-probability
+    # (packages/behaviour/src/lpb.ts at 78103ae7) checked it against the publisher's copy
+    # (dbs-sar.com/LPB/Dementia.pdf, pp. 165-166), kilometres and miles; IGT4SAR's miles agree.
+    ("dementia", "flat", "temperate"): (0.3, 1.0, 2.4, 12.8),  # n 175
+    ("dementia", "flat", "dry"): (0.5, 1.6, 3.6, 11.8),  # n 15
+    ("dementia", "mountainous", "temperate"): (0.3, 0.8, 1.9, 8.3),  # n 95
+    ("dementia", "mountainous", "dry"): (1.0, 1.9, 3.1, 6.1),  # n 14
+    # The book's rows for one ecoregion and terrain: the km transcriptions, IGT4SAR's miles.
+    ("angler", "mountainous", "temperate"): (0.3, 1.5, 5.5, 9.9),  # n 25
+    ("atv", "mountainous", "temperate"): (1.6, 3.2, 5.6, 8.0),  # n 19
+    ("camper", "flat", "temperate"): (0.2, 1.1, 3.2, 12.8),  # n 18
+    ("child 1-3", "flat", "temperate"): (0.2, 0.3, 1.0, 3.2),  # n 61
+    ("child 4-6", "flat", "temperate"): (0.2, 0.6, 1.5, 6.6),  # n 90
+    ("child 4-6", "mountainous", "temperate"): (0.2, 0.8, 1.5, 3.7),  # n 38
+    ("child 7-9", "flat", "temperate"): (0.2, 0.8, 2.0, 8.0),  # n 79
+    ("child 7-9", "mountainous", "temperate"): (0.8, 1.6, 3.2, 11.3),  # n 38
+    ("child 7-9", "mountainous", "dry"): (0.4, 1.2, 3.2, 7.2),  # n 18
+    ("child 10-12", "flat", "temperate"): (0.4, 1.6, 4.8, 10.0),  # n 57
+    ("child 10-12", "mountainous", "temperate"): (0.8, 1.6, 3.2, 9.0),  # n 72
+    ("child 10-12", "mountainous", "dry"): (0.8, 2.0, 7.2, 16.1),  # n 22
+    ("child 13-15", "flat", "temperate"): (0.6, 1.3, 3.2, 10.0),  # n 80
+    ("child 13-15", "mountainous", "temperate"): (0.8, 2.1, 4.8, 21.4),  # n 74
+    ("child 13-15", "mountainous", "dry"): (2.4, 3.2, 4.8, 11.9),  # n 19
+    ("despondent", "flat", "temperate"): (0.3, 0.8, 2.3, 17.3),  # n 193
+    ("despondent", "flat", "dry"): (0.5, 1.9, 3.7, 20.7),  # n 14
+    ("despondent", "mountainous", "dry"): (0.8, 1.6, 3.4, 18.0),  # n 20
+    ("gatherer", "mountainous", "temperate"): (1.5, 3.2, 6.4, 12.9),  # n 94
+    ("hunter", "flat", "temperate"): (0.6, 1.6, 3.1, 13.7),  # n 465
+    ("hunter", "flat", "dry"): (1.6, 3.1, 6.4, 11.3),  # n 40
+    ("hunter", "mountainous", "temperate"): (1.0, 2.1, 4.8, 17.2),  # n 355
+    ("hunter", "mountainous", "dry"): (2.1, 4.8, 8.1, 22.2),  # n 138
+    ("intellectual disability", "flat", "temperate"): (0.3, 1.0, 2.1, 11.8),  # n 36
+    ("intellectual disability", "mountainous", "temperate"): (0.6, 1.6, 3.2, 11.3),  # n 31
+    ("mental illness", "flat", "temperate"): (0.8, 1.0, 2.3, 8.1),  # n 23
+    ("mental illness", "mountainous", "temperate"): (0.6, 2.3, 8.3, 14.6),  # n 23
+    ("mountain biker", "mountainous", "temperate"): (3.1, 4.0, 11.3, 25.0),  # n 25
+    ("skier-alpine", "mountainous", "temperate"): (1.1, 2.7, 4.8, 15.2),  # n 16
+    ("skier-nordic", "mountainous", "temperate"): (1.6, 3.5, 6.4, 19.6),  # n 29
+    ("skier-nordic", "mountainous", "dry"): (1.9, 4.3, 6.4, 19.5),  # n 41
+    ("snowboarder", "mountainous", "temperate"): (1.6, 3.2, 6.2, 15.4),  # n 31
+    ("snowmobiler", "flat", "temperate"): (1.3, 4.7, 41.1, 96.1),  # n 14 (one km transcription: the other has miles)
+    ("snowmobiler", "mountainous", "temperate"): (3.2, 6.4, 11.1, 16.1),  # n 26
+    # The book's rows for a whole ecoregion, not split by terrain (as both sources give them): the
+    # one figure stands for its flat and its mountainous terrain alike.
+    ("autistic", "flat", "temperate"): (0.6, 1.6, 3.7, 15.2),  # n 20, temperate
+    ("autistic", "mountainous", "temperate"): (0.6, 1.6, 3.7, 15.2),
+    ("child 1-3", "flat", "dry"): (0.6, 1.3, 3.9, 9.0),  # n 13, dry
+    ("child 1-3", "mountainous", "dry"): (0.6, 1.3, 3.9, 9.0),
+    ("child 4-6", "flat", "dry"): (0.6, 1.9, 3.2, 8.2),  # n 19, dry
+    ("child 4-6", "mountainous", "dry"): (0.6, 1.9, 3.2, 8.2),
+    ("climber", "flat", "temperate"): (0.2, 1.6, 3.2, 14.7),  # n 25, temperate
+    ("climber", "mountainous", "temperate"): (0.2, 1.6, 3.2, 14.7),
+    ("gatherer", "flat", "dry"): (1.6, 2.6, 5.8, 11.1),  # n 14, dry
+    ("gatherer", "mountainous", "dry"): (1.6, 2.6, 5.8, 11.1),
+    ("intellectual disability", "flat", "dry"): (1.1, 4.0, 8.7, 62.6),  # n 21, dry
+    ("intellectual disability", "mountainous", "dry"): (1.1, 4.0, 8.7, 62.6),
+    ("runner", "flat", "temperate"): (1.4, 2.6, 3.4, 5.8),  # n 14, temperate
+    ("runner", "mountainous", "temperate"): (1.4, 2.6, 3.4, 5.8),
 }
 
 #: Share of subjects found on or near each kind of feature (Koester 2008's find locations, as

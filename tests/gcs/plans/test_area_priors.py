@@ -12,6 +12,7 @@ from rasterio.transform import from_origin
 
 from gcs.plans.options import AreaOptions, SearchOptions
 from gcs.plans.planning import area_outputs, build_area_search
+from planner.priors.lost_person import DISTANCE_KM, distance_mass, fit_quartiles, subjects
 
 UTM32 = "EPSG:32632"
 
@@ -166,11 +167,37 @@ def test_an_ipp_with_a_trail_and_two_segments_and_a_camera(tmp_path, area_doc, s
     assert setup.search.scenario.p0 is not None and setup.search.scenario.p0.sum() == pytest.approx(1.0)
 
 
+@pytest.mark.parametrize("key", sorted(DISTANCE_KM))
+def test_every_row_of_the_lost_person_table_is_an_ipp_an_area_file_can_give(tmp_path, area_doc, shapes, key):
+    subject, terrain, climate = key
+    path = tmp_path / "ipp.geojson"  # in a search manager's capitals: the words are matched lower-cased
+    path.write_text(json.dumps(_lost_person(area_doc, shapes, subject=subject.title(), terrain=terrain.title(),
+                                            climate=climate.upper())))
+    setup = build_area_search(path, AreaOptions(), SearchOptions(strategy="exhaustive"))
+    (ipp,) = setup.source.ipps
+    assert (ipp.subject, ipp.terrain, ipp.climate) == key
+    prior, area = setup.prior_mass, setup.area
+    assert prior is not None and prior.mass.sum() == pytest.approx(1.0)
+    mass = distance_mass(area.grid, area.point_m(ipp.lon_deg, ipp.lat_deg), fit_quartiles(DISTANCE_KM[key]))
+    assert prior.inside == pytest.approx(float(mass[area.free].sum()))  # this row's distances on the square
+
+
+def test_gcs_plan_plans_a_lost_person_of_a_category_other_than_a_hiker(run_gcs, area_doc, shapes):
+    code, err, out = run_gcs(_lost_person(area_doc, shapes, subject="Child 4-6", terrain="mountainous"),
+                             "--strategy", "lawnmower", "--no-improve", "--bound-time", "0", "--no-rrd")
+    assert code == 0, err
+    plan = json.loads((out / "plan.json").read_text())
+    assert plan["uavs"] and plan["search_theory"]
+
+
 @pytest.mark.parametrize("change, match", [
-    ({"subject": "astronaut"}, "subject 'astronaut' is not in the lost-person table (it holds: hiker)"),
+    ({"subject": "astronaut"},
+     f"subject 'astronaut' is not in the lost-person table (it holds: {', '.join(subjects())})"),
     ({"terrain": "lunar"}, "terrain 'lunar' is not in the lost-person table (it holds: flat, mountainous)"),
     ({"climate": "polar"}, "climate 'polar' is not in the lost-person table"),
     ({"subject": None}, "an ipp needs 'subject'"),
+    ({"subject": "atv"}, "terrain 'flat' is not in the lost-person table (it holds: mountainous)"),
+    ({"subject": "gatherer"}, "an ipp needs 'climate' (one of dry)"),  # flat gatherers: the dry table only
 ])
 def test_bad_ipps_are_one_line(run_gcs, area_doc, shapes, change, match):
     doc = _lost_person(area_doc, shapes)
