@@ -25,7 +25,12 @@ FeatureCollection's `properties` member. Rings may wind either way. Bad input ra
 with one line saying what and where.
 
 KML/KMZ, GPX, GeoPackage and Shapefile area files (by their suffix, or a folder of shapefiles)
-are read by `gcs.plans.gis_formats` into the same FeatureCollection and checked here alike."""
+are read by `gcs.plans.gis_formats` into the same FeatureCollection and checked here alike.
+
+The GeoJSON's JSON Schema is `gcs/schemas/area.schema.json` (`area_schema`, `validate_area_dict`):
+for editors and other tools that write area files; every file this module accepts follows it, and
+what a schema cannot say (closed, valid rings; IPPs inside the area; POAs summing to 100; the
+lost-person table's words) is still checked here."""
 
 from __future__ import annotations
 
@@ -33,6 +38,8 @@ import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
 from pathlib import Path
 
 import shapely
@@ -144,6 +151,19 @@ class AreaFile:
     ipps: tuple[Ipp, ...] = ()
     features: tuple[PlaceFeature, ...] = ()
     segments: tuple[Segment, ...] = ()
+
+
+@lru_cache(maxsize=1)
+def area_schema() -> dict:
+    """The JSON Schema of an area GeoJSON file (`gcs/schemas/area.schema.json`)."""
+    return json.loads(resources.files("gcs").joinpath("schemas/area.schema.json").read_text())
+
+
+def validate_area_dict(data: object) -> None:
+    """Raise jsonschema.ValidationError when `data` does not follow the area file's schema."""
+    import jsonschema  # ~0.1 s to import: only where a file is checked against the schema, never to plan
+
+    jsonschema.validate(data, area_schema(), cls=jsonschema.Draft202012Validator)
 
 
 def _reject_constant(name: str) -> float:
