@@ -1,18 +1,21 @@
 """A PNG picture of a plan: the prior map, no-fly zones, known and key regions, every UAV's
 closed path in its own colour (search solid, return dashed), airports, and targets found or
-missed; the probability of success in the title (total) and the legend (per UAV). Matplotlib
-with the Agg backend; the file is written atomically.
+missed; the probability of success in the title (total) and the legend (per UAV); under the
+axes a caption with the plan's expected finds against the upper bound on them (`bound_caption`).
+Matplotlib with the Agg backend; the file is written atomically.
 
-The picture is drawn in two parts, so that most of it can be drawn before the plan is known:
-the map (`MapLayers`: prior, no-fly zones, regions, cells earlier sorties searched, axes and
-colour bar) and the plan over it (`PlanLayers`: paths, airports, targets, title and legend),
-both plain arrays and text. `OverviewPicture` draws the map when it is made and keeps its
-pixels; `render` puts them back and draws the plan on top. The PNG is the one drawing
-everything at once gives, byte for byte: inside the axes the plan's artists lie above the map's
-(the axes' frame, above the paths, is drawn with the plan), and the ticks, labels and colour
-bar drawn with the map lie outside the axes, which clip the paths. `gcs.plans.make` has its
-pictures helper draw the map while the search runs. Neither matplotlib nor the planner is
-imported before a picture is drawn, so that helper loads neither numba nor the planner."""
+The picture is drawn in three parts, so that most of it can be drawn before the plan is known
+and all but one line before its bound is: the map (`MapLayers`: prior, no-fly zones, regions,
+cells earlier sorties searched, axes and colour bar), the plan over it (`PlanLayers`: paths,
+airports, targets, title and legend), both plain arrays and text, and the caption, one line of
+text. `OverviewPicture` draws the map when it is made and keeps its pixels; `render` puts them
+back and draws the plan on top; `finish` draws the caption last and makes the PNG. The PNG is
+the one drawing everything at once gives, byte for byte: inside the axes the plan's artists lie
+above the map's (the axes' frame, above the paths, is drawn with the plan), the ticks, labels
+and colour bar drawn with the map lie outside the axes, which clip the paths, and the caption
+lies below them all. `gcs.plans.make` has its pictures helper draw the map while the search
+runs and the plan while the bound is solved. Neither matplotlib nor the planner is imported
+before a picture is drawn, so that helper loads neither numba nor the planner."""
 
 from __future__ import annotations
 
@@ -129,6 +132,24 @@ def title_outcome(plan: Plan) -> str:
     return ", ".join(parts)
 
 
+def bound_caption(expected: float | None, bound: dict | None) -> str | None:
+    """The caption under the picture: the plan's expected finds `expected` against the upper
+    bound on them, `bound` being plan.json's `summary.bound` (`gcs.plans.plan_bound`; None when
+    none was asked for): "E = 2.31 of a bound 2.55 (90.6%): ...", or E alone and why there is no
+    bound. None without expected finds (a plan without a prior)."""
+    if expected is None:
+        return None
+    if bound is None:
+        return f"E = {expected:.2f} expected finds; no bound asked for (--bound-time 0)"
+    if "share_of_max" not in bound:
+        return (f"E = {expected:.2f} expected finds; no bound: not had within --bound-time {bound['time_limit_s']:g} s "
+                f"({bound['model']} model)")
+    model = bound["model"] + (f" {bound['block']}x{bound['block']}" if bound["block"] > 1 else "")
+    return (f"E = {expected:.2f} of a bound {bound['expected_targets_found_max']:.2f} ({bound['share_of_max']:.1%}): "
+            f"the most any plan of these airports and ranges could expect (PoS <= "
+            f"{bound['probability_of_success_max']:.1%}; the LP over {model})")
+
+
 def uav_label(plan: Plan, u: UavPlan) -> str:
     """A UAV's legend entry: its legs and range use; its PoS and why it turned home."""
     steps = f"UAV {u.uav_id}: {u.search_steps} + {u.return_steps} steps"
@@ -144,11 +165,14 @@ def uav_label(plan: Plan, u: UavPlan) -> str:
 
 
 def settings_text(settings: dict) -> str:
-    """The plan's settings in one line; the horizon value's as "horizon value w 1, L 0.5"."""
+    """The plan's settings in one line; the horizon value's as "horizon value w 1, L 0.5", a
+    flag that is on by its name alone ("improved")."""
     out = []
     for key, value in settings.items():
         if key == "horizon_value" and isinstance(value, dict):
             out.append(f"horizon value w {value['weight']:g}, L {value['length']:g}")
+        elif value is True:
+            out.append(key)
         else:
             out.append(f"{key} {value}")
     return ", ".join(out)
@@ -269,10 +293,16 @@ def plan_layers(plan: Plan, scenario: Scenario) -> PlanLayers:
     return PlanLayers(uavs, found, missed, title, segment_labels(plan, scenario, blocks))
 
 
+CAPTION_SIZE = 11
+CAPTION_GAP_PX = 8  # between the x axis' label and the caption's top
+CAPTION_MIN_PX = 22  # the caption's top at least this far above the figure's bottom edge
+
+
 class OverviewPicture:
     """The overview of one plan over the map of `layers`: the map is drawn when the picture is
-    made (`draw_map` False: with the plan, all at once); `render` draws the plan over it into
-    PNG bytes, `save` writes them. A picture is rendered once; rendered, it keeps only the PNG."""
+    made (`draw_map` False: with the plan and the caption, all at once); `render` draws the plan
+    over it, `finish` the caption under it, last, into PNG bytes; `save` writes them. A picture
+    is rendered and finished once; finished, it keeps only the PNG."""
 
     def __init__(self, layers: MapLayers, draw_map: bool = True) -> None:
         import matplotlib
@@ -325,6 +355,10 @@ class OverviewPicture:
                 axis.set_major_formatter(FuncFormatter(lambda v, _: f"{(v - 0.5) * cell:,.0f}"))
             ax.set_xlabel("metres east of the grid's south-west corner")
             ax.set_ylabel("metres north of the grid's south-west corner")
+        ax.apply_aspect()  # the axes' box as drawn: the caption goes under its x axis, left-aligned with it
+        below = ax.xaxis.get_tightbbox(fig.canvas.get_renderer())
+        self._caption_xy = (ax.get_position().x0,
+                            max(CAPTION_MIN_PX, (below.y0 if below is not None else 0) - CAPTION_GAP_PX) / HEIGHT_PX)
         self._map += [ax.xaxis, ax.yaxis]
         cbar = fig.colorbar(prior, cax=fig.add_axes((0.67, 0.3, 0.012, 0.4)))
         cbar.set_label(layers.tep_label)
@@ -332,6 +366,7 @@ class OverviewPicture:
         self._figure: Any = fig
         self._axes: Any = ax
         self._background: Any = None
+        self._rendered = False
         self.png: bytes | None = None
         if draw_map:  # everything but what lies above the paths: the axes' frame (and the title, empty yet)
             for spine in ax.spines.values():
@@ -342,12 +377,14 @@ class OverviewPicture:
                 spine.set_visible(True)
 
     def render(self, plan: PlanLayers) -> None:
-        """Draw `plan` over the map into `png`."""
+        """Draw `plan` over the map (all at once: lay it out); `finish` adds the caption and
+        makes the PNG."""
         from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
 
-        if self._figure is None:
+        if self._figure is None or self._rendered:
             raise RuntimeError("this picture is rendered already")
+        self._rendered = True
         fig, ax = self._figure, self._axes
         nx, ny = self.shape
         for i, u in enumerate(plan.uavs):
@@ -395,16 +432,29 @@ class OverviewPicture:
         legend = fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.71, 0.5), fontsize=10,
                             frameon=False, labelspacing=0.8)
         canvas = fig.canvas
-        if self._background is None:
-            canvas.draw()
-        else:  # the map's pixels, then the axes without the map's artists (in their order), then the legend
-            canvas.restore_region(self._background)
+        if self._background is not None:  # the map's pixels, then the axes without the map's artists
+            canvas.restore_region(self._background)  # (in their order), then the legend
             ax.patch.set_visible(False)
             for artist in self._map:
                 artist.set_visible(False)
             renderer = canvas.get_renderer()
             ax.draw(renderer)
             legend.draw(renderer)
+
+    def finish(self, caption: str | None = None) -> None:
+        """Draw `caption` (`bound_caption`; None: none) under the axes, last, and make `png`."""
+        if not self._rendered:
+            raise RuntimeError("this picture is not rendered yet")
+        if self._figure is None:
+            raise RuntimeError("this picture is finished already")
+        fig, canvas = self._figure, self._figure.canvas
+        text = None
+        if caption:
+            text = fig.text(*self._caption_xy, caption, fontsize=CAPTION_SIZE, ha="left", va="top")
+        if self._background is None:
+            canvas.draw()
+        elif text is not None:  # below everything drawn: over the white of the figure alone
+            text.draw(canvas.get_renderer())
         from matplotlib.image import imsave
 
         png = io.BytesIO()
@@ -428,17 +478,19 @@ class OverviewPicture:
                     bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8}, zorder=8)
 
     def save(self, path: str | Path) -> Path:
-        """Write the rendered picture to `path`, atomically."""
+        """Write the finished picture to `path`, atomically."""
         if self.png is None:
-            raise RuntimeError("this picture is not rendered yet")
+            raise RuntimeError("this picture is not " + ("finished" if self._rendered else "rendered") + " yet")
         path = Path(path)
         with staged_outputs([path]) as staged:
             staged[path].write_bytes(self.png)
         return path
 
 
-def draw_overview(plan: Plan, scenario: Scenario, path: str | Path) -> Path:
-    """Write the overview PNG of `plan` (flown over `scenario`) to `path` (WIDTH_PX x HEIGHT_PX)."""
+def draw_overview(plan: Plan, scenario: Scenario, path: str | Path, caption: str | None = None) -> Path:
+    """Write the overview PNG of `plan` (flown over `scenario`) to `path` (WIDTH_PX x HEIGHT_PX),
+    `caption` under it (`bound_caption`)."""
     picture = OverviewPicture(map_layers(scenario))
     picture.render(plan_layers(plan, scenario))
+    picture.finish(caption)
     return picture.save(path)

@@ -43,6 +43,8 @@ class Planning(Protocol):
     def fly(self, search: ClosedSearch, rrd: Path | None, name: str,
             cells_to_lat_lon: Callable | None = None) -> Plan: ...
 
+    def caption(self, plan: Plan, bound: dict | None) -> None: ...
+
     def draw(self, jobs: list[tuple[Plan, Scenario, Path]]) -> list[Path]: ...
 
 
@@ -244,6 +246,7 @@ def plan_sorties(area_file: str | Path, area: AreaOptions, search: SearchOptions
         plan = planning.fly(setup.search, rrd, name, setup.area.cells_lonlat)
         section = campaign_section(setup, start, plan, folder, search.seed, options, area_record)
         bound = bound_summary(plan, setup.search.scenario, setup.search.config.oc, planning.output.bound_time_s)
+        planning.caption(plan, bound)  # the picture's last line, drawn while the files are made
         mine = area_outputs(setup, plan, setup.search.seed, area.speed_m_s, section, bound)
         mine[BELIEF_FILE] = json.dumps(belief_to_dict(start.belief, start.source)) + "\n"
         files.update({prefix + name: text for name, text in mine.items()})

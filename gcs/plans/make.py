@@ -11,8 +11,10 @@ caller's (`gcs.display.plan_tables`). Two helper processes work beside the searc
 recording (when it goes to a file only), so the planning process imports neither. The pictures
 helper starts first, before this process loads the planner (it is sent plain arrays and text,
 `gcs.display.overview.MapLayers` and `PlanLayers`, and never loads numba), and draws each
-sortie's map while its search runs; the recordings helper starts once the planner is loaded, whose
-step records it reads. This module itself loads neither the planner nor numba."""
+sortie's map while its search runs, its plan while the bound on it is solved here, and the
+caption with the bound (one line) while the files are made; the recordings helper starts once
+the planner is loaded, whose step records it reads. This module itself loads neither the
+planner nor numba."""
 
 from __future__ import annotations
 
@@ -80,7 +82,8 @@ def load_planner() -> None:
 
 class Planning:
     """The helpers of one planning run: `fly` runs and records a search (its picture's map drawn
-    meanwhile, the plan over it as soon as the search ends), `draw` saves the pictures."""
+    meanwhile, the plan over it as soon as the search ends), `caption` finishes a picture with
+    the plan's bound, `draw` saves the pictures."""
 
     def __init__(self, output: OutputOptions, pictures: Background, recordings: Background | None,
                  collect: bool = True) -> None:
@@ -88,6 +91,7 @@ class Planning:
         self._pictures = pictures
         self._recordings = recordings
         self._rendered: dict[int, tuple[Plan, Scenario, Remote]] = {}  # id(plan) -> its rendered picture
+        self._captions: dict[int, str | None] = {}  # id(plan) -> its picture's caption, the picture finished
         self._collect = collect  # the garbage collector to be resumed when the first search starts
 
     def _resume_collection(self) -> None:
@@ -113,6 +117,18 @@ class Planning:
         self._rendered[id(plan)] = (plan, scenario, picture)
         return plan
 
+    def caption(self, plan: Plan, bound: dict | None) -> None:
+        """Finish the picture of `plan` with its caption: the expected finds against `bound`
+        (plan.json's `summary.bound`; `gcs.display.overview.bound_caption`), drawn last in the
+        pictures helper while this process writes the files."""
+        from gcs.display.overview import bound_caption
+
+        text = bound_caption(plan.success.expected if plan.success is not None else None, bound)
+        self._captions[id(plan)] = text
+        rendered = self._rendered.get(id(plan))
+        if rendered is not None:
+            rendered[2].call("finish", text)
+
     def _fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None) -> Plan:
         output = self.output
         if rrd is None and output.rerun_connect is None:
@@ -132,18 +148,24 @@ class Planning:
         return plan
 
     def draw(self, jobs: list[tuple[Plan, Scenario, Path]]) -> list[Path]:
-        """Save the picture of each (plan, scenario, path) (drawn in the pictures helper: by `fly`,
-        or now), wait for them and the recordings; the pictures' paths."""
+        """Save the picture of each (plan, scenario, path) (drawn in the pictures helper: by `fly`
+        and `caption`, or now; without a caption when `caption` was not called), wait for them and
+        the recordings; the pictures' paths."""
         from gcs.display.overview import OverviewPicture, map_layers, plan_layers
 
         indices = []
         for plan, scenario, path in jobs:
             rendered = self._rendered.pop(id(plan), None)
+            captioned = id(plan) in self._captions
+            caption = self._captions.pop(id(plan), None)
             if rendered is not None and rendered[1] is scenario:
                 picture = rendered[2]
+                if not captioned:
+                    picture.call("finish", None)
             else:
                 picture = self._pictures.create(OverviewPicture, map_layers(scenario))
                 picture.call("render", plan_layers(plan, scenario))
+                picture.call("finish", caption)
             indices.append(picture.submit("save", path))
         if self._recordings is not None:
             self._recordings.results()
@@ -210,6 +232,7 @@ def plan_scenario(scenario: str = "paper", search: SearchOptions | None = None, 
         rrd = output.recording_path(path.with_suffix(".rrd"))
         plan = run.fly(closed, rrd, f"{scenario} seed {search.seed}")
         bound = bound_summary(plan, closed.scenario, closed.config.oc, output.bound_time_s)
+        run.caption(plan, bound)
         write_json_atomic(path, plan_to_dict(plan, seed=search.seed, bound=bound))
         [picture] = run.draw([(plan, closed.scenario, path.with_suffix(".png"))])
     return ScenarioResult(plan, closed.scenario, path, picture, rrd, bound)

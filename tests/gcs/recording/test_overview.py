@@ -80,32 +80,89 @@ def test_a_later_sortie_hatches_what_earlier_sorties_searched(tmp_path: Path):
     assert changed > 0.5 * read / later.search_map.tep.size * 0.6 * 0.84
 
 
-def _all_at_once(plan, scenario, path: Path) -> Path:
+CAPTION = ("E = 306.22 of a bound 396.36 (77.3%): the most any plan of these airports and ranges could expect "
+           "(PoS <= 32.8%; the LP over blocks 17x17)")
+
+
+def _all_at_once(plan, scenario, path: Path, caption: str | None = None) -> Path:
     from gcs.display.overview import OverviewPicture, map_layers, plan_layers
 
     picture = OverviewPicture(map_layers(scenario), draw_map=False)
     picture.render(plan_layers(plan, scenario))
+    picture.finish(caption)
     return picture.save(path)
 
 
 def test_the_map_drawn_ahead_gives_the_picture_drawn_all_at_once(recorded_run: RecordedRun, tmp_path: Path):
-    """The map is drawn before the plan is known and the plan over it: the same PNG, byte for
-    byte, as drawing everything at once (a first sortie, and a later one with the hatch)."""
+    """The map is drawn before the plan is known, the plan over it and the caption last: the
+    same PNG, byte for byte, as drawing everything at once (a first sortie with and without a
+    caption, and a later one with the hatch)."""
     from planner.campaign import Belief, predicted_after
     from planner.dtscs import MissionConfig, fly
 
-    cases = [(recorded_run.plan, recorded_run.scenario)]
+    cases = [(recorded_run.plan, recorded_run.scenario, CAPTION), (recorded_run.plan, recorded_run.scenario, None)]
     first = cases[0]
     later = predicted_after(Belief.prior(first[1].search_map), first[0], first[1].sensor).scenario(first[1])
-    cases.append((fly(later, MissionConfig(np_steps=2), seed=4), later))
-    for k, (plan, scenario) in enumerate(cases):
-        ahead = draw_overview(plan, scenario, tmp_path / f"ahead{k}.png").read_bytes()
-        assert ahead == _all_at_once(plan, scenario, tmp_path / f"once{k}.png").read_bytes()
+    cases.append((fly(later, MissionConfig(np_steps=2), seed=4), later, CAPTION))
+    pictures = []
+    for k, (plan, scenario, caption) in enumerate(cases):
+        ahead = draw_overview(plan, scenario, tmp_path / f"ahead{k}.png", caption).read_bytes()
+        assert ahead == _all_at_once(plan, scenario, tmp_path / f"once{k}.png", caption).read_bytes()
+        pictures.append(np.asarray(Image.open(tmp_path / f"ahead{k}.png").convert("RGB"), dtype=np.int64))
+    inked = np.nonzero((pictures[0] != pictures[1]).any(axis=-1))  # the caption alone
+    assert inked[0].min() > 0.91 * HEIGHT_PX and inked[1].min() >= 0.05 * WIDTH_PX - 1  # under the axes, left
+
+
+def test_the_caption_says_the_bound_or_why_there_is_none():
+    """`bound_caption` from plan.json's summary.bound: E of the bound and the share; E alone when
+    no bound was asked for or had in time; nothing without expected finds."""
+    from gcs.display.overview import bound_caption
+
+    had = {"time_limit_s": 5.0, "finished": True, "model": "blocks", "block": 17, "expected_targets_found_max": 396.36,
+           "probability_of_success_max": 0.328133, "share_of_max": 0.772583}
+    assert bound_caption(306.2234, had) == CAPTION
+    cells = {**had, "model": "headings", "block": 1, "expected_targets_found_max": 2.55, "share_of_max": 0.905882}
+    assert bound_caption(2.31, cells).startswith("E = 2.31 of a bound 2.55 (90.6%): ")
+    assert bound_caption(2.31, cells).endswith("(PoS <= 32.8%; the LP over headings)")
+    late = {"time_limit_s": 0.5, "finished": False, "model": "cells", "block": 1}
+    assert bound_caption(2.31, late) == ("E = 2.31 expected finds; no bound: not had within --bound-time 0.5 s "
+                                         "(cells model)")
+    assert bound_caption(2.31, None) == "E = 2.31 expected finds; no bound asked for (--bound-time 0)"
+    assert bound_caption(None, had) is None
+
+
+def test_gcs_plan_draws_the_bound_plan_json_holds(tmp_path: Path):
+    """The picture `gcs plan --area` writes states the bound its plan.json holds (the caption
+    drawn once the bound is had, in the pictures helper): the PNG is the one drawn with
+    `bound_caption` of plan.json's summary.bound; with the bound off, it says so."""
+    import json
+
+    from gcs.display.overview import bound_caption
+    from gcs.plans.make import plan_area, plan_scenario
+    from gcs.plans.options import OutputOptions, SearchOptions
+
+    output = OutputOptions(record=False, progress=False)
+    result = plan_area(Path(__file__).parents[1] / "plans" / "gis" / "caltopo.kml",
+                       search=SearchOptions(np_steps=2, improve=False), out=tmp_path / "area", output=output)
+    [sortie] = result.sorties
+    summary = json.loads((tmp_path / "area" / "plan.json").read_text())["summary"]
+    assert summary["bound"]["finished"]
+    caption = bound_caption(summary["expected_targets_found"], summary["bound"])
+    assert caption is not None and f"of a bound {summary['bound']['expected_targets_found_max']:.2f}" in caption
+    scenario = sortie.setup.search.scenario
+    assert sortie.picture.read_bytes() == draw_overview(sortie.plan, scenario, tmp_path / "a.png", caption).read_bytes()
+
+    off = plan_scenario("paper", SearchOptions(np_steps=2, range_steps=30), tmp_path / "paper",
+                        OutputOptions(record=False, progress=False, bound_time_s=0))
+    assert off.bound is None
+    caption = bound_caption(off.plan.success.expected, None)
+    assert caption.endswith("no bound asked for (--bound-time 0)")
+    assert off.picture.read_bytes() == draw_overview(off.plan, off.scenario, tmp_path / "b.png", caption).read_bytes()
 
 
 def test_the_pictures_helper_is_sent_plain_data(recorded_run: RecordedRun, tmp_path: Path):
     """What the pictures helper is sent, and drawing it, loads neither the planner nor numba; a
-    picture renders once and keeps only its PNG."""
+    picture renders and finishes once, in that order, and keeps only its PNG."""
     import pickle
     import subprocess
     import sys
@@ -118,7 +175,8 @@ def test_the_pictures_helper_is_sent_plain_data(recorded_run: RecordedRun, tmp_p
     sent = tmp_path / "layers.pickle"
     sent.write_bytes(pickle.dumps(layers))
     script = (f"import pickle, sys; from gcs.display.overview import OverviewPicture; "
-              f"m, p = pickle.loads(open({str(sent)!r}, 'rb').read()); OverviewPicture(m).render(p); "
+              f"m, p = pickle.loads(open({str(sent)!r}, 'rb').read()); o = OverviewPicture(m); o.render(p); "
+              f"o.finish('E = 1.00 of a bound 2.00 (50.0%)'); "
               f"print(sorted({{n.split('.')[0] for n in sys.modules}} & {{'planner', 'numba'}}))")
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert run.returncode == 0, run.stderr
@@ -126,8 +184,17 @@ def test_the_pictures_helper_is_sent_plain_data(recorded_run: RecordedRun, tmp_p
     picture = OverviewPicture(layers[0])
     with pytest.raises(RuntimeError, match="not rendered"):
         picture.save("never.png")
+    with pytest.raises(RuntimeError, match="not rendered"):
+        picture.finish(None)
     picture.render(layers[1])
+    with pytest.raises(RuntimeError, match="not finished"):
+        picture.save("never.png")
+    with pytest.raises(RuntimeError, match="rendered already"):
+        picture.render(layers[1])
+    picture.finish(None)
     assert picture.png.startswith(b"\x89PNG")
+    with pytest.raises(RuntimeError, match="finished already"):
+        picture.finish(None)
     with pytest.raises(RuntimeError, match="rendered already"):
         picture.render(layers[1])
 
