@@ -1,9 +1,10 @@
 """SAREnv (Grøntved et al., Drones 2025): its scenarios, its five baselines and gcs, all scored by
 SAREnv's own evaluator (`sarenv.analytics.metrics.PathEvaluator`).
 
-    .venv/bin/pip install -e '.[bench]'
-    .venv/bin/python benchmarks/sarenv_bench.py                       # the eight shipped scenarios
-    .venv/bin/python benchmarks/sarenv_bench.py --ids 1 --drones 2 --budget 8000 --size small
+    tools/setup --test                                                     # .venv-bench: the bench extra
+    .venv-bench/bin/python benchmarks/sarenv_bench.py                      # the eight shipped scenarios
+    .venv-bench/bin/python benchmarks/sarenv_bench.py --ids 1 --drones 2 --budget 8000 --size small
+    .venv-bench/bin/python benchmarks/sarenv_bench.py --no-improve         # gcs as before issue 37
 
 Per scenario (`--datasets DIR/ID/heatmap.npy`, the centre of the id from `--source`'s
 `data/export_all_data.py`), as SAREnv's README and `DatasetLoader.load_environment` place it: the
@@ -279,13 +280,16 @@ def area_file_for(scenario: Scenario, drones: int, budget_m: float, folder: Path
 
 @dataclass(frozen=True)
 class GcsSettings:
-    """How gcs plans a SAREnv scenario: its cell size, sensor and search strategy."""
+    """How gcs plans a SAREnv scenario: its cell size, sensor and search strategy; `improve`
+    False plans as gcs did before issue 37's whole-mission improvement (`gcs plan --no-improve`:
+    DTSCS's plan as flown), None as `gcs plan --area` does by default (improved)."""
 
     cell_m: float = CELL_M
     pc: float = GCS_PC
     pf: float = GCS_PF
     strategy: str = "cpio"
     np_steps: int = 5
+    improve: bool | None = None
 
 
 def plan_gcs(scenario: Scenario, drones: int, budget_m: float, seed: int, out_dir: Path,
@@ -298,7 +302,7 @@ def plan_gcs(scenario: Scenario, drones: int, budget_m: float, seed: int, out_di
     area_path = area_file_for(scenario, drones, budget_m, out_dir, settings.cell_m)
     options = AreaOptions(altitude_m=ALTITUDE_M, speed_m_s=12.0)
     search = SearchOptions(seed=seed, pc=settings.pc, pf=settings.pf, strategy=settings.strategy,
-                           np_steps=settings.np_steps)
+                           np_steps=settings.np_steps, improve=settings.improve)
     setup = build_area_search(area_path, options, search)
     plan = fly_with_progress(setup.search, progress=False)
     files = area_outputs(setup, plan, seed, options.speed_m_s)
@@ -380,7 +384,8 @@ def ratios(results: dict[int, list[Score]]) -> Ratios:
     return Ratios(like, disc)
 
 
-def table(results: dict[int, list[Score]], bounds: dict[int, float], drones: int, budget_m: float) -> str:
+def table(results: dict[int, list[Score]], bounds: dict[int, float], drones: int, budget_m: float,
+          settings: GcsSettings = GcsSettings()) -> str:
     head = (f"{'id':>3} {'planner':<11} {'likelihood':>10} {'published':>9} {'diff':>6} {'discounted':>10} "
             f"{'published':>9} {'victims %':>9} {'km':>6} {'longest km':>10} {'CPU s':>6}")
     lines = [head]
@@ -396,7 +401,9 @@ def table(results: dict[int, list[Score]], bounds: dict[int, float], drones: int
                          f"{s.longest_km:>10.2f} {s.seconds:>6.1f}{spread}")
         if ident in bounds:
             lines.append(f"{ident:>3} {'bound':<11} {bounds[ident]:>10.4f}")
-    lines.append(f"({drones} UAVs, {budget_m:g} m in all, {budget_m / drones:g} m each; published: SAREnv's "
+    planner = "DTSCS alone, --no-improve" if settings.improve is False else "DTSCS and the improvement, the default"
+    lines.append(f"({drones} UAVs, {budget_m:g} m in all, {budget_m / drones:g} m each; gcs: {planner}; "
+                 "published: SAREnv's "
                  "results/*.csv where it has the same runs; Greedy and RandomWalk: the mean of --repeats seeds, "
                  "their least and greatest likelihood in brackets; bound: the most any paths of the budget can "
                  "see, likelihood_bound)")
@@ -426,6 +433,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--baselines", default=",".join(BASELINES), help="SAREnv baselines to run, comma-separated")
     parser.add_argument("--repeats", type=int, default=5, help="runs (seeds) of the baselines that draw random numbers")
+    parser.add_argument("--no-improve", dest="improve", action="store_false", default=None,
+                        help="gcs without the whole-mission improvement (gcs plan --no-improve): as before issue 37")
     args = parser.parse_args(argv)
     try:
         ids = parse_ids(args.ids)
@@ -437,17 +446,18 @@ def main(argv: list[str] | None = None) -> int:
             raise BenchError(f"--baselines: unknown {', '.join(unknown) or 'none given'} (of {', '.join(BASELINES)})")
         sarenv = load_sarenv(args.source)
         scenarios = [load_scenario(sarenv, args.datasets, ident, args.size) for ident in ids]
+        settings = GcsSettings(improve=args.improve)
         results, bounds = {}, {}
         for scenario in scenarios:
             results[scenario.ident] = run_scenario(sarenv, scenario, args.drones, args.budget, args.seed, args.victims,
-                                                   chosen, repeats=args.repeats)
+                                                   chosen, settings, repeats=args.repeats)
             bounds[scenario.ident] = likelihood_bound(scenario, args.drones, args.budget)
-            rows = table({scenario.ident: results[scenario.ident]}, bounds, args.drones, args.budget)
+            rows = table({scenario.ident: results[scenario.ident]}, bounds, args.drones, args.budget, settings)
             print("\n".join(rows.splitlines()[1:-1]), file=sys.stderr, flush=True)
     except BenchError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    print(table(results, bounds, args.drones, args.budget))
+    print(table(results, bounds, args.drones, args.budget, settings))
     print(ratios(results).line())
     return 0
 

@@ -6,6 +6,7 @@ budget, and the table ends with the comparison line. Run in .venv-bench by
 
 from __future__ import annotations
 
+import json
 import re
 
 import pytest
@@ -38,14 +39,17 @@ def test_one_scenario_through_the_evaluator(sarenv, capsys) -> None:
 
 
 def test_gcs_paths_are_closed_at_the_ipp_within_each_share(sarenv, tmp_path) -> None:
+    """gcs's default plan (improved) and, with --no-improve, the plan as before issue 37."""
     scenario = sb.load_scenario(sarenv, sb.DEFAULT_DATASETS, 1, "small")
-    paths = sb.plan_gcs(scenario, 3, 6000, 0, tmp_path)
     ipp = Point(scenario.centre_xy)
-    assert len(paths) == 3
-    for path in paths:
-        assert Point(path.coords[0]).distance(ipp) < 1e-6 and Point(path.coords[-1]).distance(ipp) < 1e-6
-        assert 1000 < path.length <= 2000 + 1e-6
-    assert (tmp_path / "plan.json").is_file()
+    for improve in (None, False):
+        paths = sb.plan_gcs(scenario, 3, 6000, 0, tmp_path, sb.GcsSettings(improve=improve))
+        assert len(paths) == 3
+        for path in paths:
+            assert Point(path.coords[0]).distance(ipp) < 1e-6 and Point(path.coords[-1]).distance(ipp) < 1e-6
+            assert 1000 < path.length <= 2000 + 1e-6
+        settings = json.loads((tmp_path / "plan.json").read_text())["settings"]
+        assert settings.get("improved", False) is (improve is None)
 
 
 def test_bad_input_is_one_line(capsys) -> None:
