@@ -96,6 +96,8 @@ def fly_plan(plan: FleetPlan, connections: Sequence[str], options: FlyOptions, *
                       online=online is not None, options=journal_options(options),
                       rrd=_relative(rrd, folder), recording_id=None)
     sortie = SortieLog(plan)
+    if recorder is not None:
+        recorder.sortie = sortie  # the plan's segments, and the figures the record gives them
     journal = FlightJournal.begin(plan, start, recorder)
     controller = asyncio.run(fly_async(plan, connections, options, stdin_orders=stdin_orders, online=online,
                                        recorder=recorder, bus=bus, signing=signing,
@@ -117,6 +119,8 @@ def fly_resumed(plan: FleetPlan, state: JournalState, connections: Sequence[str]
 
     sortie = SortieLog(plan)
     sortie.restore(state)
+    if recorder is not None:
+        recorder.sortie = sortie
     rrd = recorder.rrd_path if recorder is not None else None
     journal = FlightJournal.reopen(plan, state, list(connections), _relative(rrd, Path(plan.folder)))
     links = links_from_the_same_ports(list(connections), state.udp_source_ports)

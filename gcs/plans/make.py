@@ -37,6 +37,7 @@ if TYPE_CHECKING:
     from planner.dtscs import ClosedSearch, StepRecord
     from planner.plan import Plan
     from planner.scenario import Scenario
+    from planner.search_theory import SearchTheory, Segment
 
 DEFAULT_PLAN_FILE = "runs/plan.json"
 
@@ -103,16 +104,19 @@ class Planning:
             gc.unfreeze()
             gc.enable()
 
-    def fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None = None) -> Plan:
+    def fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None = None,
+            segments: Callable[[Plan], tuple[list[Segment], SearchTheory]] | None = None) -> Plan:
         """Run the search with a progress bar, recording every step to Rerun unless disabled: by
-        the recordings helper when it records to a file only, here when it also streams to a viewer.
-        The pictures helper draws the map meanwhile, and the plan over it once it is made."""
+        the recordings helper when it records to a file only, here when it also streams to a viewer;
+        a recording ends with `segments(plan)`, the search team's segments and the plan's figures
+        (`gcs.plans.segments.plan_segment_figures`). The pictures helper draws the map meanwhile,
+        and the plan over it once it is made."""
         from gcs.display.overview import OverviewPicture, map_layers, plan_layers
 
         scenario = search.scenario
         picture = self._pictures.create(OverviewPicture, map_layers(scenario))
         self._resume_collection()
-        plan = self._fly(search, rrd, name, cells_to_lat_lon)
+        plan = self._fly(search, rrd, name, cells_to_lat_lon, segments)
         picture.call("render", plan_layers(plan, scenario))
         self._rendered[id(plan)] = (plan, scenario, picture)
         return plan
@@ -129,7 +133,8 @@ class Planning:
         if rendered is not None:
             rendered[2].call("finish", text)
 
-    def _fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None) -> Plan:
+    def _fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None,
+             segments: Callable[[Plan], tuple[list[Segment], SearchTheory]] | None = None) -> Plan:
         output = self.output
         if rrd is None and output.rerun_connect is None:
             return fly_with_progress(search, output.progress)
@@ -145,6 +150,8 @@ class Planning:
         with recorder as rec:
             plan = fly_with_progress(search, output.progress, rec.log_step)
             rec.log_plan(plan)
+            if segments is not None:
+                rec.log_segments(*segments(plan))
         return plan
 
     def draw(self, jobs: list[tuple[Plan, Scenario, Path]]) -> list[Path]:

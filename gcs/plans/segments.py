@@ -102,6 +102,13 @@ def plan_theory(setup: AreaSetup, plan: Plan, segments: list[Segment]) -> Search
                            segments, belief.looks_before, inside)
 
 
+def plan_segment_figures(setup: AreaSetup, plan: Plan) -> tuple[list[Segment], SearchTheory]:
+    """An area plan's segments and their figures (`area_segments`, `plan_theory`), as plan.json
+    reports them: what the plan's recording logs (`gcs.recording.plan.PlanRecorder.log_segments`)."""
+    segments = area_segments(setup.area, setup.source)
+    return segments, plan_theory(setup, plan, segments)
+
+
 def theory_of_looks(p0: np.ndarray, searchable: np.ndarray, pc: float, looks: np.ndarray, segments: list[Segment],
                     looks_before: np.ndarray, inside: float = 1.0) -> SearchTheory:
     """`planner.search_theory.search_theory` of one sortie's readings per cell."""

@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     from planner.dtscs import StepRecord
     from planner.plan import Plan
     from planner.scenario import Scenario
+    from planner.search_theory import SearchTheory, Segment
 
 
 def _plan_recorder(*args: Any, **kwargs: Any) -> Any:
@@ -54,3 +55,6 @@ class BackgroundPlanRecorder:
 
     def log_plan(self, plan: Plan) -> None:
         self._remote.call("log_plan", plan)
+
+    def log_segments(self, segments: list[Segment], theory: SearchTheory) -> None:
+        self._remote.call("log_segments", segments, theory)

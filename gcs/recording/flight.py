@@ -16,7 +16,10 @@ logged on the `flight_time` timeline (seconds since the GCS loop started, its ow
   stage, flight mode, mission item, altitude, ground speed (values);
 - `events`: take-off, stage changes (return triggered and why, RTL, landed, lost link, link back,
   failures), the start of the plan's own return, flight-mode changes, positive readings (the
-  text of `gcs.flight.watch.event_lines`, which the flight journal keeps too).
+  text of `gcs.flight.watch.event_lines`, which the flight journal keeps too);
+- with the flight's sortie record (`sortie`): `geo/segments` the plan's segments on the map
+  (static, coloured by their POA), and when the flight ends `segments` one row of the figures the
+  flight gives them (POA before, POD, POS, cumulative POD, POA after: `gcs.recording.segments`).
 
 A flight taken over by a restarted station (`gcs fly --resume`) goes on in a further file,
 `flight.resume1.rrd`, ... (`segment_path`), with the same recording id: Rerun shows the files as
@@ -45,12 +48,13 @@ import rerun.blueprint as rrb
 from gcs.display.overview import uav_colour
 from gcs.flight.events import FlightEvent, ReadingReceived
 from gcs.flight.watch import EventLine, event_lines, watching
-from gcs.recording.plan import GEO_STRING, EntityRows, check_viewer, flush_rows, lighter, open_stream
+from gcs.recording.plan import GEO_STRING, MAP_LUT, EntityRows, check_viewer, flush_rows, lighter, open_stream
 
 if TYPE_CHECKING:
 
     from gcs.flight.controller import FlightController
     from gcs.flight.journal import JournalState
+    from gcs.flight.sortie import SortieLog
     from gcs.plans.plan_folder import FleetPlan
 
 FLIGHT_TIME = "flight_time"
@@ -83,7 +87,10 @@ class FlightRecorder:
 
     `resumed` continues the recording of a flight whose station died (`gcs fly --resume`): this
     recorder writes its own file, a segment of the same recording (Rerun joins files that share
-    a recording id), and first logs the event-log lines the earlier segments missed."""
+    a recording id), and first logs the event-log lines the earlier segments missed.
+
+    `sortie` (a `gcs.flight.sortie.SortieLog` watching the same flight, set before it flies) adds
+    the plan's segments and, at the end, the figures its record gives them."""
 
     def __init__(self, rrd_path: str | Path | None, connect: str | None, plan: FleetPlan, *, name: str = "flight",
                  sample_hz: float = DEFAULT_SAMPLE_HZ, poll_s: float = 0.05,
@@ -110,6 +117,7 @@ class FlightRecorder:
         self.resumed = resumed
         if resumed is not None:
             self._planned_return |= set(resumed.planned_return)
+        self.sortie: SortieLog | None = None
 
     @property
     def enabled(self) -> bool:
@@ -188,6 +196,7 @@ class FlightRecorder:
         finally:
             if controller.interrupted:
                 self._event(time.monotonic(), None, "interrupted by the operator: RTL commanded", "WARN")
+            self._log_segment_figures(time.monotonic())
             self.close()
 
     # -- what is logged -----------------------------------------------------------------------
@@ -240,6 +249,34 @@ class FlightRecorder:
             self.rec.log(f"uav/{uid}/wind/speed", rr.SeriesLines(names="wind (m/s)", colors=colour), static=True)
             self.rec.log(f"uav/{uid}/wind/sigma", rr.SeriesLines(names="wind uncertainty, 1 sigma (m/s)",
                                                                  colors=lighter(colour)), static=True)
+        self._log_segment_outlines()
+
+    def _cells_lat_lon(self, cells: np.ndarray) -> np.ndarray:
+        """(n, 2) fractional 0-based cells -> (n, 2) rows of (lat, lon)."""
+        lat, lon = self.plan.frame.local2geodetic(*self.plan.grid.centre_m(cells[:, 0], cells[:, 1]))
+        return np.column_stack([lat, lon])
+
+    def _log_segment_outlines(self) -> None:
+        """The plan's segments on the map, coloured by their POA before the flight."""
+        theory = self.sortie.search_theory() if self.sortie is not None and self.rec is not None else None
+        if theory is None:  # before any reading: the POAs the flight starts from
+            return
+        from gcs.recording.segments import ROOT, outlines
+
+        drawn = outlines(self.sortie.segments, theory, MAP_LUT)
+        if len(drawn.cells):
+            geo = self._cells_lat_lon(drawn.cells.reshape(-1, 2)).reshape(-1, 2, 2)
+            self.rec.log(f"geo/{ROOT}", rr.GeoLineStrings(lat_lon=list(geo), colors=drawn.colours,
+                                                          radii=rr.Radius.ui_points(2.0)), static=True)
+
+    def _log_segment_figures(self, now: float) -> None:
+        """The figures the flight's sortie record gives the segments, one row at the flight's end."""
+        theory = self.sortie.search_theory() if self.sortie is not None and self.rec is not None else None
+        if theory is None:
+            return
+        from gcs.recording.segments import ROOT, figure_values
+
+        self._add(ROOT, rr.AnyValues.columns, now, len(theory.segments), **figure_values(theory))
 
     def sample(self, controller: FlightController, now: float, *, force: bool = False) -> None:
         """One pass: telemetry rows where `sample_hz` allows, and the planned return's start."""

@@ -17,7 +17,9 @@ planner. Everything is logged on the `step` sequence timeline:
   `success/share` the probability of success in percent (expected over what the prior puts in
   the area; `planner.success`), as plots from step 1;
 - `events`: return events with their reason, targets found, landings, the end or interruption;
-- `geo/...` (when a cells -> (lat, lon) function is given): the same trajectories on a map.
+- `geo/...` (when a cells -> (lat, lon) function is given): the same trajectories on a map;
+- `segments`, `world/segments`, `geo/segments` (from `log_segments`, an area plan's): the search
+  team's segments with the figures the plan gives them (`gcs.recording.segments`).
 
 Rows are buffered and sent column-wise (`send_columns`) at most every `flush_interval_s`
 seconds, and always when the recorder closes, also after an exception or Ctrl-C: a recording
@@ -47,6 +49,7 @@ from planner.dtscs import StepRecord
 from planner.motion import HEADING_DX, HEADING_DY
 from planner.plan import Plan, ReturnReason, Stage
 from planner.scenario import Scenario
+from planner.search_theory import SearchTheory, Segment
 
 TIMELINE = "step"
 DEFAULT_CONNECT = "rerun+http://127.0.0.1:9876/proxy"
@@ -551,6 +554,27 @@ class PlanRecorder:
                                                                  labels=f"UAV {u.uav_id}: eta {u.eta:.0%}{pos}"))
         self._flush()
 
+    def log_segments(self, segments: list[Segment], theory: SearchTheory) -> None:
+        """The search team's segments and the figures this plan gives them (static; entities in
+        `gcs.recording.segments`): outlines in the grid view and on the map coloured by POA,
+        labels with name, POA and POD, and every figure as values under `segments`."""
+        if self.rec is None:
+            return
+        from gcs.recording.segments import ROOT, figure_values, outlines
+
+        drawn = outlines(segments, theory, MAP_LUT)
+        self._static(ROOT, rr.AnyValues(**figure_values(theory)))
+        self._static(f"world/{ROOT}", rr.LineStrips2D(drawn.view, colors=drawn.colours, radii=0.1, draw_order=-3.0))
+        if drawn.labels:
+            self._static(f"world/{ROOT}/labels", rr.Points2D(
+                cell_to_view(drawn.label_cells[:, 0], drawn.label_cells[:, 1], self.ny), radii=0.05,
+                colors=(255, 255, 255), labels=drawn.labels, show_labels=True, draw_order=-2.0))
+        if self.cells_to_lat_lon is not None and len(drawn.cells):
+            geo = self._geo(drawn.cells.reshape(-1, 2)).reshape(-1, 2, 2)
+            self._static(f"geo/{ROOT}", rr.GeoLineStrings(lat_lon=list(geo), colors=drawn.colours,
+                                                          radii=rr.Radius.ui_points(2.0)))
+        self._flush()
+
     def _flush(self) -> None:
         if self.rec is None:
             return
@@ -612,7 +636,8 @@ def default_blueprint(scenario: Scenario, geo: bool) -> rrb.Blueprint:
     eu = rrb.Spatial2DView(name="EU", origin="/", contents=["/maps/eu", "/world/no_fly", "/world/uav/**",
                                                             "- /world/uav/*/plan"], overrides=trails)
     outcome = rrb.Spatial2DView(name="closed plan", origin="/",
-                                contents=["/maps/tep", "/world/no_fly", "/world/airports", "/world/found", "/plan/**"])
+                                contents=["/maps/tep", "/world/no_fly", "/world/airports", "/world/found", "/plan/**",
+                                          "/world/segments/**"])
     left = [rrb.Tabs(grid, eu, outcome)]
     if geo:
         left.insert(0, rrb.MapView(name="map", origin="/geo", overrides={

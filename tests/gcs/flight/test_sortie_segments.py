@@ -2,7 +2,7 @@
 and the summary at the end report the area file's segments, by name, as the plan did, not the
 grid's blocks. A 600 m square, 30 m cells, one copter with 1500 m of range and a 45 degree camera,
 at 60 times real time: the simulated vehicle reads at the camera's Pc, as the plan and the sortie
-record count its readings."""
+record count its readings; the flight's recording holds the segments and their figures."""
 
 from __future__ import annotations
 
@@ -53,14 +53,14 @@ def segments_area(folder: Path) -> Path:
 @pytest.fixture(scope="module")
 def flown(tmp_path_factory):
     """The square planned with a camera by `gcs plan --area` (no bound: it costs 5 s) and flown by
-    `gcs fly --plan ... --sim`; what the flight printed."""
+    `gcs fly --plan ... --sim` (recorded to flight.rrd); what the flight printed."""
     base = tmp_path_factory.mktemp("sortie-segments")
     out = base / "square"
     assert main(["plan", "--area", str(segments_area(base)), "--out", str(out), "--strategy", "exhaustive",
                  "--no-improve", "--bound-time", "0", "--no-rrd", "--quiet", "--camera-fov", "45"]) == 0
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        assert main(["fly", "--plan", str(out), "--sim", "--speedup", "60", "--no-rrd", "--link-timeout", "2"]) == 0
+        assert main(["fly", "--plan", str(out), "--sim", "--speedup", "60", "--link-timeout", "2"]) == 0
     return SimpleNamespace(folder=out, printed=printed.getvalue())
 
 
@@ -118,3 +118,22 @@ def test_the_simulated_vehicle_read_at_the_cameras_pc(flown):
     assert abs(plan.pc - 0.9) > 0.05  # the camera's, not --pc's default
     assert f"simulated fleet: 1 vehicles (ardupilot), speedup 60, sensor Pc {plan.pc:.3g} Pf 0.1" in flown.printed
     assert record["sensor"]["pc"] == plan.pc == pytest.approx(record["search_theory"]["pc"])
+
+
+def test_the_flight_recording_holds_the_segments_and_the_flights_figures(flown):
+    """Read back with Rerun's reader: the segments' outlines on the map (static), and at the end of
+    the flight one row of their figures, those of sortie.json."""
+    from gcs.recording.flight import FLIGHT_TIME
+    from gcs.recording.plan import read_recording
+
+    rec = read_recording(flown.folder / "flight.rrd", FLIGHT_TIME)
+    figures = _json(flown.folder / "sortie.json")["search_theory"]["segments"]
+    assert len(figures) == 3
+    edges = rec.static["geo/segments"].column("GeoLineStrings:line_strings").to_pylist()[0]
+    lat_lon = np.array([point for edge in edges for point in edge])
+    assert len(edges) >= 12 and SOUTH - 1e-6 <= lat_lon[:, 0].min() and lat_lon[:, 0].max() <= NORTH + 1e-6
+    assert WEST - 1e-6 <= lat_lon[:, 1].min() and lat_lon[:, 1].max() <= EAST + 1e-6
+    times, names = rec.column("segments", "name")
+    assert names == [[f["name"] for f in figures]] and times[0] > 0
+    for field in ("cells", "poa", "pod", "pos", "cumulative_pod", "poa_after"):
+        assert rec.column("segments", field)[1][0] == pytest.approx([f[field] for f in figures], abs=1e-6), field
