@@ -5,6 +5,7 @@ once here, its default taken from the typed options (`gcs.plans.options`), and
 from __future__ import annotations
 
 import argparse
+import math
 from dataclasses import fields
 
 from gcs.cli import BooleanOption
@@ -112,6 +113,23 @@ def add_output_arguments(p: argparse.ArgumentParser, recorded: str, default_file
     p.add_argument("--no-rrd", action="store_true", help="write no Rerun recording")
     p.add_argument("--rerun-connect", nargs="?", const=VIEWER, default=OutputOptions.rerun_connect, metavar="ADDR",
                    help=f"also stream {recorded} to a running Rerun viewer (ADDR default: %(const)s)")
+
+
+def add_bound_argument(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """`--bound-time`: how long the upper bound on expected finds may take (`OutputOptions.bound_time_s`)."""
+    p.add_argument("--bound-time", dest="bound_time", metavar="SECONDS", type=_seconds, default=DEFAULT_BOUND_TIME_S,
+                   help="seconds for the upper bound on expected finds that the summary and plan.json compare the "
+                        "plan with (docs/success.md); 0: no bound")
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"must be 0 or more seconds, got {text}")
+    return value
 
 
 def add_planning_arguments(p: argparse.ArgumentParser) -> None:

@@ -23,6 +23,7 @@ from gcs.cli.fleet_options import add_fleet_arguments
 from gcs.cli.link_options import connections_from, signing_from
 from gcs.cli.plan_options import (
     add_area_arguments,
+    add_bound_argument,
     add_output_arguments,
     add_search_arguments,
     output_options_from,
@@ -80,6 +81,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_search_arguments(g)
     g.add_argument("--out", default=None,
                    help="with --area: folder for the plan, missions and flight recording (default: runs/<area name>)")
+    add_bound_argument(g)
     add_output_arguments(p, "the flight", "flight.rrd in the plan folder")
     add_area_arguments(p)
     p.set_defaults(func=run)
@@ -118,7 +120,8 @@ def plan_for_flight(args: argparse.Namespace) -> tuple[FleetPlan, AreaSetup | No
         if args.plan:
             raise UserError("give --plan or --area, not both")
         area, search = plan_options_from(args)
-        result = plan_area(args.area, area, search, args.out, OutputOptions(record=False, progress=not args.quiet))
+        result = plan_area(args.area, area, search, args.out, OutputOptions(record=False, progress=not args.quiet,
+                                                                                  bound_time_s=args.bound_time))
         for line in grounded_lines(result):
             print(line, file=sys.stderr)
         if not args.quiet:

@@ -7,7 +7,6 @@ With `--area area.geojson` (or .kml, .kmz, .gpx, .gpkg, .shp) the search runs ov
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
@@ -15,13 +14,13 @@ from gcs.cli import given_options
 from gcs.cli.plan_options import (
     SCENARIOS,
     add_area_arguments,
+    add_bound_argument,
     add_output_arguments,
     add_search_arguments,
     output_options_from,
     plan_options_from,
 )
 from gcs.errors import UserError
-from gcs.plans.plan_bound import DEFAULT_BOUND_TIME_S
 
 #: Options that say where outputs go or what is shown, not how to plan: the ones `--continue` takes.
 NOT_PLANNING = frozenset({"out", "quiet", "rrd", "no_rrd", "rerun_connect", "continue_from", "sorties", "bound_time"})
@@ -35,9 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="plan JSON file, or a folder to hold plan.json (default runs/plan.json; with --area a "
                         "folder, default runs/<area file name>)")
     add_output_arguments(p, "the run", "next to the plan, plan.rrd")
-    p.add_argument("--bound-time", dest="bound_time", metavar="SECONDS", type=_seconds, default=DEFAULT_BOUND_TIME_S,
-                   help="seconds for the upper bound on expected finds that the summary and plan.json compare the "
-                        "plan with (docs/success.md); 0: no bound")
+    add_bound_argument(p)
     add_area_arguments(p)
     g = p.add_argument_group("campaigns of sorties (docs/campaigns.md)")
     g.add_argument("--continue", dest="continue_from", metavar="FOLDER", default=None,
@@ -47,16 +44,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="plan N closed sorties in a row, each from the belief the one before is predicted to leave "
                         "(its looks reporting nothing), into --out/sortie<k>/ with campaign.json")
     p.set_defaults(func=run)
-
-
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
-    if not (math.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"must be 0 or more seconds, got {text}")
-    return value
 
 
 def refuse_new_options(args: argparse.Namespace) -> None:

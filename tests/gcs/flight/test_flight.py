@@ -585,7 +585,8 @@ def test_fly_area_with_operator_orders_on_stdin(tmp_path, flight_area):
 
 def test_a_uav_planned_without_flies_nothing_and_the_flight_says_why(tmp_path, capsys):
     """`gcs fly --area --sim` of an area whose west airport's range cannot leave it: the plan
-    leaves UAV 1 on the ground, the flight says so first and flies the other."""
+    leaves UAV 1 on the ground, the flight says so first and flies the other (planned without the
+    bound, `--bound-time 0`, which `gcs fly` takes as `gcs plan` does)."""
     import json
 
     from tests.gcs.plans.conftest import small_area
@@ -594,9 +595,11 @@ def test_a_uav_planned_without_flies_nothing_and_the_flight_says_why(tmp_path, c
     doc["features"][3]["properties"]["range_m"] = 130
     area = tmp_path / "area.geojson"
     area.write_text(json.dumps(doc))
-    code = main(["fly", "--area", str(area), "--sim", "--speedup", "60", "--out", str(tmp_path / "out"), "--no-rrd"])
+    code = main(["fly", "--area", str(area), "--sim", "--speedup", "60", "--out", str(tmp_path / "out"), "--no-rrd",
+                 "--bound-time", "0"])
     captured = capsys.readouterr()
     assert code == 0, captured.out[-3000:] + captured.err
+    assert "bound" not in json.loads((tmp_path / "out" / "plan.json").read_text())["summary"], "--bound-time 0: none"
     assert "warning: UAV 1 (west) stays on the ground, planned without it: range 130 m" in captured.err
     lines = captured.out.splitlines()
     first = next(i for i, line in enumerate(lines) if "UAV 1: stays on the ground - planned without it: range 130 m"
