@@ -70,7 +70,8 @@ class SearchTheory:
     """Every segment's figures and the sortie's: `pos` the sum of the segments' POS (this
     sortie, given the earlier ones found no one), `cumulative_pos` the campaign's (the first
     prior's share found by all looks so far), `rest_poa` and `rest_poa_after` the rest of the
-    world's POA before and after."""
+    world's POA before and after, `inside` the first prior's share inside the area (what a later
+    reckoning of the same campaign, a flight's, must count with)."""
 
     segments: tuple[SegmentFigures, ...]
     pos: float
@@ -78,11 +79,12 @@ class SearchTheory:
     pc: float
     rest_poa: float = 0.0
     rest_poa_after: float = 0.0
+    inside: float = 1.0
 
     def as_dict(self) -> dict[str, object]:
         return {"pc": self.pc, "pos": round(self.pos, 6), "cumulative_pos": round(self.cumulative_pos, 6),
                 "rest_of_world_poa": round(self.rest_poa, 6), "rest_of_world_poa_after": round(self.rest_poa_after, 6),
-                "segments": [s.as_dict() for s in self.segments]}
+                "inside_area": self.inside, "segments": [s.as_dict() for s in self.segments]}
 
     @classmethod
     def from_dict(cls, data: dict[str, object]) -> SearchTheory:
@@ -91,7 +93,8 @@ class SearchTheory:
         assert isinstance(segments, list)
         return cls(tuple(SegmentFigures(**s) for s in segments), float(data["pos"]),  # type: ignore[arg-type]
                    float(data["cumulative_pos"]), float(data["pc"]),  # type: ignore[arg-type]
-                   float(data.get("rest_of_world_poa", 0.0)), float(data.get("rest_of_world_poa_after", 0.0)))  # type: ignore[arg-type]
+                   float(data.get("rest_of_world_poa", 0.0)), float(data.get("rest_of_world_poa_after", 0.0)),  # type: ignore[arg-type]
+                   float(data.get("inside_area", 1.0)))  # type: ignore[arg-type]
 
     def table(self) -> str:
         """The segments as a search manager's table, then the sortie's POS."""
@@ -183,4 +186,5 @@ def search_theory(p0: np.ndarray, searchable: np.ndarray, pc: float, looks: np.n
                                       left / (1.0 - pos) if pos < 1 else 0.0))
     cumulative = 1.0 - float((first * (1.0 - pc) ** (before + now)).sum()) - (1.0 - inside)
     rest = (1.0 - inside) / not_found_before
-    return SearchTheory(tuple(figures), pos, cumulative, float(pc), rest, rest / (1.0 - pos) if pos < 1 else 0.0)
+    return SearchTheory(tuple(figures), pos, cumulative, float(pc), rest, rest / (1.0 - pos) if pos < 1 else 0.0,
+                        float(inside))

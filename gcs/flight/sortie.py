@@ -266,12 +266,14 @@ class SortieLog:
 
     def search_theory(self) -> SearchTheory | None:
         """POA / POD / POS per segment of what this flight read (`planner.search_theory`, over the
-        plan's segments: the area file's, else named blocks of the grid); None without a belief
-        or prior mass."""
+        plan's segments: the area file's, else named blocks of the grid, and the share of the
+        subject plan.json says lies inside the area); None without a belief or prior mass."""
         if self.belief is None or self.start is None or not self.start.available() > 0:
             return None
+        planned = self.plan.raw.get("search_theory") or {}
         return search_theory(self.start.p0, self.belief.searchable, self.pc, self.belief.search_map.visits,
-                             self.segments, looks_before=self.start.looks_before)
+                             self.segments, looks_before=self.start.looks_before,
+                             inside=float(planned.get("inside_area", 1.0)))
 
     def tracks_geojson(self, controller: FlightController) -> dict:
         features = []

@@ -36,7 +36,9 @@ def _feature(geometry: dict, **props) -> dict:
 
 def segments_area(folder: Path) -> Path:
     """The square with two segments (north-west 70 %, east 30 %): the south-west quarter is the
-    rest of the area; a likelier west half, one airport, one target."""
+    rest of the area; a likelier west half, one airport, one target, and a hiker's IPP in the
+    middle whose distance rings reach kilometres past the square (most of the subject's
+    probability lies outside it: the rest of the world)."""
     doc = {"type": "FeatureCollection", "properties": {"cell_size_m": 30}, "features": [
         _feature(_box(WEST, SOUTH, EAST, NORTH), role="area", name="square"),
         _feature(_box(WEST, SOUTH, MIDDLE_LON, NORTH), role="prior", name="west", tep=0.6, eu=0.5),
@@ -44,7 +46,9 @@ def segments_area(folder: Path) -> Path:
         _feature(_box(MIDDLE_LON, SOUTH, EAST, NORTH), role="segment", name="East", poa=30),
         _feature({"type": "Point", "coordinates": [7.996647, 46.999865]}, role="airport", name="a", heading="E",
                  range_m=1500),
-        _feature({"type": "Point", "coordinates": [7.998, 47.001]}, role="target", name="t")]}
+        _feature({"type": "Point", "coordinates": [7.998, 47.001]}, role="target", name="t"),
+        _feature({"type": "Point", "coordinates": [MIDDLE_LON, MIDDLE_LAT]}, role="ipp", subject="hiker",
+                 terrain="flat")]}
     path = folder / "segments.geojson"
     path.write_text(json.dumps(doc))
     return path
@@ -77,10 +81,15 @@ def test_the_sortie_reports_the_area_files_segments_by_name(flown):
     names = [s["name"] for s in theory["segments"]]
     assert names == ["North-west", "East", REST] == [s["name"] for s in planned["segments"]]
     assert [s["cells"] for s in theory["segments"]] == [s["cells"] for s in planned["segments"]]
-    # the flight's POAs before are the plan's (sortie 1: the prior's shares), and sum to the area's total
+    # the flight's POAs before are the plan's (sortie 1: the prior's shares), the rest of the world
+    # keeps what lies outside the square, and they sum to 1
+    assert 0.5 < planned["rest_of_world_poa"] < 1
+    assert theory["rest_of_world_poa"] == pytest.approx(planned["rest_of_world_poa"], abs=1e-6)
+    assert theory["inside_area"] == planned["inside_area"] == pytest.approx(1 - planned["rest_of_world_poa"], abs=1e-6)
     assert [s["poa"] for s in theory["segments"]] == pytest.approx([s["poa"] for s in planned["segments"]], abs=2e-6)
     assert sum(s["poa"] for s in theory["segments"]) + theory["rest_of_world_poa"] == pytest.approx(1.0, abs=1e-5)
-    assert theory["pos"] == pytest.approx(record["campaign"]["pos_after"], abs=1e-5)
+    # the sortie's POS is the whole subject's; the campaign's, of the share inside the area
+    assert theory["pos"] == pytest.approx(record["campaign"]["pos_after"] * theory["inside_area"], abs=1e-5)
     assert any(s["pod"] > 0 for s in theory["segments"])
     # the summary at the end of gcs fly: the same table
     assert "segment          cells    POA    POD    POS cum POD POA after" in flown.printed
