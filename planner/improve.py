@@ -24,7 +24,20 @@ Every candidate keeps the safety invariants: in the grid and out of no-fly cells
 allows (into and out of the window), no cell shared with another UAV at a step, and the path's
 cost (its metres in move-cost units) within the range less the reserve. A window is replaced only
 when its readings gain more than `MIN_GAIN`, so E never falls. L is the most steps whose paths
-number at most `ImproveSettings.paths` (3OC: L = 8, 3^8 = 6561 paths per window)."""
+number at most `ImproveSettings.paths` (3OC: L = 8, 3^8 = 6561 paths per window).
+
+A multicopter pays for its seconds, not its metres, and a corner costs it the time it loses
+braking and speeding up again (`planner.path_time`). A UAV whose spec has a time pricing
+(`UavSpec.time_pricing`, `planner.time_pricing`) keeps a second bound: its path's time-priced
+cost, its moves plus, at each pose between two moves, a charge indexed by the heading change
+((h' - h) mod 8), plus the stops at its ends, an upper bound of its seconds at cruise speed,
+within what its range less the reserve buys in that currency (the charge the range was sized
+with, flown at cruise), or within its DTSCS path's cost when that is more: the improvement never
+makes a path take longer than the charge its range was sized with pays for, or than DTSCS's.
+The exact windows check it step by step (the turn into the window, inside it and out of it);
+the long windows penalise turns as they penalise diagonals when the path's time is what does
+not fit. Without a time pricing (a plane) every turn costs 0 and the second bound is the first:
+the plans are the ones the metres alone give, bit for bit."""
 
 from __future__ import annotations
 
@@ -37,7 +50,7 @@ from planner.config import njit
 from planner.motion import HEADING_DX, HEADING_DY, MoveCosts, OrientationConstraint
 from planner.plan import Plan, Stage, TargetOutcome, TrajectoryPoint, UavPlan
 from planner.return_exact import return_table
-from planner.scenario import Scenario
+from planner.scenario import Scenario, UavSpec
 from planner.sensor_noise import reading_draw
 from planner.success import plan_looks, success_of_looks
 
@@ -105,10 +118,33 @@ def _free_at(others: np.ndarray, step: int, x: int, y: int) -> bool:
 
 
 @njit
-def _best_window(path: np.ndarray, a: int, steps: int, tail: bool, max_steps: int, budget: int,
+def _turn_at(path: np.ndarray, p: int, n_poses: int, turns: np.ndarray) -> int:
+    """What the turn at pose `p` of path[:n_poses] adds to its time-priced cost: `turns` by the
+    heading change between the move into it and the move out of it ((h' - h) mod 8); nothing at
+    the path's first and last poses (the stops, priced apart)."""
+    if p < 1 or p >= n_poses - 1:
+        return 0
+    turn: int = turns[(path[p + 1, 2] - path[p, 2]) & 7]
+    return turn
+
+
+@njit
+def _span_units(path: np.ndarray, lo: int, hi: int, n_poses: int, move_costs: np.ndarray, turns: np.ndarray) -> int:
+    """The time-priced cost of path[lo .. hi] (of path[:n_poses]): the moves into those poses and
+    the turns at poses lo - 1 .. hi, every one a change of those poses' headings changes."""
+    cost = 0
+    for i in range(lo, hi + 1):
+        cost += move_costs[path[i, 2]]
+    for p in range(lo - 1, hi + 1):
+        cost += _turn_at(path, p, n_poses, turns)
+    return cost
+
+
+@njit
+def _best_window(path: np.ndarray, a: int, steps: int, tail: bool, max_steps: int, budget: int, time_room: int,
                  counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, radius: int,
                  others: np.ndarray, blocked: np.ndarray, successors: np.ndarray, allowed: np.ndarray,
-                 table: np.ndarray, dx: np.ndarray, dy: np.ndarray, move_costs: np.ndarray,
+                 table: np.ndarray, dx: np.ndarray, dy: np.ndarray, move_costs: np.ndarray, turns: np.ndarray,
                  out: np.ndarray) -> tuple[float, int]:
     """The best replacement of path[a + 1 .. a + steps] (rows x, y, heading) whose readings are
     already taken out of `counts`: (its gain, its number of poses in `out`), (-1, 0) when none.
@@ -116,7 +152,8 @@ def _best_window(path: np.ndarray, a: int, steps: int, tail: bool, max_steps: in
     Not a tail: exactly `steps` poses, the last on the cell of path[a + steps] with a heading
     from which path[a + steps + 1]'s heading is allowed (any heading at the plan's last pose).
     A tail: 1 to `max_steps` poses ending on the airport, the last pose of the path. Cost at most
-    `budget`; every pose off the other UAVs' cells at its step."""
+    `budget`, and time-priced cost (its moves, and `turns` at poses a to a + steps: into, inside
+    and out of the window) at most `time_room`; every pose off the other UAVs' cells at its step."""
     nx, ny = blocked.shape
     ex = path[a + steps, 0]
     ey = path[a + steps, 1]
@@ -128,6 +165,7 @@ def _best_window(path: np.ndarray, a: int, steps: int, tail: bool, max_steps: in
     ys = np.empty(depth_max + 1, dtype=np.int64)
     hs = np.empty(depth_max + 1, dtype=np.int64)
     cost = np.zeros(depth_max + 1, dtype=np.int64)
+    timed = np.zeros(depth_max + 1, dtype=np.int64)
     gain = np.zeros(depth_max + 1, dtype=np.float64)
     choice = np.zeros(depth_max + 1, dtype=np.int64)
     xs[0] = path[a, 0]
@@ -151,12 +189,14 @@ def _best_window(path: np.ndarray, a: int, steps: int, tail: bool, max_steps: in
         if qx < 0 or qy < 0 or qx >= nx or qy >= ny or blocked[qx, qy]:
             continue
         c = cost[d] + move_costs[g]
+        t = timed[d] + move_costs[g] + (turns[(g - hs[d]) & 7] if a + d >= 1 else 0)
         left = depth_max - d - 1
         if tail:
-            if c + table[g, qx, qy] > budget:
+            if c + table[g, qx, qy] > budget or t + table[g, qx, qy] > time_room:
                 continue
         else:
-            if max(abs(qx - ex), abs(qy - ey)) > left or c + left * cheapest > budget:
+            if max(abs(qx - ex), abs(qy - ey)) > left or c + left * cheapest > budget \
+                    or t + left * cheapest > time_room:
                 continue
         if not _free_at(others, a + d + 1, qx, qy):
             continue
@@ -165,9 +205,12 @@ def _best_window(path: np.ndarray, a: int, steps: int, tail: bool, max_steps: in
         ys[d] = qy
         hs[d] = g
         cost[d] = c
+        timed[d] = t
         choice[d] = 0
         gain[d] = gain[d - 1] + _look(counts, base, qpow, pc, qx, qy, radius, 1)
         end = qx == ex and qy == ey and (tail or (d == steps and (next_h < 0 or allowed[g, next_h])))
+        if end and next_h >= 0:
+            end = t + turns[(next_h - g) & 7] <= time_room
         if end and gain[d] > best:
             best = gain[d]
             best_n = d
@@ -179,15 +222,17 @@ def _best_window(path: np.ndarray, a: int, steps: int, tail: bool, max_steps: in
 
 
 @njit
-def _dp_window(path: np.ndarray, a: int, steps: int, penalty: float, counts: np.ndarray, base: np.ndarray,
-               qpow: np.ndarray, pc: float, radius: int, others: np.ndarray, blocked: np.ndarray,
+def _dp_window(path: np.ndarray, a: int, steps: int, penalty: float, turn_weight: np.ndarray, counts: np.ndarray,
+               base: np.ndarray, qpow: np.ndarray, pc: float, radius: int, others: np.ndarray, blocked: np.ndarray,
                successors: np.ndarray, allowed: np.ndarray, dx: np.ndarray, dy: np.ndarray,
                out: np.ndarray) -> bool:
     """The path of exactly `steps` poses after path[a] to the cell of path[a + steps] (heading
     allowing path[a + steps + 1]'s) that maximises the sum of its poses' first-reading gains
     (`counts` without the window's own readings; a cell met twice counted twice) less `penalty`
-    per diagonal move, off the other UAVs' cells at each step: dynamic programming over (step,
-    cell, heading) in the box the window can reach. Writes `out[:steps]`; False when none."""
+    per diagonal move and `penalty` times `turn_weight` of each turn at poses a to a + steps (by
+    heading change, (h' - h) mod 8; none at the path's first pose), off the other UAVs' cells at
+    each step: dynamic programming over (step, cell, heading) in the box the window can reach.
+    Writes `out[:steps]`; False when none."""
     nx, ny = blocked.shape
     sx = path[a, 0]
     sy = path[a, 1]
@@ -244,14 +289,21 @@ def _dp_window(path: np.ndarray, a: int, steps: int, penalty: float, counts: np.
                         if not _free_at(others, a + t + 1, qx, qy):
                             continue
                         w = v + reward[qi, qj] - (penalty if g % 2 == 1 else 0.0)
+                        if a + t >= 1:
+                            w -= penalty * turn_weight[(g - h) & 7]
                         if w > value[t + 1, qi, qj, g]:
                             value[t + 1, qi, qj, g] = w
                             parent[t + 1, qi, qj, g] = h
     best = -np.inf
     bh_end = -1
     for h in range(8):
-        if (next_h < 0 or allowed[h, next_h]) and value[steps, ex - x0, ey - y0, h] > best:
-            best = value[steps, ex - x0, ey - y0, h]
+        if next_h >= 0 and not allowed[h, next_h]:
+            continue
+        end = value[steps, ex - x0, ey - y0, h]
+        if next_h >= 0:
+            end -= penalty * turn_weight[(next_h - h) & 7]
+        if end > best:
+            best = end
             bh_end = h
     if bh_end < 0:
         return False
@@ -278,24 +330,51 @@ def _window_cost(out: np.ndarray, steps: int, move_costs: np.ndarray) -> int:
 
 
 @njit
-def _fitting_window(path: np.ndarray, a: int, steps: int, room: int, counts: np.ndarray, base: np.ndarray,
-                    qpow: np.ndarray, pc: float, radius: int, others: np.ndarray, blocked: np.ndarray,
-                    successors: np.ndarray, allowed: np.ndarray, dx: np.ndarray, dy: np.ndarray,
-                    move_costs: np.ndarray, out: np.ndarray, spare: np.ndarray) -> bool:
-    """`_dp_window`'s path into `out` at the least diagonal penalty (to within a bisection) whose
-    cost fits in `room`; False when none does."""
-    if not _dp_window(path, a, steps, 0.0, counts, base, qpow, pc, radius, others, blocked, successors, allowed,
-                      dx, dy, out):
+def _window_units(path: np.ndarray, a: int, steps: int, out: np.ndarray, move_costs: np.ndarray,
+                  turns: np.ndarray) -> int:
+    """The time-priced cost of `out[:steps]` in place of path[a + 1 .. a + steps]: its moves and
+    the turns at poses a (none at the path's first) to a + steps (none at its last)."""
+    cost = _window_cost(out, steps, move_costs)
+    if a >= 1:
+        cost += turns[(out[0, 2] - path[a, 2]) & 7]
+    for i in range(1, steps):
+        cost += turns[(out[i, 2] - out[i - 1, 2]) & 7]
+    if a + steps < path.shape[0] - 1 and path[a + steps + 1, 0] >= 0:
+        cost += turns[(path[a + steps + 1, 2] - out[steps - 1, 2]) & 7]
+    return cost
+
+
+@njit
+def _fits(path: np.ndarray, a: int, steps: int, out: np.ndarray, room: int, time_room: int, move_costs: np.ndarray,
+          turns: np.ndarray) -> bool:
+    return _window_cost(out, steps, move_costs) <= room and _window_units(path, a, steps, out, move_costs,
+                                                                          turns) <= time_room
+
+
+@njit
+def _fitting_window(path: np.ndarray, a: int, steps: int, room: int, time_room: int, counts: np.ndarray,
+                    base: np.ndarray, qpow: np.ndarray, pc: float, radius: int, others: np.ndarray,
+                    blocked: np.ndarray, successors: np.ndarray, allowed: np.ndarray, dx: np.ndarray, dy: np.ndarray,
+                    move_costs: np.ndarray, turns: np.ndarray, turn_weight: np.ndarray, out: np.ndarray,
+                    spare: np.ndarray) -> bool:
+    """`_dp_window`'s path into `out` at the least penalty (to within a bisection) whose cost fits
+    in `room` and whose time-priced cost fits in `time_room`; False when none does. The penalty
+    is per diagonal move, and, when the unpenalised path's time is what does not fit, per turn
+    too (`turn_weight`: a turn's units per diagonal's extra units)."""
+    if not _dp_window(path, a, steps, 0.0, turn_weight, counts, base, qpow, pc, radius, others, blocked, successors,
+                      allowed, dx, dy, out):
         return False
-    if _window_cost(out, steps, move_costs) <= room:
+    if _fits(path, a, steps, out, room, time_room, move_costs, turns):
         return True
+    timed = _window_units(path, a, steps, out, move_costs, turns) > time_room
+    weight = turn_weight if timed else np.zeros(turn_weight.shape[0])
     low = 0.0
     high = 1e-3
     while True:
-        if not _dp_window(path, a, steps, high, counts, base, qpow, pc, radius, others, blocked, successors,
+        if not _dp_window(path, a, steps, high, weight, counts, base, qpow, pc, radius, others, blocked, successors,
                           allowed, dx, dy, spare):
             return False
-        if _window_cost(spare, steps, move_costs) <= room:
+        if _fits(path, a, steps, spare, room, time_room, move_costs, turns):
             break
         if high > 100.0:
             return False
@@ -304,9 +383,9 @@ def _fitting_window(path: np.ndarray, a: int, steps: int, room: int, counts: np.
     out[:] = spare
     for _ in range(6):
         mid = (low + high) / 2.0
-        _dp_window(path, a, steps, mid, counts, base, qpow, pc, radius, others, blocked, successors, allowed, dx, dy,
-                   spare)
-        if _window_cost(spare, steps, move_costs) <= room:
+        _dp_window(path, a, steps, mid, weight, counts, base, qpow, pc, radius, others, blocked, successors, allowed,
+                   dx, dy, spare)
+        if _fits(path, a, steps, spare, room, time_room, move_costs, turns):
             high = mid
             out[:] = spare
         else:
@@ -315,17 +394,19 @@ def _fitting_window(path: np.ndarray, a: int, steps: int, room: int, counts: np.
 
 
 @njit
-def _dp_sweep(path: np.ndarray, n_poses: int, budget: int, steps: int, stride: int, counts: np.ndarray,
-              base: np.ndarray, qpow: np.ndarray, pc: float, radius: int, others: np.ndarray, blocked: np.ndarray,
-              successors: np.ndarray, allowed: np.ndarray, dx: np.ndarray, dy: np.ndarray, move_costs: np.ndarray,
-              min_gain: float) -> float:
+def _dp_sweep(path: np.ndarray, n_poses: int, budget: int, time_budget: int, steps: int, stride: int,
+              counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, radius: int, others: np.ndarray,
+              blocked: np.ndarray, successors: np.ndarray, allowed: np.ndarray, dx: np.ndarray, dy: np.ndarray,
+              move_costs: np.ndarray, turns: np.ndarray, turn_weight: np.ndarray, min_gain: float) -> float:
     """One sweep of `_dp_window` windows of `steps` steps over one UAV's path, each kept only
     when its exact gain (self-overlaps and footprints counted as `planner.success` counts them)
-    beats the window's and its cost fits the range: the diagonal penalty is raised by bisection
-    until it does. Changes the path and `counts` in place; the gain."""
+    beats the window's and its cost fits the range and its time-priced cost `time_budget`
+    (`_improve_uav`): the penalty is raised by bisection until they do (`_fitting_window`).
+    Changes the path and `counts` in place; the gain."""
     spent = 0
     for i in range(1, n_poses):
         spent += move_costs[path[i, 2]]
+    timed = _span_units(path, 1, n_poses - 1, n_poses, move_costs, turns)
     out = np.empty((steps, 3), dtype=np.int64)
     spare = np.empty((steps, 3), dtype=np.int64)
     total = 0.0
@@ -337,9 +418,11 @@ def _dp_sweep(path: np.ndarray, n_poses: int, budget: int, steps: int, stride: i
             old_cost += move_costs[path[i, 2]]
         for i in range(a + steps - 1, a, -1):
             old_gain += _look(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, -1)
+        old_timed = _span_units(path, a + 1, a + steps, n_poses, move_costs, turns)
         room = budget - spent + old_cost
-        found = _fitting_window(path, a, steps, room, counts, base, qpow, pc, radius, others, blocked, successors,
-                                allowed, dx, dy, move_costs, out, spare)
+        found = _fitting_window(path, a, steps, room, time_budget - timed + old_timed, counts, base, qpow, pc, radius,
+                                others, blocked, successors, allowed, dx, dy, move_costs, turns, turn_weight, out,
+                                spare)
         gain = 0.0
         cost = 0
         if found:
@@ -356,6 +439,7 @@ def _dp_sweep(path: np.ndarray, n_poses: int, budget: int, steps: int, stride: i
                 path[a + 1 + i, 1] = out[i, 1]
                 path[a + 1 + i, 2] = out[i, 2]
             spent += cost - old_cost
+            timed += _span_units(path, a + 1, a + steps, n_poses, move_costs, turns) - old_timed
             total += gain - old_gain
         for i in range(a + 1, a + steps):
             _look(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, 1)
@@ -364,17 +448,20 @@ def _dp_sweep(path: np.ndarray, n_poses: int, budget: int, steps: int, stride: i
 
 
 @njit
-def _improve_uav(path: np.ndarray, n_poses: int, budget: int, window: int, stride: int, extra: int,
-                 counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, radius: int,
+def _improve_uav(path: np.ndarray, n_poses: int, budget: int, time_budget: int, window: int, stride: int,
+                 extra: int, counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, radius: int,
                  others: np.ndarray, blocked: np.ndarray, successors: np.ndarray, allowed: np.ndarray,
-                 table: np.ndarray, dx: np.ndarray, dy: np.ndarray, move_costs: np.ndarray,
+                 table: np.ndarray, dx: np.ndarray, dy: np.ndarray, move_costs: np.ndarray, turns: np.ndarray,
                  min_gain: float) -> tuple[float, int]:
     """One sweep of windows over one UAV's path (poses path[:n_poses], rows x, y, heading, its
     readings counted in `counts`); the path, its length and `counts` change in place. Returns
-    the gain and the new number of poses. `budget`: range less reserve, in move-cost units."""
+    the gain and the new number of poses. `budget`: range less reserve, in move-cost units;
+    `time_budget`: the most its time-priced cost (its moves, and `turns[(h' - h) mod 8]` at each
+    pose between two moves, `_span_units`) may be (`budget` with `turns` all 0: no other bound)."""
     spent = 0
     for i in range(1, n_poses):
         spent += move_costs[path[i, 2]]
+    timed = _span_units(path, 1, n_poses - 1, n_poses, move_costs, turns)
     out = np.empty((window + extra + 1, 3), dtype=np.int64)
     total = 0.0
     a = 0
@@ -387,9 +474,11 @@ def _improve_uav(path: np.ndarray, n_poses: int, budget: int, window: int, strid
             old_cost += move_costs[path[i, 2]]
         for i in range(a + steps, a, -1):
             old_gain += _look(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, -1)
+        old_timed = _span_units(path, a + 1, a + steps, n_poses, move_costs, turns)
         max_steps = min(steps + extra, path.shape[0] - 1 - a)
-        gain, n = _best_window(path, a, steps, tail, max_steps, budget - spent + old_cost, counts, base, qpow, pc,
-                               radius, others, blocked, successors, allowed, table, dx, dy, move_costs, out)
+        gain, n = _best_window(path, a, steps, tail, max_steps, budget - spent + old_cost,
+                               time_budget - timed + old_timed, counts, base, qpow, pc, radius, others, blocked,
+                               successors, allowed, table, dx, dy, move_costs, turns, out)
         better = n > 0 and gain > old_gain + min_gain
         if better:
             new_cost = 0
@@ -402,6 +491,7 @@ def _improve_uav(path: np.ndarray, n_poses: int, budget: int, window: int, strid
             total += gain - old_gain
             if tail:
                 n_poses = a + 1 + n
+            timed += _span_units(path, a + 1, a + n, n_poses, move_costs, turns) - old_timed
         for i in range(a + 1, a + 1 + (n if better else steps)):
             _look(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, 1)
         if tail:
@@ -423,12 +513,43 @@ def _tail_start(path: np.ndarray, n_poses: int, table: np.ndarray, move_costs: n
     return start
 
 
+@dataclass(frozen=True)
+class _Budgets:
+    """What one UAV's path may cost, as the kernels take it: `units` of range (move costs),
+    `time_units` of its time-priced cost (moves and `turns`, the stops taken off), and
+    `turn_weight`, a turn's units per diagonal move's extra units (`_fitting_window`)."""
+
+    units: int
+    time_units: int
+    turns: np.ndarray
+    turn_weight: np.ndarray
+
+
+def _budgets(u: UavPlan, spec: UavSpec | None, reserve_units: int, costs: MoveCosts) -> _Budgets:
+    """UAV `u`'s budgets: its range less the reserve; with a time pricing (`spec.time_pricing`)
+    also what that range buys in time-priced units less the stops, or what its path costs so
+    now when that is more (the improvement never makes it cost more than DTSCS's path did);
+    without one, the range again with no turn charged, the same bound twice."""
+    units = u.range_units - reserve_units
+    pricing = None if spec is None else spec.time_pricing
+    if pricing is None:
+        zero = np.zeros(8, dtype=np.int64)
+        return _Budgets(units, units, zero, np.zeros(8, dtype=np.float64))
+    now = pricing.path_units([p.heading for p in u.trajectory[1:]], costs) - pricing.stop_units
+    time_units = max(pricing.budget_units(units) - pricing.stop_units, now)
+    extra = costs.diagonal - costs.straight
+    turns = pricing.turn_array
+    return _Budgets(units, time_units, turns, turns / float(extra if extra > 0 else costs.straight))
+
+
 def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, reserve_units: int = 0, seed: int = 0,
                  settings: ImproveSettings | None = None, tables: dict[int, np.ndarray] | None = None) -> Plan:
     """`plan` (a closed DTSCS plan of `scenario` under `oc`) with its windows re-solved in rounds
-    until none gains: expected finds never fall, every safety invariant holds. `tables[uav_id]`
-    are the UAVs' return tables (computed when not given); `seed` replays the simulated readings
-    of the new paths (`planner.sensor_noise`)."""
+    until none gains: expected finds never fall, every safety invariant holds, and a UAV whose
+    spec has a time pricing (`UavSpec.time_pricing`) keeps its path's time-priced cost within
+    what its range buys, or within its DTSCS path's when that is more. `tables[uav_id]` are the
+    UAVs' return tables (computed when not given); `seed` replays the simulated readings of the
+    new paths (`planner.sensor_noise`)."""
     settings = settings or ImproveSettings()
     costs: MoveCosts = scenario.move_costs
     shape = scenario.search_map.shape
@@ -442,6 +563,7 @@ def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, rese
     allowed = np.array(oc.allowed, dtype=np.bool_)
     window = settings.window(oc.branching)
     by_heading = costs.by_heading
+    specs = {s.uav_id: s for s in scenario.uavs}
     tables = dict(tables or {})
     for u in plan.uavs:
         if u.uav_id not in tables:
@@ -457,6 +579,7 @@ def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, rese
         paths[i, : len(rows)] = rows
         lengths[i] = len(rows)
     original = paths.copy()
+    budgets = [_budgets(u, specs.get(u.uav_id), reserve_units, costs) for u in plan.uavs]
     counts = np.zeros(shape, dtype=np.int64)
     for i in range(len(plan.uavs)):
         for x, y, _ in paths[i, : lengths[i]]:
@@ -469,14 +592,16 @@ def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, rese
             for j in range(len(plan.uavs) - 1):
                 k = j if j < i else j + 1
                 others[j, lengths[k]:] = -1
-            budget = u.range_units - reserve_units
+            b = budgets[i]
             if settings.dp_steps >= 2:
-                gained += _dp_sweep(paths[i], int(lengths[i]), budget, settings.dp_steps, settings.dp_stride, counts,
-                                    base, qpow, sensor.pc, sensor.footprint_radius, others, blocked, successors,
-                                    allowed, HEADING_DX, HEADING_DY, by_heading, MIN_GAIN)
-            gain, n = _improve_uav(paths[i], int(lengths[i]), budget, window, settings.stride, settings.extra, counts,
-                                   base, qpow, sensor.pc, sensor.footprint_radius, others, blocked, successors,
-                                   allowed, tables[u.uav_id], HEADING_DX, HEADING_DY, by_heading, MIN_GAIN)
+                gained += _dp_sweep(paths[i], int(lengths[i]), b.units, b.time_units, settings.dp_steps,
+                                    settings.dp_stride, counts, base, qpow, sensor.pc, sensor.footprint_radius, others,
+                                    blocked, successors, allowed, HEADING_DX, HEADING_DY, by_heading, b.turns,
+                                    b.turn_weight, MIN_GAIN)
+            gain, n = _improve_uav(paths[i], int(lengths[i]), b.units, b.time_units, window, settings.stride,
+                                   settings.extra, counts, base, qpow, sensor.pc, sensor.footprint_radius, others,
+                                   blocked, successors, allowed, tables[u.uav_id], HEADING_DX, HEADING_DY, by_heading,
+                                   b.turns, MIN_GAIN)
             lengths[i] = n
             gained += gain
         if gained <= MIN_GAIN:

@@ -6,23 +6,30 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from planner.environment import SearchMap, Sensor
 from planner.motion import STEPS, MoveCosts
 
+if TYPE_CHECKING:
+    from planner.time_pricing import TimePricing
+
 
 @dataclass(frozen=True)
 class UavSpec:
     """One UAV: its airport cell (0-based x, y), start heading (0..7) and range T_i in the
     scenario's move-cost units (`Scenario.move_costs`: steps in the paper, thousandths of a cell
-    side over a real area)."""
+    side over a real area). `time_pricing`: a multicopter whose energy profile prices a path by
+    its time (`planner.time_pricing`); the whole-mission improvement keeps its path within that
+    budget too. None: its range is spent in metres (move costs) only."""
 
     uav_id: int
     airport: tuple[int, int]
     heading: int
     range_units: int
+    time_pricing: TimePricing | None = None
 
 
 @dataclass

@@ -33,7 +33,7 @@ from gcs.plans.area_prior import area_mass_prior
 from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, SearchOptions
 from gcs.plans.plan_file import plan_to_dict
 from gcs.plans.segments import area_segments, plan_theory, segments_for_teams, segments_from, segments_geojson
-from gcs.plans.vehicle_file import load_vehicles, profile_for_uav
+from gcs.plans.vehicle_file import VehicleRecord, load_vehicles, profile_for_uav, stock_profile
 from planner.area_grid import (
     AREA_MOVE_COSTS,
     AreaGrid,
@@ -48,6 +48,7 @@ from planner.area_grid import (
 from planner.camera import Camera, CameraSensor, camera_sensor
 from planner.campaign import Belief, sortie_seed
 from planner.dtscs import ClosedSearch, MissionConfig, uavs_that_cannot_leave
+from planner.energy import Airframe, EnergyProfile
 from planner.environment import Sensor
 from planner.horizon import HorizonValue
 from planner.improve import ImproveSettings
@@ -55,6 +56,7 @@ from planner.motion import constraint_by_name
 from planner.plan import Plan
 from planner.priors import MassPrior
 from planner.scenario import SCENARIOS, Scenario, UavSpec
+from planner.time_pricing import time_pricing
 
 
 @dataclass
@@ -243,7 +245,8 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
                                     f"{' and the landing circuit' if circuit_m else ''} are taken off; it cannot "
                                     "leave its airport and come back")
             else:
-                uavs.append(UavSpec(uav_id, (x, y), ap.heading, units))
+                pricing = time_pricing(pricing_profile(record, vehicle), cell, AREA_MOVE_COSTS)
+                uavs.append(UavSpec(uav_id, (x, y), ap.heading, units, pricing))
         targets = []
         for t in source.targets:
             east, north = grid.point_m(t.lon_deg, t.lat_deg)
@@ -274,6 +277,17 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
     reference = AltitudeReference.TERRAIN if area.terrain_follow else AltitudeReference.HOME
     return AreaSetup(source, grid, closed, ranges_m, layers, overheads_m, vehicle, reference, approach, belief, sources,
                      dict(sorted(grounded.items())), fence, mass, camera)
+
+
+def pricing_profile(record: VehicleRecord | None, vehicle: Vehicle) -> EnergyProfile | None:
+    """The energy profile a UAV's path is priced with when the whole-mission improvement re-solves
+    it (`planner.time_pricing`): its vehicle's in the vehicles file, else a copter's stock profile
+    (ArduCopter's, whose corners cost it time: which autopilot flies it is known only once it
+    connects, and PX4's stock copter prices a path by its metres), else None (a plane: its path
+    is priced by its metres)."""
+    if record is not None:
+        return record.profile
+    return stock_profile("ardupilot", Airframe.COPTER) if vehicle is Vehicle.COPTER else None
 
 
 def area_camera(search: SearchOptions, altitudes_m: list[float], cell_size_m: float) -> CameraSensor | None:

@@ -30,7 +30,8 @@ SMOKE = {
     "bench_online.py": "parser (gcs fly processes over seeds)",
     "bench_optimisers.py": "parser (every optimiser over seeds for minutes)",
     "bench_planner.py": "parser (cold-start processes)",
-    "bench_improve.py": "parser (the improvement planner over the missions and random areas)",
+    "bench_improve.py": "parser (the improvement planner over the missions and random areas); `--copters --smoke` "
+                        "run (one random area of stock ArduCopters, their paths priced by metres and by time)",
     "bench_return_trigger.py": "parser (its learned fuel gauge alone takes some 9 CPU-s to build)",
     "bench_sim.py": "parser (simulated fleets in real time)",
     "bench_startup.py": "parser (fresh gcs processes)",
@@ -108,6 +109,15 @@ def test_success_bound_figures_and_gap(monkeypatch: pytest.MonkeyPatch, capsys) 
     run_main(module, monkeypatch, "gap", "--smoke")
     out = capsys.readouterr().out
     assert re.search(r"LP bound over optimum: mean \+\d+\.\d%.*\(1 of 1 solved\)", out)
+
+
+def test_bench_improve_prices_copters_by_metres_and_by_time(monkeypatch: pytest.MonkeyPatch, capsys) -> None:
+    run_main(load("bench_improve.py"), monkeypatch, "--copters", "--smoke")
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| 1 random areas")]
+    assert len(rows) == 1
+    cells = rows[0].strip("| ").split(" | ")
+    dtscs, metres, timed = (float(c) for c in cells[3:6])
+    assert min(metres, timed) >= dtscs > 0
 
 
 def test_stress_safety_one_seed(monkeypatch: pytest.MonkeyPatch, capsys) -> None:

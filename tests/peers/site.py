@@ -89,10 +89,15 @@ class Site:
 
     def plan(self, folder: Path, *extra: str) -> Path:
         """Plan the site with `gcs plan --area` into `folder`; the plan folder. Without the
-        improvement (`--no-improve`): its plans fill their range in metres priced at a straight
-        cruise, and a copter's corners cost more, so the energy fleets' figures, taken on the plans
-        DTSCS flies, did not hold on them (ci77-78: a range cut to the charge landed at 42 %, a
-        learned profile's vehicle home by fuel at 16 of 20 waypoints; issue 37's note)."""
+        improvement (`--no-improve`): the energy fleets' figures, taken on the plans DTSCS flies,
+        did not hold on the improved ones (ci77-78). A learned profile's vehicle came home by fuel
+        at 16 of 20 waypoints, its improved plan's corners costing more than the metres its range
+        was sized with: since the improvement prices a copter's path by its time
+        (`planner.time_pricing`) that flight passes improved (2026-12-02, twice). The still-air
+        fleet's UAV 3, its 2500 m plan cut to its charge (1376 m), still turns home by that range at
+        7 of 27 waypoints and lands at 42 % (reserve + 12): its improved plan heads away from home
+        there, and the range order prices the way home from the poses ahead (974 m) where it then
+        cruised some 665 m home; a flight matter the plan's pricing does not reach."""
         folder.mkdir(parents=True, exist_ok=True)
         area = folder / "site.geojson"
         area.write_text(json.dumps(self.geojson()))

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from planner.dtscs import ClosedSearch, MissionConfig
+from planner.energy import Airframe, EnergyProfile
 from planner.improve import (
     MAX_LOOKS,
     ImproveSettings,
@@ -21,7 +22,9 @@ from planner.improve import (
     improve_plan,
 )
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OC4, OC8, STEPS, cell_lengths
+from planner.path_time import ARDUCOPTER_CORNERING, path_time_s
 from planner.return_exact import return_table
+from planner.time_pricing import TimePricing, time_pricing
 from tests.planner.helpers import assert_plan_safe, random_scenario, without_jit
 
 PC = 0.9
@@ -62,58 +65,103 @@ def _all_paths(pose, steps, oc, blocked):
 def _case(seed, n=7):
     rng = np.random.default_rng(seed)
     blocked = rng.random((n, n)) < 0.1
-    blocked[3, 3] = False
+    blocked[3, 3] = blocked[n // 2, n // 2] = False
     base = np.where(blocked, 0.0, rng.random((n, n)))
     counts = rng.integers(0, 3, (n, n))
     return blocked, base, counts
 
 
-@pytest.mark.parametrize("seed, oc, radius", [(0, OC3, 0), (1, OC8, 0), (2, OC4, 1), (3, OC3, 1)])
-def test_a_window_is_the_best_of_every_path_between_its_poses(seed, oc, radius):
-    blocked, base, counts = _case(seed)
+#: a turn's time-priced units by heading change ((h' - h) mod 8), as `planner.time_pricing` gives them
+TURNS = np.array([0, 389, 635, 953, 1334, 953, 635, 389], dtype=np.int64)
+
+
+def _turns_of(headings, turns=TURNS):
+    """Reference: what the turns between consecutive `headings` add."""
+    return sum(int(turns[(b - a) % 8]) for a, b in zip(headings, headings[1:]))
+
+
+@pytest.mark.parametrize("seed, oc, radius, timed", [(0, OC3, 0, False), (1, OC8, 0, False), (2, OC4, 1, False),
+                                                     (3, OC3, 1, False), (3, OC3, 0, True), (1, OC8, 1, True)])
+def test_a_window_is_the_best_of_every_path_between_its_poses(seed, oc, radius, timed):
+    """Against every path of the window's steps; `timed`: each turn priced (`TURNS`), from the
+    pose before the window into it and out of it into the fixed pose after it, within a time
+    room just short of what the best path without it costs."""
+    n = 11 if timed else 7
+    blocked, base, counts = _case(seed, n)
     costs = cell_lengths()
-    steps = 4 if oc is not OC8 else 3
-    start = (3, 3, 2)
-    # a path whose window ends where a reference path ends, so the window has a solution
+    steps = 3 if oc is OC8 else 6 if timed else 4
+    start = (5, 5, 2) if timed else (3, 3, 2)
+    # a path whose window ends where a reference path ends, so the window has a solution; timed,
+    # the one most paths of the window can end as, and a pose before it, so the turn into the
+    # window counts (none at a path's first pose)
     rows = next(iter(_all_paths(start, steps + 1, oc, blocked)))
-    path = np.array([start, *rows], dtype=np.int64)
+    if timed:
+        ends = [(tuple(c[-1][:2]), c[-1][2]) for c in _all_paths(start, steps, oc, blocked)]
+        rows = max(_all_paths(start, steps + 1, oc, blocked), key=lambda r: sum(
+            cell == r[steps - 1][:2] and oc.allows(h, r[steps][2]) for cell, h in ends))
+    before = [(4, 5, 2)] if timed else []
+    a = len(before)
+    path = np.array([*before, start, *rows], dtype=np.int64)
     others = np.full((1, len(path), 2), -1, dtype=np.int64)
-    others[0, 2] = path[2, :2] + (1, 0)
+    others[0, a + 2] = path[a + 2, :2] + (1, 0)
+    turns = TURNS if timed else np.zeros(8, dtype=np.int64)
     room = 10**9
-    out = np.zeros((steps, 3), dtype=np.int64)
-    gain, n = _best_window(path, 0, steps, False, steps, room, counts.copy(), base, QPOW, PC, radius, others, blocked,
-                           oc.successors, np.array(oc.allowed), np.zeros((8, 7, 7), np.int32), HEADING_DX, HEADING_DY,
-                           costs.by_heading, out)
-    best = -1.0
+
+    def time_cost(cand):
+        headings = [start[2], *(c[2] for c in cand), int(path[a + steps + 1, 2])]
+        return sum(costs.of(c[2]) for c in cand) + _turns_of(headings if timed else [], turns)
+
+    candidates = []
     for cand in _all_paths(start, steps, oc, blocked):
         end = cand[-1]
-        if end[:2] != tuple(path[steps, :2]) or not oc.allows(end[2], int(path[steps + 1, 2])):
+        if end[:2] != tuple(path[a + steps, :2]) or not oc.allows(end[2], int(path[a + steps + 1, 2])):
             continue
-        if any(tuple(others[0, t + 1]) == c[:2] for t, c in enumerate(cand)):
+        if any(tuple(others[0, a + t + 1]) == c[:2] for t, c in enumerate(cand)):
             continue
-        best = max(best, _gain_of([c[:2] for c in cand], counts, base, radius))
+        candidates.append(cand)
+    def gain_of(cand):
+        return _gain_of([c[:2] for c in cand], counts, base, radius)
+
+    time_room = time_cost(max(candidates, key=gain_of)) - 1 if timed else room
+    out = np.zeros((steps, 3), dtype=np.int64)
+    gain, n = _best_window(path, a, steps, False, steps, room, time_room, counts.copy(), base, QPOW, PC, radius, others,
+                           blocked, oc.successors, np.array(oc.allowed), np.zeros((8, n, n), np.int32), HEADING_DX,
+                           HEADING_DY, costs.by_heading, turns, out)
+    fitting = [c for c in candidates if time_cost(c) <= time_room]
+    assert fitting and (len(fitting) < len(candidates) or not timed)
+    best = max(gain_of(cand) for cand in fitting)
     assert n == steps and gain == pytest.approx(best, rel=1e-12)
     assert _gain_of([tuple(c[:2]) for c in out[:n]], counts, base, radius) == pytest.approx(gain, rel=1e-12)
+    assert time_cost([tuple(r) for r in out]) <= time_room
 
 
-@pytest.mark.parametrize("seed, oc, penalty", [(4, OC3, 0.0), (5, OC8, 0.3), (6, OC4, 0.0)])
-def test_the_dynamic_programme_finds_the_best_additive_path(seed, oc, penalty):
+@pytest.mark.parametrize("seed, oc, penalty, timed", [(4, OC3, 0.0, False), (5, OC8, 0.3, False), (6, OC4, 0.0, False),
+                                                      (4, OC8, 0.05, True), (8, OC8, 0.1, True)])
+def test_the_dynamic_programme_finds_the_best_additive_path(seed, oc, penalty, timed):
+    """Against every path of the window's steps; `timed`: a pose before the window, and each turn
+    into, inside and out of it penalised `penalty` times its weight (cases where the best path
+    with only the turn out of the window penalised is not the best with all of them)."""
     blocked, base, counts = _case(seed)
     steps = 5 if oc is not OC8 else 3
     start = (3, 3, 0)
     rows = next(iter(_all_paths(start, steps + 1, oc, blocked)))
-    path = np.array([start, *rows], dtype=np.int64)
+    before = [(3, 2, 0)] if timed else []
+    a = len(before)
+    path = np.array([*before, start, *rows], dtype=np.int64)
     others = np.full((1, len(path), 2), -1, dtype=np.int64)
+    weight = TURNS / 415.0 if timed else np.zeros(8)
     out = np.zeros((steps, 3), dtype=np.int64)
-    assert _dp_window(path, 0, steps, penalty, counts.copy(), base, QPOW, PC, 0, others, blocked, oc.successors,
-                      np.array(oc.allowed), HEADING_DX, HEADING_DY, out)
+    assert _dp_window(path, a, steps, penalty, weight, counts.copy(), base, QPOW, PC, 0, others, blocked,
+                      oc.successors, np.array(oc.allowed), HEADING_DX, HEADING_DY, out)
 
     def value(cand):
         first = sum(base[x, y] * (1 - PC) ** counts[x, y] * PC for x, y, _ in cand)
-        return first - penalty * sum(h % 2 for *_, h in cand)
+        headings = [start[2], *(h for *_, h in cand), int(path[a + steps + 1, 2])] if timed else []
+        turned = sum(weight[(b - h) % 8] for h, b in zip(headings, headings[1:]))
+        return first - penalty * (sum(h % 2 for *_, h in cand) + turned)
 
     best = max(value(c) for c in _all_paths(start, steps, oc, blocked)
-               if c[-1][:2] == tuple(path[steps, :2]) and oc.allows(c[-1][2], int(path[steps + 1, 2])))
+               if c[-1][:2] == tuple(path[a + steps, :2]) and oc.allows(c[-1][2], int(path[a + steps + 1, 2])))
     assert value([tuple(r) for r in out]) == pytest.approx(best, rel=1e-12)
 
 
@@ -184,3 +232,107 @@ def test_a_uav_left_with_range_near_home_spends_it():
     assert after.uavs[0].spent > u.spent + 2000
     assert after.success.expected > plan.success.expected
     assert_plan_safe(after, scenario, OC3)
+
+
+# ---- a multicopter's path priced by its time (`planner.time_pricing`) --------------------------------------------
+
+COPTER = EnergyProfile(airframe=Airframe.COPTER, capacity_mah=3300.0, cruise_speed_m_s=10.0, cruise_mah_per_m=1.03,
+                       loiter_mah_per_s=7.8, launch_mah=57.0, climb_mah_per_m=3.6, landing_mah=163.0,
+                       descent_mah_per_m=4.97, cornering=ARDUCOPTER_CORNERING, moving_mah_per_s=8.15)
+
+
+def _priced(scenario, pricing):
+    return replace(scenario, uavs=[replace(u, time_pricing=pricing) for u in scenario.uavs])
+
+
+def _seconds(u, cell_m, profile=COPTER):
+    """Reference: what `path_time_s` gives UAV `u`'s path through its cells' centres, from a stop
+    to a stop."""
+    points = [(p.x * cell_m, p.y * cell_m) for p in u.trajectory]
+    return path_time_s(points, profile.cruise_speed_m_s, profile.cornering)
+
+
+def _dtscs(scenario, oc, seed, reserve=0):
+    try:
+        search = _fly(scenario, MissionConfig(oc=oc, np_steps=3, reserve_steps=reserve), seed)
+    except ValueError:
+        return None
+    return search
+
+
+@settings(max_examples=without_jit(12, 2), deadline=None)
+@given(seed=st.integers(0, 10_000), oc_index=st.integers(0, 1), cell_m=st.sampled_from([20.0, 35.0, 50.0]),
+       ratio=st.floats(1.0, 1.4), reserve=st.integers(0, 1))
+def test_a_copters_improved_path_takes_no_longer_than_its_range_pays_for(seed, oc_index, cell_m, ratio, reserve):
+    """A copter's improved path, flown through its cells' centres from a stop to a stop
+    (`path_time_s`, computed apart from the planner's pricing), takes no more seconds than the
+    charge its range was sized with pays for (the range in metres times `cruise_mah_per_m`, over
+    `moving_mah_per_s`), or than its DTSCS path's time-priced cost when that is more; its metres
+    stay within the range, and it expects no fewer finds."""
+    oc = (OC3, OC8)[oc_index]
+    costs = cell_lengths()
+    scenario = random_scenario(seed, n_uavs=2, range_steps=without_jit(30, 14), oc=oc, costs=costs)
+    if scenario is None:
+        return
+    profile = replace(COPTER, moving_mah_per_s=COPTER.cruise_mah_per_m * COPTER.cruise_speed_m_s / ratio)
+    pricing = time_pricing(profile, cell_m, costs)
+    assert pricing is not None and pricing.units_per_range_unit == pytest.approx(ratio)
+    priced = _priced(scenario, pricing)
+    search = _dtscs(priced, oc, seed, reserve)
+    if search is None:
+        return
+    before = search.plan()
+    after = improve_plan(before, priced, oc, search.reserve, seed, ImproveSettings(dp_steps=8, dp_stride=3))
+    assert_plan_safe(after, priced, oc)
+    assert after.success.expected >= before.success.expected - 1e-9
+    v = profile.cruise_speed_m_s
+    for old, new in zip(before.uavs, after.uavs):
+        range_m = (new.range_units - search.reserve) * cell_m / costs.straight
+        pays_s = range_m * profile.cruise_mah_per_m / profile.moving_mah_per_s
+        dtscs_s = pricing.path_units([p.heading for p in old.trajectory[1:]], costs) * cell_m / costs.straight / v
+        assert new.spent <= new.range_units - search.reserve
+        assert _seconds(new, cell_m, profile) <= max(pays_s, dtscs_s) + 1e-9
+        assert pricing.path_units([p.heading for p in new.trajectory[1:]], costs) <= max(
+            pricing.budget_units(new.range_units - search.reserve), pricing.path_units(
+                [p.heading for p in old.trajectory[1:]], costs))
+
+
+@pytest.mark.parametrize("seed, oc", [(0, OC3), (3, OC3), (22, OC8)])
+def test_zero_turn_prices_and_a_time_budget_that_never_binds_plan_as_metres_alone_do(seed, oc):
+    """Without turns or stops priced, and with turns priced but a budget no path reaches, the
+    improvement makes exactly the plan it makes without a time pricing (a plane's)."""
+    costs = cell_lengths()
+    scenario = random_scenario(seed, n_uavs=2, range_steps=without_jit(30, 14), oc=oc, costs=costs)
+    search = _dtscs(scenario, oc, seed)
+    assert search is not None
+    before = search.plan()
+    settings_ = ImproveSettings(dp_steps=8, dp_stride=3)
+    plain = improve_plan(before, scenario, oc, 0, seed, settings_)
+    zero = TimePricing(turn_units=(0,) * 8, stop_units=0, units_per_range_unit=1.0)
+    loose = replace(time_pricing(COPTER, 50.0, costs), units_per_range_unit=100.0)
+    for pricing in (zero, loose):
+        again = improve_plan(before, _priced(scenario, pricing), oc, 0, seed, settings_)
+        assert [u.trajectory for u in again.uavs] == [u.trajectory for u in plain.uavs]
+        assert again.success.expected == plain.success.expected
+    assert plain.success.expected > before.success.expected
+
+
+def test_the_metre_priced_improvement_overruns_a_copters_charge_and_the_time_priced_one_does_not():
+    """On 50 m cells under 3OC, UAV 1's DTSCS path fits in what its range pays for in time; the
+    improvement pricing only metres fills the range with corners and takes longer than that
+    charge flies; priced by time it does not, and still expects more than DTSCS's plan."""
+    seed, cell_m, costs = 0, 50.0, cell_lengths()
+    scenario = random_scenario(seed, n_uavs=2, range_steps=30, oc=OC3, costs=costs)
+    pricing = time_pricing(COPTER, cell_m, costs)
+    search = _dtscs(_priced(scenario, pricing), OC3, seed)
+    before = search.plan()
+    settings_ = ImproveSettings(dp_steps=8, dp_stride=3)
+    metres = improve_plan(before, scenario, OC3, 0, seed, settings_)
+    timed = improve_plan(before, _priced(scenario, pricing), OC3, 0, seed, settings_)
+    range_m = before.uavs[0].range_units * cell_m / costs.straight
+    pays_s = range_m * COPTER.cruise_mah_per_m / COPTER.moving_mah_per_s
+    assert _seconds(before.uavs[0], cell_m) < pays_s < _seconds(metres.uavs[0], cell_m)
+    assert _seconds(timed.uavs[0], cell_m) <= pays_s
+    for plan in (before, metres, timed):
+        assert all(u.spent <= u.range_units for u in plan.uavs)
+    assert before.success.expected < timed.success.expected < metres.success.expected
