@@ -18,7 +18,8 @@ carry a `role` property. See docs/areas.md for the format and a complete example
 - `feature`  Point, LineString or Polygon (and Multi-): a `kind` of place subjects are found near
              (trail, road, drainage, water, field, woodland, structure, ...).
 - `segment`  Polygon / MultiPolygon: a search segment with its `poa` in percent, or `poas`, several
-             planners' POAs (their mean is used: the Mattson consensus); POAs sum to 100.
+             planners' POAs (their mean is used: the Mattson consensus); POAs sum to 100; each
+             its own `name` (case and surrounding spaces do not matter), none named `REST`.
 
 A suggested cell size may be given as `cell_size_m` in the area feature's properties or in the
 FeatureCollection's `properties` member. Rings may wind either way. Bad input raises `UserError`
@@ -29,8 +30,8 @@ are read by `gcs.plans.gis_formats` into the same FeatureCollection and checked 
 
 The GeoJSON's JSON Schema is `gcs/schemas/area.schema.json` (`area_schema`, `validate_area_dict`):
 for editors and other tools that write area files; every file this module accepts follows it, and
-what a schema cannot say (closed, valid rings; IPPs inside the area; POAs summing to 100; the
-lost-person table's words) is still checked here."""
+what a schema cannot say (closed, valid rings; IPPs inside the area; POAs summing to 100; segment
+names unique and not `REST`'s; the lost-person table's words) is still checked here."""
 
 from __future__ import annotations
 
@@ -59,6 +60,8 @@ POLYGONAL = ("Polygon", "MultiPolygon")
 FEATURE_GEOMETRIES = ("Point", "LineString", "MultiLineString", "Polygon", "MultiPolygon")
 #: How far segment POAs may sum from 100 % (rounding of hand-entered percentages).
 POA_TOLERANCE_PCT = 0.5
+#: The name the reports give the searchable cells no segment covers: no segment of a file may take it.
+REST = "rest of the area"
 
 
 @dataclass(frozen=True)
@@ -362,6 +365,19 @@ def _segment_poa(props: dict, where: str) -> float:
     return _number(props["poa"], f"{where}: poa", 0.0, 100.0) / 100.0
 
 
+def _segment_name(name: str, where: str, taken: dict[str, str], place: str) -> None:
+    """Refuse a segment name the reports cannot tell apart: `REST`'s, or one an earlier segment
+    has (case and surrounding spaces aside); else note in `taken` that `place` has it."""
+    key = name.strip().casefold()
+    if key == REST:
+        raise UserError(f"{where}: '{REST}' names the searchable cells no segment covers: "
+                        f"give this segment another name")
+    if key in taken:
+        raise UserError(f"{where}: the segment name {name.strip()!r} is taken by {taken[key]}: "
+                        f"give each segment its own name")
+    taken[key] = place
+
+
 def parse_area(data, name: str = "area", source: str = "area file", places: Sequence[str] | None = None,
                folder: Path | None = None) -> AreaFile:
     """Validate a decoded GeoJSON document and return its parts; `places` says where each feature
@@ -377,6 +393,7 @@ def parse_area(data, name: str = "area", source: str = "area file", places: Sequ
     ipps: list[Ipp] = []
     spots: list[PlaceFeature] = []
     segments: list[Segment] = []
+    segment_where: dict[str, str] = {}
     ipp_where: list[str] = []
     cell_size = None
     collection_props = data.get("properties")
@@ -437,6 +454,7 @@ def parse_area(data, name: str = "area", source: str = "area file", places: Sequ
             spots.append(PlaceFeature(label, FEATURE_KINDS[kind], geom))
         elif role == "segment":
             segments.append(Segment(label, _geometry(feature, POLYGONAL, where), _segment_poa(props, where)))
+            _segment_name(label, where, segment_where, where.removeprefix(f"{source}: "))
         elif role == "raster_prior":
             if feature.get("geometry") is not None:
                 raise UserError(f"{where}: a raster_prior has no geometry (null): the raster places itself")

@@ -18,7 +18,7 @@ import shapely
 from shapely.geometry import box, mapping, shape
 from shapely.geometry.base import BaseGeometry
 
-from gcs.plans.area_file import AreaFile
+from gcs.plans.area_file import REST, AreaFile  # REST: the cells no segment covers (no segment may take the name)
 from planner.area_grid import AreaGrid
 from planner.campaign import look_counts
 from planner.georef import Grid
@@ -30,8 +30,6 @@ if TYPE_CHECKING:
     from gcs.plans.planning import AreaSetup
     from planner.plan import Plan
 
-#: The name of the searchable cells no segment of the area file covers.
-REST = "rest of the area"
 #: `search_theory.segments_from` in plan.json and sortie.json: the area file's segments, or the grid's blocks.
 FROM_AREA_FILE, FROM_GRID = "area file", "grid blocks"
 SEGMENTS_FILE = "segments.geojson"
@@ -115,12 +113,11 @@ def theory_of_looks(p0: np.ndarray, searchable: np.ndarray, pc: float, looks: np
     return search_theory(p0, searchable, pc, looks, segments, looks_before=looks_before, inside=inside)
 
 
-def segment_polygon_lonlat(area: AreaGrid, segment: Segment, source: AreaFile | None = None) -> dict | None:
-    """A segment's outline as a GeoJSON Polygon (lon, lat): the area file's polygon, or a block
-    of the grid clipped to the area; None for `REST`."""
-    drawn = {seg.name: seg.geometry for seg in source.segments} if source is not None else {}
-    if segment.name in drawn:
-        return mapping(drawn[segment.name])  # type: ignore[no-any-return]
+def segment_polygon_lonlat(area: AreaGrid, segment: Segment, drawn: BaseGeometry | None = None) -> dict | None:
+    """A segment's outline as a GeoJSON Polygon (lon, lat): `drawn`, the area file's polygon it
+    was laid from, when given; else its block of the grid clipped to the area; None for `REST`."""
+    if drawn is not None:
+        return mapping(drawn)  # type: ignore[no-any-return]
     if segment.block is None:
         return None
     x0, y0, x1, y1 = segment.block
@@ -133,10 +130,12 @@ def segment_polygon_lonlat(area: AreaGrid, segment: Segment, source: AreaFile | 
 def segments_geojson(area: AreaGrid, segments: list[Segment], theory: SearchTheory, name: str,
                      source: AreaFile | None = None) -> dict:
     """A FeatureCollection of the segments (polygons clipped to the area) with their figures in
-    per cent and a one-line description a map's balloon shows."""
+    per cent and a one-line description a map's balloon shows. `segments` are `area_segments`'
+    of `source`: the area file's k-th segment is the k-th, paired by place, not by name."""
     features = []
-    for seg, fig in zip(segments, theory.segments):
-        geometry = segment_polygon_lonlat(area, seg, source)
+    drawn = [seg.geometry for seg in source.segments] if source is not None and source.segments else []
+    for k, (seg, fig) in enumerate(zip(segments, theory.segments)):
+        geometry = segment_polygon_lonlat(area, seg, drawn[k] if k < len(drawn) else None)
         props: dict[str, object] = {"segment": fig.name, "cells": fig.cells}
         props.update({key: round(100 * getattr(fig, field), 2) for key, field in MAP_FIELDS.items()})
         props["description"] = (f"POA {fig.poa:.1%}, POD {fig.pod:.1%}, POS {fig.pos:.1%}, cumulative POD "

@@ -225,3 +225,17 @@ def test_bad_lost_person_features_and_segments_are_one_line(run_gcs, area_doc, s
            "give 'poa' or 'poas'")
     _fails(run_gcs, _lost_person(area_doc, shapes, _feature(square, role="segment", poa=160)),
            "poa must lie in [0.0, 100.0]")
+
+
+def test_segments_sharing_a_name_or_named_as_the_rest_of_the_area_are_one_line(run_gcs, area_doc, shapes):
+    """The reports, the team's map and a flight's read-back tell segments apart by their names."""
+    west = {"type": "Polygon", "coordinates": [shapes.ring([(-300, -300), (0, -300), (0, 300), (-300, 300)])]}
+    east = {"type": "Polygon", "coordinates": [shapes.ring([(0, -300), (300, -300), (300, 300), (0, 300)])]}
+    _fails(run_gcs, _lost_person(area_doc, shapes, _feature(west, role="segment", name="A", poa=60),
+                                 _feature(east, role="segment", name=" a ", poa=40)),
+           "feature 7 (segment ' a '): the segment name 'a' is taken by feature 6 (segment 'A'): give each "
+           "segment its own name")
+    _fails(run_gcs, _lost_person(area_doc, shapes, _feature(west, role="segment", name="A", poa=60),
+                                 _feature(east, role="segment", name="Rest of the area", poa=40)),
+           "feature 7 (segment 'Rest of the area'): 'rest of the area' names the searchable cells no segment "
+           "covers: give this segment another name")

@@ -4,15 +4,20 @@ first leaves, and the map files carry the figures (segments.geojson, segments.km
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
+from shapely.geometry import shape
 
 from gcs.display.plan_tables import area_report
 from gcs.plans.make import plan_area
 from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions
 from gcs.plans.plan_file import validate_plan_dict
+from gcs.plans.planning import build_area_search
+from gcs.plans.segments import REST, area_segments, segments_geojson, theory_of_looks
 
 AREA = Path(__file__).parent / "gis" / "caltopo.kml"
 
@@ -93,3 +98,34 @@ def test_the_area_files_own_segments_are_the_ones_reported(tmp_path) -> None:
     assert set(poa) == {"West", "East"} and poa["West"] == pytest.approx(0.7, abs=1e-3)
     kml = (tmp_path / "out" / "segments.kml").read_text()
     assert kml.count("<Polygon>") == 2 and "<name>West POA 70.0%" in kml
+
+
+def test_the_team_map_pairs_each_segment_with_its_own_polygon(tmp_path) -> None:
+    """segments.geojson gives the k-th segment the area file's k-th polygon, whatever their names
+    (the reader refuses two of one name, but the map does not lean on it)."""
+    west, east, south, north = 7.996056, 8.003944, 46.997301, 47.002698
+    third = west + (east - west) / 3
+
+    def box(w, s, e, n):
+        return {"type": "Polygon", "coordinates": [[[w, s], [e, s], [e, n], [w, n], [w, s]]]}
+
+    doc = {"type": "FeatureCollection", "properties": {"cell_size_m": 30}, "features": [
+        {"type": "Feature", "properties": {"role": "area"}, "geometry": box(west, south, east, north)},
+        {"type": "Feature", "properties": {"role": "segment", "name": "A", "poa": 70},
+         "geometry": box(west, south, third, north)},
+        {"type": "Feature", "properties": {"role": "segment", "name": "B", "poa": 30},
+         "geometry": box(third, south, 2 * third - west, north)},
+        {"type": "Feature", "properties": {"role": "airport", "heading": "E", "range_m": 1500},
+         "geometry": {"type": "Point", "coordinates": [7.996647, 46.999865]}}]}
+    path = tmp_path / "area.geojson"
+    path.write_text(json.dumps(doc))
+    setup = build_area_search(path, AreaOptions(), SearchOptions(strategy="exhaustive"))
+    a, b = setup.source.segments
+    source = dataclasses.replace(setup.source, segments=(a, dataclasses.replace(b, name="A")))
+    segments = area_segments(setup.area, source)
+    assert [s.name for s in segments] == ["A", "A", REST]
+    free = setup.area.free
+    theory = theory_of_looks(free.astype(float), free, 0.8, np.zeros(free.shape), segments, np.zeros(free.shape))
+    features = segments_geojson(setup.area, segments, theory, "area", source)["features"]
+    assert shape(features[0]["geometry"]).equals(a.geometry) and shape(features[1]["geometry"]).equals(b.geometry)
+    assert features[2]["geometry"] is None
