@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
+from shapely.errors import ShapelyError
 from shapely.geometry import box, mapping, shape
 from shapely.geometry.base import BaseGeometry
 
@@ -75,15 +76,15 @@ def plan_folder_segments(plan: FleetPlan, searchable: np.ndarray) -> list[Segmen
     if theory.get("segments_from") != FROM_AREA_FILE:
         return block_segments(searchable)
     path = Path(plan.folder) / SEGMENTS_FILE
+    to_local = plan.frame.lonlat2local_coords
     try:
         features = json.loads(path.read_text(encoding="utf-8"))["features"]
-        polygons = [(str(f["properties"]["segment"]), shape(f["geometry"])) for f in features
-                    if f.get("geometry") is not None]
-    except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        polygons = [(str(f["properties"]["segment"]), shapely.transform(shape(f["geometry"]), to_local))
+                    for f in features if f.get("geometry") is not None]
+        segments = drawn_segments(polygons, plan.grid, searchable)
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, ShapelyError) as exc:
+        # an edited file: a geometry type shapely does not know (GeometryTypeError), one GEOS cannot use, ...
         raise ValueError(f"{SEGMENTS_FILE} is not readable ({type(exc).__name__}: {exc})") from None
-    to_local = plan.frame.lonlat2local_coords
-    segments = drawn_segments([(name, shapely.transform(p, to_local)) for name, p in polygons], plan.grid,
-                              searchable)
     planned = [(s.get("name"), s.get("cells")) for s in theory.get("segments", [])]
     if [(s.name, int(s.cells.sum())) for s in segments] != planned:
         raise ValueError(f"{SEGMENTS_FILE} no longer gives plan.json's segments (changed since the plan?)")

@@ -113,6 +113,25 @@ def test_a_changed_segments_file_falls_back_to_the_grids_blocks_and_says_why(flo
     assert "segments.geojson is not readable" in (SortieLog(load_plan_dir(folder)).segments_note or "")
 
 
+@pytest.mark.parametrize("geometry", [{"type": "Circle", "coordinates": [8.0, 47.0], "radius": 50},
+                                      {"type": "Polygon", "coordinates": [[[8.0, 47.0], [8.001, 47.0]]]}],
+                         ids=["unknown type", "two-point ring"])
+def test_a_segments_file_with_a_geometry_shapely_refuses_falls_back_to_the_grids_blocks(flown, tmp_path, geometry):
+    """An edited segments.geojson whose geometry shapely cannot build (GeometryTypeError, not a
+    ValueError): the flight reports the grid's blocks and says why, it does not stop."""
+    import shutil
+
+    folder = tmp_path / "square"
+    shutil.copytree(flown.folder, folder)
+    geo = _json(folder / SEGMENTS_FILE)
+    geo["features"][0]["geometry"] = geometry
+    (folder / SEGMENTS_FILE).write_text(json.dumps(geo))
+    log = SortieLog(load_plan_dir(folder))
+    assert log.segments_from == FROM_GRID
+    assert [s.name for s in log.segments] == [b.name for b in block_segments(~log.plan.no_fly)]
+    assert "segments.geojson is not readable" in (log.segments_note or "")
+
+
 def test_the_segments_are_laid_on_the_plans_grid_as_the_plan_laid_them(flown):
     log = SortieLog(load_plan_dir(flown.folder))
     assert log.segments_note is None and log.segments_from == FROM_AREA_FILE
