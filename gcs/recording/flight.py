@@ -32,6 +32,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
+import sys
 import time
 import uuid
 import warnings
@@ -175,7 +176,9 @@ class FlightRecorder:
     async def attach(self, controller: FlightController) -> AsyncIterator[FlightRecorder]:
         """Log `controller`'s events as they happen and sample its telemetry in a background task
         while the block runs; the last state, an
-        interruption event when the block raised, and every buffered row on the way out."""
+        interruption event when the block raised, and every buffered row on the way out (even when
+        the segments' figures fail: then an event and a warning on stderr say so, and the block's
+        own exception, if any, is the one raised)."""
         self.t0 = controller.t0
         self._controller = controller
         self.open()
@@ -194,10 +197,17 @@ class FlightRecorder:
                     self._event(time.monotonic(), None, f"flight interrupted ({what})", "ERROR")
                     raise
         finally:
-            if controller.interrupted:
-                self._event(time.monotonic(), None, "interrupted by the operator: RTL commanded", "WARN")
-            self._log_segment_figures(time.monotonic())
-            self.close()
+            try:
+                if controller.interrupted:
+                    self._event(time.monotonic(), None, "interrupted by the operator: RTL commanded", "WARN")
+                self._log_segment_figures(time.monotonic())
+            except Exception as exc:  # the figures must not hide the flight's end nor lose its rows
+                self._event(time.monotonic(), None, f"the segments' figures are not recorded "
+                                                    f"({type(exc).__name__}: {exc})", "WARN")
+                print(f"warning: Rerun: the segments' figures are not recorded ({type(exc).__name__}: {exc}); "
+                      f"the rest of the flight is", file=sys.stderr, flush=True)
+            finally:
+                self.close()
 
     # -- what is logged -----------------------------------------------------------------------
 

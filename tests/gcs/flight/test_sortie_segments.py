@@ -165,3 +165,35 @@ def test_the_flight_recording_holds_the_segments_and_the_flights_figures(flown):
     assert names == [[f["name"] for f in figures]] and times[0] > 0
     for field in ("cells", "poa", "pod", "pos", "cumulative_pod", "poa_after"):
         assert rec.column("segments", field)[1][0] == pytest.approx([f[field] for f in figures], abs=1e-6), field
+
+
+def test_segment_figures_that_fail_lose_no_row_and_hide_not_the_flights_own_error(flown, tmp_path, capsys):
+    """The recorder's way out: the figures raise, yet every buffered row is written (close runs),
+    an event and a warning say so, and the error that ended the flight is the one raised."""
+    import asyncio
+    import time
+
+    from gcs.recording.flight import FLIGHT_TIME, FlightRecorder
+    from gcs.recording.plan import read_recording
+
+    plan = load_plan_dir(flown.folder)
+    recorder = FlightRecorder(tmp_path / "flight.rrd", None, plan, flush_interval_s=3600)
+    recorder.sortie = log = SortieLog(plan)
+    controller = SimpleNamespace(t0=time.monotonic(), status={}, interrupted=False,
+                                 subscribe=lambda listener: lambda: None)
+
+    def figures_fail():
+        raise KeyError("no figures")
+
+    async def fly():
+        async with recorder.attach(controller):  # type: ignore[arg-type]
+            log.search_theory = figures_fail  # the outlines were drawn at the start; the figures fail
+            raise RuntimeError("the flight's own")
+
+    with pytest.raises(RuntimeError, match="the flight's own"):
+        asyncio.run(fly())
+    _, texts = read_recording(tmp_path / "flight.rrd", FLIGHT_TIME).column("events", "TextLog:text")
+    lines = [t for row in texts for t in row]
+    assert "flight interrupted (RuntimeError: the flight's own)" in lines
+    assert "the segments' figures are not recorded (KeyError: 'no figures')" in lines
+    assert "warning: Rerun: the segments' figures are not recorded (KeyError: 'no figures')" in capsys.readouterr().err
