@@ -397,7 +397,9 @@ def parse_area(data, name: str = "area", source: str = "area file", places: Sequ
     ipp_where: list[str] = []
     cell_size = None
     collection_props = data.get("properties")
-    if isinstance(collection_props, dict) and collection_props.get("cell_size_m") is not None:
+    if collection_props is not None and not isinstance(collection_props, dict):
+        raise UserError(f"{source}: the FeatureCollection's properties must be an object, got {collection_props!r}")
+    if collection_props is not None and collection_props.get("cell_size_m") is not None:
         cell_size = _number(collection_props["cell_size_m"], f"{source}: properties.cell_size_m", positive=True)
     for i, feature in enumerate(features):
         if not isinstance(feature, dict) or feature.get("type") != "Feature":

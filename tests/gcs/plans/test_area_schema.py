@@ -111,6 +111,10 @@ BAD = {
     "a feature without kind": _with(_feature("feature", _point(7.999, 47.0))),
     "a zero cell size": _with(properties={"cell_size_m": 0}),
     "a heading that is true": _bad_airport(heading=True),
+    "no area": {**BASE, "features": BASE["features"][1:]},
+    "no airport": {**BASE, "features": BASE["features"][:1]},
+    "collection properties that are text": _with(properties="x"),
+    "collection properties that are a list": _with(properties=[]),
 }
 
 

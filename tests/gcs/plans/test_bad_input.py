@@ -30,6 +30,12 @@ def test_not_geojson(run_gcs):
     _fails(run_gcs, json.dumps([1, 2, 3]), "not a GeoJSON FeatureCollection")
 
 
+@pytest.mark.parametrize("properties", ["x", [], 30])
+def test_collection_properties_that_are_not_an_object(run_gcs, area_doc, properties):
+    area_doc["properties"] = properties
+    _fails(run_gcs, area_doc, f"the FeatureCollection's properties must be an object, got {properties!r}")
+
+
 def test_no_area(run_gcs, area_doc):
     area_doc["features"] = [f for f in area_doc["features"] if f["properties"]["role"] != "area"]
     _fails(run_gcs, area_doc, "no feature with role 'area'")
