@@ -124,9 +124,13 @@ class FleetPlan:
 
     @property
     def pc(self) -> float:
-        """The Pc per look the plan was made with: its camera's (`planner.camera`, at the lowest
-        altitude it flies, as `gcs plan` derived it) when its campaign options name one, else its
-        `pc` (0.9 for a plan that records none)."""
+        """The Pc per look the plan was made with: plan.json's `search_theory.pc`, the one its
+        figures were reckoned with; for a plan older than that record, its camera's (`planner.camera`,
+        at the lowest altitude it flies, as `gcs plan` derived it) when its campaign options name
+        one, else its `pc` (0.9 for a plan that records none)."""
+        recorded = (self.raw.get("search_theory") or {}).get("pc")
+        if recorded is not None:
+            return float(recorded)
         options = (self.raw.get("campaign") or {}).get("options") or {}
         fov = options.get("camera_fov_deg")
         if fov is None:

@@ -34,6 +34,22 @@ def test_the_plan_knows_its_cameras_pc(camera_plan):
     assert plan.pf == 0.05
 
 
+def test_the_plans_pc_is_the_one_its_figures_were_made_with_else_its_cameras(camera_plan):
+    """plan.json's search_theory.pc is read as written (not derived again from the options, which
+    a later change of the camera model would move); a plan older than it falls back to the camera."""
+    import copy
+    import dataclasses
+
+    plan = load_plan_dir(camera_plan)
+    raw = copy.deepcopy(plan.raw)
+    raw["search_theory"]["pc"] = 0.42
+    assert dataclasses.replace(plan, raw=raw).pc == 0.42
+    del raw["search_theory"]
+    assert dataclasses.replace(plan, raw=raw).pc == pytest.approx(camera_sensor(Camera(45.0), 50.0, 30.0).pc)
+    del raw["campaign"]["options"]["camera_fov_deg"]
+    assert dataclasses.replace(plan, raw=raw).pc == raw["campaign"]["options"]["pc"]
+
+
 def test_the_simulated_fleet_reads_at_the_plans_pc_unless_told(camera_plan):
     plan = load_plan_dir(camera_plan)
     sensor = fleet_for_plan(plan, speedup=1.0).config.sensor  # not started: only its configuration is read
