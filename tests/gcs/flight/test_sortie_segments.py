@@ -57,15 +57,27 @@ def segments_area(folder: Path) -> Path:
 @pytest.fixture(scope="module")
 def flown(tmp_path_factory):
     """The square planned with a camera by `gcs plan --area` (no bound: it costs 5 s) and flown by
-    `gcs fly --plan ... --sim` (recorded to flight.rrd); what the flight printed."""
+    `gcs fly --plan ... --sim` (recorded to flight.rrd); what the flight printed, and the sensor
+    the simulated fleet gcs fly started was configured with."""
+    from gcs.cli import sim_options
+    from gcs.cli.commands import fly
+
     base = tmp_path_factory.mktemp("sortie-segments")
     out = base / "square"
     assert main(["plan", "--area", str(segments_area(base)), "--out", str(out), "--strategy", "exhaustive",
                  "--no-improve", "--bound-time", "0", "--no-rrd", "--quiet", "--camera-fov", "45"]) == 0
+    fleets = []
+
+    def kept_fleet(plan, **settings):
+        fleets.append(sim_options.simulated_fleet(plan, **settings))
+        return fleets[-1]
+
     printed = io.StringIO()
-    with contextlib.redirect_stdout(printed):
+    with contextlib.redirect_stdout(printed), pytest.MonkeyPatch.context() as patch:
+        patch.setattr(fly, "simulated_fleet", kept_fleet)
         assert main(["fly", "--plan", str(out), "--sim", "--speedup", "60", "--link-timeout", "2"]) == 0
-    return SimpleNamespace(folder=out, printed=printed.getvalue())
+    (fleet,) = fleets
+    return SimpleNamespace(folder=out, printed=printed.getvalue(), sensor=fleet.config.sensor)
 
 
 def _json(path: Path) -> dict:
@@ -142,10 +154,16 @@ def test_the_segments_are_laid_on_the_plans_grid_as_the_plan_laid_them(flown):
 
 
 def test_the_simulated_vehicle_read_at_the_cameras_pc(flown):
-    plan, record = load_plan_dir(flown.folder), _json(flown.folder / "sortie.json")
-    assert abs(plan.pc - 0.9) > 0.05  # the camera's, not --pc's default
-    assert f"simulated fleet: 1 vehicles (ardupilot), speedup 60, sensor Pc {plan.pc:.3g} Pf 0.1" in flown.printed
-    assert record["sensor"]["pc"] == plan.pc == pytest.approx(record["search_theory"]["pc"])
+    """The fleet gcs fly --sim started reads at the Pc of a 45 degree camera at 50 m over 30 m
+    cells (worked out here, not taken from the plan), as the sortie record counts its readings."""
+    from planner.camera import Camera, camera_sensor
+
+    camera_pc = camera_sensor(Camera(45.0), 50.0, 30.0).pc
+    assert abs(camera_pc - 0.9) > 0.05  # the camera's, not --pc's default
+    assert (flown.sensor.pc, flown.sensor.pf) == (pytest.approx(camera_pc), 0.1)
+    assert f"simulated fleet: 1 vehicles (ardupilot), speedup 60, sensor Pc {camera_pc:.3g} Pf 0.1" in flown.printed
+    record = _json(flown.folder / "sortie.json")
+    assert record["sensor"]["pc"] == pytest.approx(camera_pc) == record["search_theory"]["pc"]
 
 
 def test_the_flight_recording_holds_the_segments_and_the_flights_figures(flown):

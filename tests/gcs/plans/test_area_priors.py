@@ -182,12 +182,25 @@ def test_every_row_of_the_lost_person_table_is_an_ipp_an_area_file_can_give(tmp_
     assert prior.inside == pytest.approx(float(mass[area.free].sum()))  # this row's distances on the square
 
 
-def test_gcs_plan_plans_a_lost_person_of_a_category_other_than_a_hiker(run_gcs, area_doc, shapes):
+def test_gcs_plan_plans_a_lost_person_of_a_category_other_than_a_hiker(run_gcs, area_doc, shapes, tmp_path):
+    """The plan's POAs are the child 4-6 row's distance mass: per block of the grid, and inside the area."""
+    from planner.search_theory import block_segments
+
     code, err, out = run_gcs(_lost_person(area_doc, shapes, subject="Child 4-6", terrain="mountainous"),
                              "--strategy", "lawnmower", "--no-improve", "--bound-time", "0", "--no-rrd")
     assert code == 0, err
     plan = json.loads((out / "plan.json").read_text())
-    assert plan["uavs"] and plan["search_theory"]
+    assert plan["uavs"]
+    theory = plan["search_theory"]
+    setup = build_area_search(tmp_path / "area.geojson", AreaOptions(), SearchOptions(strategy="lawnmower"))
+    area, (ipp,) = setup.area, setup.source.ipps
+    mass = distance_mass(area.grid, area.point_m(ipp.lon_deg, ipp.lat_deg),
+                         fit_quartiles(DISTANCE_KM[("child 4-6", "mountainous", "temperate")]))
+    assert theory["inside_area"] == pytest.approx(float(mass[area.free].sum()))
+    blocks = block_segments(area.free)
+    assert [s["name"] for s in theory["segments"]] == [b.name for b in blocks]
+    assert [s["poa"] for s in theory["segments"]] == pytest.approx([float(mass[b.cells].sum()) for b in blocks],
+                                                                   abs=2e-6)
 
 
 @pytest.mark.parametrize("change, match", [
