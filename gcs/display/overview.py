@@ -30,6 +30,7 @@ import numpy as np
 
 from gcs.atomic import staged_outputs
 from gcs.colours import uav_colour
+from gcs.display.bound_text import MOST, bound_terms
 
 if TYPE_CHECKING:
     from planner.plan import Plan, UavPlan
@@ -141,13 +142,11 @@ def bound_caption(expected: float | None, bound: dict | None) -> str | None:
         return None
     if bound is None:
         return f"E = {expected:.2f} expected finds; no bound asked for (--bound-time 0)"
-    if "share_of_max" not in bound:
-        return (f"E = {expected:.2f} expected finds; no bound: not had within --bound-time {bound['time_limit_s']:g} s "
-                f"({bound['model']} model)")
-    model = bound["model"] + (f" {bound['block']}x{bound['block']}" if bound["block"] > 1 else "")
-    return (f"E = {expected:.2f} of a bound {bound['expected_targets_found_max']:.2f} ({bound['share_of_max']:.1%}): "
-            f"the most any plan of these airports and ranges could expect (PoS <= "
-            f"{bound['probability_of_success_max']:.1%}; the LP over {model})")
+    terms = bound_terms(bound)
+    if terms.missing is not None:
+        return f"E = {expected:.2f} expected finds; no bound: {terms.missing}"
+    return (f"E = {expected:.2f} of a bound {terms.expected_max} ({terms.share}): {MOST} (PoS <= {terms.pos_max}; "
+            f"{terms.lp})")
 
 
 def uav_label(plan: Plan, u: UavPlan) -> str:

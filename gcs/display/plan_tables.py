@@ -7,6 +7,7 @@ import json
 from typing import TYPE_CHECKING
 
 from gcs.autopilots.capacity import fleet_mission_capacity
+from gcs.display.bound_text import MOST, bound_terms
 from gcs.missions.fence_fit import describe_fit
 from gcs.missions.items import AltitudeReference, Vehicle
 
@@ -22,13 +23,10 @@ def bound_line(bound: dict | None) -> str | None:
     line; None when no bound was asked for."""
     if bound is None:
         return None
-    if "share_of_max" not in bound:
-        return (f"bound: not had within --bound-time {bound['time_limit_s']:g} s ({bound['model']} model); a longer "
-                "--bound-time may have it")
-    model = bound["model"] + (f" {bound['block']}x{bound['block']}" if bound["block"] > 1 else "")
-    return (f"bound: at least {bound['share_of_max']:.1%} of the most any plan of these airports and ranges could "
-            f"expect (E <= {bound['expected_targets_found_max']:.2f}, PoS <= {bound['probability_of_success_max']:.1%};"
-            f" the LP over {model})")
+    terms = bound_terms(bound)
+    if terms.missing is not None:
+        return f"bound: {terms.missing}; a longer --bound-time may have it"
+    return f"bound: at least {terms.share} of {MOST} (E <= {terms.expected_max}, PoS <= {terms.pos_max}; {terms.lp})"
 
 
 def summary_table(plan: Plan, bound: dict | None = None) -> str:

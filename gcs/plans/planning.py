@@ -32,7 +32,7 @@ from gcs.plans.area_file import AreaFile, read_area_file
 from gcs.plans.area_prior import area_mass_prior
 from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, SearchOptions
 from gcs.plans.plan_file import plan_to_dict
-from gcs.plans.segments import area_segments, plan_theory, segments_for_teams, segments_from, segments_geojson
+from gcs.plans.segments import plan_segment_figures, segments_for_teams, segments_from, segments_geojson
 from gcs.plans.vehicle_file import VehicleRecord, load_vehicles, profile_for_uav, stock_profile
 from planner.area_grid import (
     AREA_MOVE_COSTS,
@@ -385,8 +385,7 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
                             for uid, why in setup.grounded.items()]
     if campaign is not None:
         data["campaign"] = campaign
-    segments = area_segments(area, source)
-    theory = plan_theory(setup, plan, segments)
+    segments, theory = plan_segment_figures(setup, plan)
     data["search_theory"] = theory.as_dict() | {"segments_from": segments_from(source)}
     files = {"plan.json": json.dumps(data, indent=1) + "\n"}
     for m in missions:

@@ -131,6 +131,22 @@ def test_the_caption_says_the_bound_or_why_there_is_none():
     assert bound_caption(None, had) is None
 
 
+def test_the_summarys_bound_line_says_the_captions_bound():
+    """`gcs.display.plan_tables.bound_line`, the summary's line, of the same summary.bound: one
+    formatter of its figures (`gcs.display.bound_text`) for both."""
+    from gcs.display.plan_tables import bound_line
+
+    had = {"time_limit_s": 5.0, "finished": True, "model": "blocks", "block": 17, "expected_targets_found_max": 396.36,
+           "probability_of_success_max": 0.328133, "share_of_max": 0.772583}
+    assert bound_line(had) == ("bound: at least 77.3% of the most any plan of these airports and ranges could expect "
+                               "(E <= 396.36, PoS <= 32.8%; the LP over blocks 17x17)")
+    assert bound_line({**had, "model": "headings", "block": 1}).endswith("; the LP over headings)")
+    late = {"time_limit_s": 0.5, "finished": False, "model": "cells", "block": 1}
+    assert bound_line(late) == ("bound: not had within --bound-time 0.5 s (cells model); a longer --bound-time may "
+                                "have it")
+    assert bound_line(None) is None
+
+
 def test_gcs_plan_draws_the_bound_plan_json_holds(tmp_path: Path):
     """The picture `gcs plan --area` writes states the bound its plan.json holds (the caption
     drawn once the bound is had, in the pictures helper): the PNG is the one drawn with
