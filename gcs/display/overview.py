@@ -6,14 +6,15 @@ Matplotlib with the Agg backend; the file is written atomically.
 
 The picture is drawn in three parts, so that most of it can be drawn before the plan is known
 and all but one line before its bound is: the map (`MapLayers`: prior, no-fly zones, regions,
-cells earlier sorties searched, axes and colour bar), the plan over it (`PlanLayers`: paths,
-airports, targets, title and legend), both plain arrays and text, and the caption, one line of
-text. `OverviewPicture` draws the map when it is made and keeps its pixels; `render` puts them
-back and draws the plan on top; `finish` draws the caption last and makes the PNG. The PNG is
-the one drawing everything at once gives, byte for byte: inside the axes the plan's artists lie
-above the map's (the axes' frame, above the paths, is drawn with the plan), the ticks, labels
-and colour bar drawn with the map lie outside the axes, which clip the paths, and the caption
-lies below them all. `gcs.plans.make` has its pictures helper draw the map while the search
+cells earlier sorties searched, the search team's segments outlined, axes and colour bar), the
+plan over it (`PlanLayers`: paths, airports, targets, title, legend and the segments' labels
+with the plan's figures, plan.json's `search_theory`), both plain arrays and text, and the
+caption, one line of text. `OverviewPicture` draws the map when it is made and keeps its
+pixels; `render` puts them back and draws the plan on top; `finish` draws the caption last and
+makes the PNG. The PNG is the one drawing everything at once gives, byte for byte: inside the
+axes the plan's artists lie above the map's (the axes' frame, above the paths, is drawn with
+the plan), the ticks, labels and colour bar drawn with the map lie outside the axes, which clip
+the paths, and the caption lies below them all. `gcs.plans.make` has its pictures helper draw the map while the search
 runs and the plan while the bound is solved. Neither matplotlib nor the planner is imported
 before a picture is drawn, so that helper loads neither numba nor the planner."""
 
@@ -22,9 +23,10 @@ from __future__ import annotations
 import io
 import math
 import textwrap
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -35,6 +37,7 @@ from gcs.display.bound_text import MOST, bound_terms
 if TYPE_CHECKING:
     from planner.plan import Plan, UavPlan
     from planner.scenario import Scenario
+    from planner.search_theory import SearchTheory, Segment, SegmentFigures
 
 WIDTH_PX = 1400
 HEIGHT_PX = 1000
@@ -74,6 +77,14 @@ def mask_outline(mask: np.ndarray) -> np.ndarray:
             start, end = np.stack([xs + offset, top], -1), np.stack([xs + offset, top + 1], -1)
         segments.append(np.stack([start, end], axis=1))
     return np.concatenate(segments).astype(np.float64)
+
+
+def label_cell(mask: np.ndarray) -> tuple[int, int]:
+    """The [x, y] mask's cell nearest its cells' centroid (0-based): where a segment's label
+    sits, inside it."""
+    cells = np.argwhere(mask)
+    nearest = int(np.argmin(((cells - cells.mean(axis=0)) ** 2).sum(axis=1)))
+    return int(cells[nearest, 0]), int(cells[nearest, 1])
 
 
 def searched_before(scenario: Scenario) -> np.ndarray | None:
@@ -192,13 +203,27 @@ def warm_up() -> None:
     import matplotlib.patches
 
 
+class SegmentPlace(NamedTuple):
+    """Where a segment's label goes, in 1-based cells: hanging from (x, y), its north-west
+    corner (a block of the grid), or `centred` on (x, y), a cell inside it (an area file's
+    segment)."""
+
+    name: str
+    x: float
+    y: float
+    centred: bool = False
+
+
 @dataclass(frozen=True)
 class MapLayers:
     """What the picture shows of a scenario, in plain arrays: the prior (a later sortie's belief
     before it) TEP and no-fly cells, the known and key regions, the cells earlier sorties
     searched (None for a first sortie) and the colour bar's label; over a real area its cell
-    side `cell_m` (the axes then in metres from the grid's south-west corner) and its segments
-    (`blocks`: name, x0, y0, x1, y1 in 0-based cells, ends exclusive)."""
+    side `cell_m` (the axes then in metres from the grid's south-west corner) and the segments
+    plan.json reports over: blocks of the grid (`blocks`: name, x0, y0, x1, y1 in 0-based
+    cells, ends exclusive) or the area file's (`outlines`: their cells' edges, each once, as
+    `mask_outline` gives them), and where each segment's label goes (`places`, in plan.json's
+    order; None for a segment without a cell)."""
 
     tep: np.ndarray
     no_fly: np.ndarray
@@ -207,18 +232,38 @@ class MapLayers:
     tep_label: str
     cell_m: float | None = None
     blocks: tuple[tuple[str, int, int, int, int], ...] = ()
+    outlines: np.ndarray | None = None
+    places: tuple[SegmentPlace | None, ...] = ()
 
 
-def map_layers(scenario: Scenario) -> MapLayers:
+def map_layers(scenario: Scenario, segments: Sequence[Segment] = ()) -> MapLayers:
+    """The map of `scenario` with `segments` (`gcs.plans.segments.area_segments`: the area
+    file's, else blocks of the grid; none for a built-in scenario) outlined."""
     m = scenario.search_map
-    blocks: tuple[tuple[str, int, int, int, int], ...] = ()
-    if scenario.unit_m is not None:
-        from planner.search_theory import block_segments
-
-        blocks = tuple((b.name, *b.block) for b in block_segments(~np.asarray(m.no_fly)) if b.block is not None)
+    blocks = tuple((s.name, *s.block) for s in segments if s.block is not None)
+    drawn = [s.cells for s in segments if s.block is None]
     return MapLayers(np.asarray(m.tep), np.asarray(m.no_fly), region_masks(scenario), searched_before(scenario),
                      "prior TEP" if scenario.looks_before is None else "belief TEP before this sortie",
-                     cell_side_m(scenario), blocks)
+                     cell_side_m(scenario), blocks, segment_edges(drawn) if drawn else None,
+                     tuple(segment_place(s) for s in segments))
+
+
+def segment_edges(masks: Sequence[np.ndarray]) -> np.ndarray:
+    """The outlines of [x, y] cell masks (`mask_outline`), an edge two of them share once."""
+    edges = np.concatenate([mask_outline(mask) for mask in masks])
+    return np.unique(edges.reshape(-1, 4), axis=0).reshape(-1, 2, 2)
+
+
+def segment_place(segment: Segment) -> SegmentPlace | None:
+    """Where `segment`'s label goes: a block's north-west corner, else centred on `label_cell`
+    of its cells; None when it holds no cell."""
+    if segment.block is not None:
+        x0, _, _, y1 = segment.block
+        return SegmentPlace(segment.name, x0 + 0.6, y1 + 0.4)
+    if not np.any(segment.cells):
+        return None
+    x, y = label_cell(segment.cells)
+    return SegmentPlace(segment.name, x + 1.0, y + 1.0, centred=True)
 
 
 def cell_side_m(scenario: Scenario) -> float | None:
@@ -234,26 +279,36 @@ def nice_length(limit: float) -> float:
     return max(f * k for f in (1, 2, 5) if f * k <= limit)
 
 
-def segment_labels(plan: Plan, scenario: Scenario, blocks: tuple[tuple[str, int, int, int, int], ...]
-                   ) -> tuple[tuple[float, float, str], ...]:
-    """Per segment its name, POA and the POD this plan gives it (`planner.search_theory`, the
-    POA as a share of what the prior puts in the area), at its north-west corner (1-based cells)."""
-    if not blocks:
-        return ()
-    from planner.campaign import look_counts
-    from planner.search_theory import Segment, search_theory
+class SegmentLabel(NamedTuple):
+    """A segment's label: its text at (x, y) (1-based cells), hanging from that point as its
+    north-west corner or `centred` on it (`SegmentPlace`)."""
 
-    free = ~np.asarray(scenario.search_map.no_fly)
-    segments = []
-    for name, x0, y0, x1, y1 in blocks:
-        mask = np.zeros(free.shape, dtype=bool)
-        mask[x0:x1, y0:y1] = free[x0:x1, y0:y1]
-        segments.append(Segment(name, mask, (x0, y0, x1, y1)))
-    theory = search_theory(scenario.success_prior, free, scenario.sensor.pc,
-                           look_counts(plan, scenario.sensor.footprint_radius), segments,
-                           looks_before=scenario.looks_before)
-    return tuple((b[1] + 0.6, b[4] + 0.4, f"{f.name} POA {f.poa:.0%}\nPOD {f.pod:.0%}")
-                 for b, f in zip(blocks, theory.segments))
+    x: float
+    y: float
+    text: str
+    centred: bool = False
+
+
+def segment_labels(places: Sequence[SegmentPlace | None], figures: Sequence[SegmentFigures]
+                   ) -> tuple[SegmentLabel, ...]:
+    """Per segment its name, POA and the POD the plan gives it, as `figures` has them
+    (plan.json's `search_theory.segments`, `gcs.plans.segments.plan_theory`: POAs counting the
+    rest of the world), at its place (`map_layers`; a segment without a place has no label).
+    A block's two lines: "A1 POA 12%", "POD 30%"; an area file's segment's: "North-west",
+    "POA 21.4%, POD 7.9%". ValueError when the places and the figures are not of the same
+    segments, in order."""
+    if len(places) != len(figures):
+        raise ValueError(f"{len(places)} segments' places for {len(figures)} segments' figures")
+    labels = []
+    for place, f in zip(places, figures):
+        if place is None:
+            continue
+        if place.name != f.name:
+            raise ValueError(f"segment {place.name!r}'s place paired with {f.name!r}'s figures")
+        text = (f"{f.name}\nPOA {f.poa:.1%}, POD {f.pod:.1%}" if place.centred
+                else f"{f.name} POA {f.poa:.0%}\nPOD {f.pod:.0%}")
+        labels.append(SegmentLabel(place.x, place.y, text, place.centred))
+    return tuple(labels)
 
 
 @dataclass(frozen=True)
@@ -271,16 +326,21 @@ class UavLayer:
 @dataclass(frozen=True)
 class PlanLayers:
     """What the picture shows of a plan over its map, in plain arrays and text: every UAV,
-    targets found and missed (1-based cells) and the title."""
+    targets found and missed (1-based cells), the title, the segments' labels and the rest of
+    the world's POA (`segment_labels`)."""
 
     uavs: tuple[UavLayer, ...]
     found: np.ndarray
     missed: np.ndarray
     title: str
-    segments: tuple[tuple[float, float, str], ...] = ()
+    segments: tuple[SegmentLabel, ...] = ()
+    rest_poa: float = 0.0
 
 
-def plan_layers(plan: Plan, scenario: Scenario) -> PlanLayers:
+def plan_layers(plan: Plan, scenario: Scenario, places: Sequence[SegmentPlace | None] = (),
+                theory: SearchTheory | None = None) -> PlanLayers:
+    """The plan over its map; with `theory`, the plan's figures over the segments of the map's
+    `places` (`MapLayers.places`), their labels."""
     uavs = tuple(UavLayer(*_legs(u.trajectory), (int(u.airport[0]), int(u.airport[1])), u.uav_id, uav_label(plan, u))
                  for u in plan.uavs)
     found = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is not None], dtype=float).reshape(-1, 2)
@@ -288,8 +348,9 @@ def plan_layers(plan: Plan, scenario: Scenario) -> PlanLayers:
     campaign = campaign_outcome(plan, scenario)
     lines = [f"{plan.scenario}: {title_outcome(plan)}", *([campaign] if campaign else []), settings_text(plan.settings)]
     title = "\n".join(textwrap.fill(line, TITLE_CHARS, subsequent_indent="  ") for line in lines)
-    blocks = map_layers(scenario).blocks if scenario.unit_m is not None else ()
-    return PlanLayers(uavs, found, missed, title, segment_labels(plan, scenario, blocks))
+    if theory is None:
+        return PlanLayers(uavs, found, missed, title)
+    return PlanLayers(uavs, found, missed, title, segment_labels(places, theory.segments), theory.rest_poa)
 
 
 CAPTION_SIZE = 11
@@ -338,6 +399,12 @@ class OverviewPicture:
                       (x0 + 0.5, y0 + 0.5)) for _, x0, y0, x1, y1 in layers.blocks]
             self._map.append(ax.add_collection(LineCollection(edges, colors=SEGMENT_COLOUR, linewidths=0.9,
                                                               linestyles=(0, (4, 3)), alpha=0.7, zorder=1.8)))
+        if layers.outlines is not None and len(layers.outlines):
+            edges = layers.outlines.copy()
+            edges[..., 0] += 0.5
+            edges[..., 1] = ny + 0.5 - edges[..., 1]
+            self._map.append(ax.add_collection(LineCollection(edges, colors=SEGMENT_COLOUR, linewidths=1.6,
+                                                              alpha=0.85, zorder=1.8)))
         ax.set_xlim(extent[0] - 1, extent[1] + 1)
         ax.set_ylim(extent[2] - 1, extent[3] + 1)
         ax.set_aspect("equal")
@@ -402,9 +469,14 @@ class OverviewPicture:
         ax.plot(found[:, 0], found[:, 1], "*", ms=17, color="gold", mec="black", mew=1.0, zorder=7, ls="none")
         ax.plot(missed[:, 0], missed[:, 1], "X", ms=11, color="crimson", mec="black", mew=0.8, zorder=7, ls="none")
         ax.set_title(plan.title, fontsize=11, loc="left")
-        for x, y, text in plan.segments:
-            ax.text(x, y, text, fontsize=7.5, color=SEGMENT_COLOUR, va="top", ha="left", zorder=4,
-                    bbox={"boxstyle": "round,pad=0.12", "fc": "white", "ec": "none", "alpha": 0.6})
+        for x, y, text, centred in plan.segments:
+            if centred:  # an area file's segment: on a cell inside it
+                ax.text(x, y, text, fontsize=9, color=SEGMENT_COLOUR, va="center", ha="center", zorder=4,
+                        multialignment="center",
+                        bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "none", "alpha": 0.75})
+            else:  # a block: from its north-west corner
+                ax.text(x, y, text, fontsize=7.5, color=SEGMENT_COLOUR, va="top", ha="left", zorder=4,
+                        bbox={"boxstyle": "round,pad=0.12", "fc": "white", "ec": "none", "alpha": 0.6})
         if self.layers.cell_m is not None:
             self._scale_and_north(ax, self.layers.cell_m)
 
@@ -426,8 +498,12 @@ class OverviewPicture:
             handles.append(Patch(facecolor=(0.55, 0.55, 0.55, 0.35), edgecolor=(0.1, 0.1, 0.1, 0.7), hatch="///",
                                  lw=0, label=f"searched in earlier sorties ({int(self.layers.searched.sum())} cells)"))
         if plan.segments:
-            handles.append(Line2D([], [], color=SEGMENT_COLOUR, lw=0.9, ls=(0, (4, 3)),
-                                  label="segment: POA (share of the area's prior),\n    POD this sortie gives it"))
+            label = "segment: POA, POD this sortie gives it" + (
+                f"\n    (rest of the world: POA {plan.rest_poa:.1%})" if plan.rest_poa > 0 else "")
+            if self.layers.outlines is not None:
+                handles.append(Line2D([], [], color=SEGMENT_COLOUR, lw=1.6, alpha=0.85, label=label))
+            else:
+                handles.append(Line2D([], [], color=SEGMENT_COLOUR, lw=0.9, ls=(0, (4, 3)), label=label))
         legend = fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.71, 0.5), fontsize=10,
                             frameon=False, labelspacing=0.8)
         canvas = fig.canvas
@@ -486,10 +562,13 @@ class OverviewPicture:
         return path
 
 
-def draw_overview(plan: Plan, scenario: Scenario, path: str | Path, caption: str | None = None) -> Path:
+def draw_overview(plan: Plan, scenario: Scenario, path: str | Path, caption: str | None = None,
+                  segments: Sequence[Segment] = (), theory: SearchTheory | None = None) -> Path:
     """Write the overview PNG of `plan` (flown over `scenario`) to `path` (WIDTH_PX x HEIGHT_PX),
-    `caption` under it (`bound_caption`)."""
-    picture = OverviewPicture(map_layers(scenario))
-    picture.render(plan_layers(plan, scenario))
+    `caption` under it (`bound_caption`), `segments` outlined and, with `theory` (the plan's
+    figures over them: `gcs.plans.segments.plan_segment_figures`), labelled."""
+    layers = map_layers(scenario, segments)
+    picture = OverviewPicture(layers)
+    picture.render(plan_layers(plan, scenario, layers.places, theory))
     picture.finish(caption)
     return picture.save(path)

@@ -14,7 +14,6 @@ import json
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from functools import partial
 from pathlib import Path
 from typing import Protocol
 
@@ -26,13 +25,12 @@ from gcs.plans.gis_formats import area_sha256
 from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions, options_from_record, options_record
 from gcs.plans.plan_bound import bound_summary
 from gcs.plans.planning import AreaSetup, area_out_dir, area_outputs, build_area_search, write_outputs
-from gcs.plans.segments import plan_segment_figures
+from gcs.plans.segments import SortieSegments, sortie_segments
 from gcs.plans.vehicle_file import VEHICLES_FILE
 from planner.campaign import Belief, predicted_after
 from planner.dtscs import ClosedSearch
 from planner.plan import Plan
 from planner.scenario import Scenario
-from planner.search_theory import SearchTheory, Segment
 
 MAX_SORTIES = 100
 CAMPAIGN_FILE = "campaign.json"
@@ -44,7 +42,7 @@ class Planning(Protocol):
     output: OutputOptions
 
     def fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None = None,
-            segments: Callable[[Plan], tuple[list[Segment], SearchTheory]] | None = None) -> Plan: ...
+            segments: SortieSegments | None = None) -> Plan: ...
 
     def caption(self, plan: Plan, bound: dict | None) -> None: ...
 
@@ -247,7 +245,7 @@ def plan_sorties(area_file: str | Path, area: AreaOptions, search: SearchOptions
         rrd = _recording(planning.output, folder, sortie, count is not None)
         name = Path(area_file).stem + (f" sortie {sortie}" if sortie > 1 else "")
         plan = planning.fly(setup.search, rrd, name, setup.area.cells_lonlat,
-                            partial(plan_segment_figures, setup))  # the recording's segments and figures
+                            sortie_segments(setup))  # the picture's and the recording's segments and figures
         section = campaign_section(setup, start, plan, folder, search.seed, options, area_record)
         bound = bound_summary(plan, setup.search.scenario, setup.search.config.oc, planning.output.bound_time_s)
         planning.caption(plan, bound)  # the picture's last line, drawn while the files are made

@@ -33,11 +33,12 @@ from gcs.recording.background import BackgroundPlanRecorder
 
 if TYPE_CHECKING:
     from gcs.plans.campaign import CampaignResult
+    from gcs.plans.segments import SortieSegments
     from gcs.recording.plan import PlanRecorder
     from planner.dtscs import ClosedSearch, StepRecord
     from planner.plan import Plan
     from planner.scenario import Scenario
-    from planner.search_theory import SearchTheory, Segment
+    from planner.search_theory import SearchTheory
 
 DEFAULT_PLAN_FILE = "runs/plan.json"
 
@@ -105,19 +106,21 @@ class Planning:
             gc.enable()
 
     def fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None = None,
-            segments: Callable[[Plan], tuple[list[Segment], SearchTheory]] | None = None) -> Plan:
+            segments: SortieSegments | None = None) -> Plan:
         """Run the search with a progress bar, recording every step to Rerun unless disabled: by
-        the recordings helper when it records to a file only, here when it also streams to a viewer;
-        a recording ends with `segments(plan)`, the search team's segments and the plan's figures
-        (`gcs.plans.segments.plan_segment_figures`). The pictures helper draws the map meanwhile,
-        and the plan over it once it is made."""
+        the recordings helper when it records to a file only, here when it also streams to a viewer.
+        The pictures helper draws the map meanwhile, `segments` (the search team's: the area
+        file's, else the grid's blocks) outlined on it, and the plan over it once it is made, the
+        segments labelled with the plan's figures (`segments.figures`, plan.json's
+        `search_theory`), which a recording ends with."""
         from gcs.display.overview import OverviewPicture, map_layers, plan_layers
 
         scenario = search.scenario
-        picture = self._pictures.create(OverviewPicture, map_layers(scenario))
+        layers = map_layers(scenario, segments.segments if segments is not None else ())
+        picture = self._pictures.create(OverviewPicture, layers)
         self._resume_collection()
-        plan = self._fly(search, rrd, name, cells_to_lat_lon, segments)
-        picture.call("render", plan_layers(plan, scenario))
+        plan, theory = self._fly(search, rrd, name, cells_to_lat_lon, segments)
+        picture.call("render", plan_layers(plan, scenario, layers.places, theory))
         self._rendered[id(plan)] = (plan, scenario, picture)
         return plan
 
@@ -134,10 +137,12 @@ class Planning:
             rendered[2].call("finish", text)
 
     def _fly(self, search: ClosedSearch, rrd: Path | None, name: str, cells_to_lat_lon: Callable | None,
-             segments: Callable[[Plan], tuple[list[Segment], SearchTheory]] | None = None) -> Plan:
+             segments: SortieSegments | None = None) -> tuple[Plan, SearchTheory | None]:
+        """The plan and its figures over `segments` (None without segments)."""
         output = self.output
         if rrd is None and output.rerun_connect is None:
-            return fly_with_progress(search, output.progress)
+            plan = fly_with_progress(search, output.progress)
+            return plan, None if segments is None else segments.figures(plan)
         recorder: PlanRecorder | BackgroundPlanRecorder
         if self._recordings is not None and output.rerun_connect is None:
             recorder = BackgroundPlanRecorder(self._recordings, rrd, search.scenario, cells_to_lat_lon=cells_to_lat_lon,
@@ -147,17 +152,19 @@ class Planning:
 
             recorder = PlanRecorder(rrd, output.rerun_connect, search.scenario, cells_to_lat_lon=cells_to_lat_lon,
                                     name=name)
+        theory = None
         with recorder as rec:
             plan = fly_with_progress(search, output.progress, rec.log_step)
             rec.log_plan(plan)
             if segments is not None:
-                rec.log_segments(*segments(plan))
-        return plan
+                theory = segments.figures(plan)
+                rec.log_segments(segments.segments, theory)
+        return plan, theory
 
     def draw(self, jobs: list[tuple[Plan, Scenario, Path]]) -> list[Path]:
         """Save the picture of each (plan, scenario, path) (drawn in the pictures helper: by `fly`
-        and `caption`, or now; without a caption when `caption` was not called), wait for them and
-        the recordings; the pictures' paths."""
+        and `caption`, or now, without segments; without a caption when `caption` was not
+        called), wait for them and the recordings; the pictures' paths."""
         from gcs.display.overview import OverviewPicture, map_layers, plan_layers
 
         indices = []

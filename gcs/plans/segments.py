@@ -3,13 +3,15 @@ before, the POD the sortie gives, the campaign's cumulative POD, POS = POA x POD
 shifted after an unsuccessful sortie, over the area file's own segments when it has them, else
 named blocks of the grid (A1 north-west). In plan.json / sortie.json (`search_theory`, whose
 `segments_from` says which), as polygons with those figures in `segments.geojson` and
-`segments.kml`, and in the printed summaries. A flight reports over the segments its plan did
-(`plan_folder_segments`: the plan folder's `segments.geojson` laid again on the plan's grid)."""
+`segments.kml`, in the printed summaries, and outlined and labelled in the plan's picture. A
+flight reports over the segments its plan did (`plan_folder_segments`: the plan folder's
+`segments.geojson` laid again on the plan's grid)."""
 
 from __future__ import annotations
 
 import json
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -103,9 +105,28 @@ def plan_theory(setup: AreaSetup, plan: Plan, segments: list[Segment]) -> Search
 
 def plan_segment_figures(setup: AreaSetup, plan: Plan) -> tuple[list[Segment], SearchTheory]:
     """An area plan's segments and their figures (`area_segments`, `plan_theory`), as plan.json
-    reports them: what the plan's recording logs (`gcs.recording.plan.PlanRecorder.log_segments`)."""
+    reports them: what the plan's picture labels and its recording logs
+    (`gcs.recording.plan.PlanRecorder.log_segments`), there from `SortieSegments`."""
     segments = area_segments(setup.area, setup.source)
     return segments, plan_theory(setup, plan, segments)
+
+
+@dataclass(frozen=True)
+class SortieSegments:
+    """An area sortie's segments (`area_segments`), known before its plan is (the picture's map
+    outlines them), and `figures`, the plan's figures over them as plan.json reports them
+    (`plan_theory`): what the plan's picture labels and its recording logs."""
+
+    setup: AreaSetup
+    segments: list[Segment]
+
+    def figures(self, plan: Plan) -> SearchTheory:
+        return plan_theory(self.setup, plan, self.segments)
+
+
+def sortie_segments(setup: AreaSetup) -> SortieSegments:
+    """The segments of `setup`'s sortie (`area_segments` of its area and area file)."""
+    return SortieSegments(setup, area_segments(setup.area, setup.source))
 
 
 def theory_of_looks(p0: np.ndarray, searchable: np.ndarray, pc: float, looks: np.ndarray, segments: list[Segment],

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gcs.display.overview import mask_outline
+from gcs.display.overview import label_cell, mask_outline
 from planner.search_theory import SearchTheory, Segment
 
 ROOT = "segments"
@@ -77,9 +77,3 @@ def figure_values(theory: SearchTheory) -> dict[str, list]:
     """The segments' figures, one list per field (`FIELDS`), segment k the k-th value of each."""
     return {field: [getattr(f, field) for f in theory.segments] for field in FIELDS}
 
-
-def label_cell(mask: np.ndarray) -> tuple[int, int]:
-    """The segment's cell nearest its cells' centroid: where its label sits, inside it."""
-    cells = np.argwhere(mask)
-    nearest = int(np.argmin(((cells - cells.mean(axis=0)) ** 2).sum(axis=1)))
-    return int(cells[nearest, 0]), int(cells[nearest, 1])

@@ -84,11 +84,12 @@ CAPTION = ("E = 306.22 of a bound 396.36 (77.3%): the most any plan of these air
            "(PoS <= 32.8%; the LP over blocks 17x17)")
 
 
-def _all_at_once(plan, scenario, path: Path, caption: str | None = None) -> Path:
+def _all_at_once(plan, scenario, path: Path, caption: str | None = None, segments=(), theory=None) -> Path:
     from gcs.display.overview import OverviewPicture, map_layers, plan_layers
 
-    picture = OverviewPicture(map_layers(scenario), draw_map=False)
-    picture.render(plan_layers(plan, scenario))
+    layers = map_layers(scenario, segments)
+    picture = OverviewPicture(layers, draw_map=False)
+    picture.render(plan_layers(plan, scenario, layers.places, theory))
     picture.finish(caption)
     return picture.save(path)
 
@@ -150,12 +151,14 @@ def test_the_summarys_bound_line_says_the_captions_bound():
 def test_gcs_plan_draws_the_bound_plan_json_holds(tmp_path: Path):
     """The picture `gcs plan --area` writes states the bound its plan.json holds (the caption
     drawn once the bound is had, in the pictures helper): the PNG is the one drawn with
-    `bound_caption` of plan.json's summary.bound; with the bound off, it says so."""
+    `bound_caption` of plan.json's summary.bound (and the segments with the plan's figures);
+    with the bound off, it says so."""
     import json
 
     from gcs.display.overview import bound_caption
     from gcs.plans.make import plan_area, plan_scenario
     from gcs.plans.options import OutputOptions, SearchOptions
+    from gcs.plans.segments import plan_segment_figures
 
     output = OutputOptions(record=False, progress=False)
     result = plan_area(Path(__file__).parents[1] / "plans" / "gis" / "caltopo.kml",
@@ -166,7 +169,9 @@ def test_gcs_plan_draws_the_bound_plan_json_holds(tmp_path: Path):
     caption = bound_caption(summary["expected_targets_found"], summary["bound"])
     assert caption is not None and f"of a bound {summary['bound']['expected_targets_found_max']:.2f}" in caption
     scenario = sortie.setup.search.scenario
-    assert sortie.picture.read_bytes() == draw_overview(sortie.plan, scenario, tmp_path / "a.png", caption).read_bytes()
+    segments, theory = plan_segment_figures(sortie.setup, sortie.plan)
+    assert sortie.picture.read_bytes() == draw_overview(sortie.plan, scenario, tmp_path / "a.png", caption, segments,
+                                                        theory).read_bytes()
 
     off = plan_scenario("paper", SearchOptions(np_steps=2, range_steps=30), tmp_path / "paper",
                         OutputOptions(record=False, progress=False, bound_time_s=0))
@@ -217,28 +222,128 @@ def test_the_pictures_helper_is_sent_plain_data(recorded_run: RecordedRun, tmp_p
 
 def test_an_area_plan_is_drawn_in_metres_with_its_segments(tmp_path: Path):
     """Over a real area: axes in metres from the grid's corner, a scale bar and a north arrow,
-    the segments (those of plan.json) labelled with their POA and POD, the title wrapped to fit;
-    the map drawn ahead still gives the picture drawn all at once."""
-    from gcs.display.overview import TITLE_CHARS, map_layers, plan_layers
+    the segments (those of plan.json: the grid's blocks, or the area file's outlined along cell
+    edges) labelled with the POA and POD plan.json gives them, the title wrapped to fit; the map
+    drawn ahead still gives the picture drawn all at once."""
+    from gcs.display.overview import TITLE_CHARS, map_layers, plan_layers, segment_edges
     from gcs.plans.make import fly_with_progress
     from gcs.plans.options import SearchOptions
     from gcs.plans.planning import build_area_search
-    from gcs.plans.segments import area_segments, plan_theory
+    from gcs.plans.segments import plan_segment_figures
+    from tests.gcs.flight.test_sortie_segments import segments_area
 
-    setup = build_area_search(Path(__file__).parents[1] / "plans" / "gis" / "caltopo.kml",
-                              search=SearchOptions(np_steps=2, strategy="exhaustive"))
-    plan = fly_with_progress(setup.search, progress=False)
-    scenario = setup.search.scenario
-    layers = map_layers(scenario)
-    assert layers.cell_m == 30.0
-    segments = area_segments(setup.area)
-    assert [b[0] for b in layers.blocks] == [s.name for s in segments]
-    labels = plan_layers(plan, scenario)
-    theory = plan_theory(setup, plan, segments)
-    assert [text for *_, text in labels.segments] == [f"{f.name} POA {f.poa:.0%}\nPOD {f.pod:.0%}"
-                                                      for f in theory.segments]
-    assert max(len(line) for line in labels.title.splitlines()) <= TITLE_CHARS
-    ahead = draw_overview(plan, scenario, tmp_path / "ahead.png").read_bytes()
-    assert ahead == _all_at_once(plan, scenario, tmp_path / "once.png").read_bytes()
-    image = np.asarray(Image.open(tmp_path / "ahead.png").convert("RGB")).astype(int)
-    assert image[:, :8].min() > 240  # nothing runs off the left edge (the title did)
+    for k, area_file in enumerate([Path(__file__).parents[1] / "plans" / "gis" / "caltopo.kml",
+                                   segments_area(tmp_path)]):
+        setup = build_area_search(area_file, search=SearchOptions(np_steps=2, strategy="exhaustive"))
+        plan = fly_with_progress(setup.search, progress=False)
+        scenario = setup.search.scenario
+        segments, theory = plan_segment_figures(setup, plan)  # plan.json's
+        layers = map_layers(scenario, segments)
+        assert layers.cell_m == 30.0
+        labels = plan_layers(plan, scenario, layers.places, theory)
+        if k == 0:  # no segments in the file: the grid's blocks
+            assert [b[0] for b in layers.blocks] == [s.name for s in segments] and layers.outlines is None
+            assert [text for *_, text, _ in labels.segments] == [f"{f.name} POA {f.poa:.0%}\nPOD {f.pod:.0%}"
+                                                                 for f in theory.segments]
+        else:
+            assert layers.blocks == ()
+            assert np.array_equal(layers.outlines, segment_edges([s.cells for s in segments]))
+            assert [text for *_, text, _ in labels.segments] == [f"{f.name}\nPOA {f.poa:.1%}, POD {f.pod:.1%}"
+                                                                 for f in theory.segments]
+            assert labels.rest_poa == theory.rest_poa > 0
+        assert max(len(line) for line in labels.title.splitlines()) <= TITLE_CHARS
+        ahead = draw_overview(plan, scenario, tmp_path / "ahead.png", None, segments, theory).read_bytes()
+        assert ahead == _all_at_once(plan, scenario, tmp_path / "once.png", None, segments, theory).read_bytes()
+        image = np.asarray(Image.open(tmp_path / "ahead.png").convert("RGB")).astype(int)
+        assert image[:, :8].min() > 240  # nothing runs off the left edge (the title did)
+
+
+def test_segment_labels_are_the_plans_figures():
+    """`segment_labels`: each segment's name, POA and POD as the plan's figures (plan.json's
+    `search_theory`) have them, at its place: a block's north-west corner, a cell inside an
+    area file's segment (the one nearest its centroid), none for a segment without a cell;
+    places and figures of other segments refused. The area file's segments are outlined along
+    cell edges, an edge two share once."""
+    import pytest
+
+    from gcs.display.overview import (
+        SegmentLabel,
+        SegmentPlace,
+        mask_outline,
+        segment_edges,
+        segment_labels,
+        segment_place,
+    )
+    from planner.search_theory import SearchTheory, Segment
+
+    def row(name, cells, poa, pod):
+        return {"name": name, "cells": cells, "poa": poa, "pod": pod, "pos": poa * pod, "cumulative_pod": pod,
+                "poa_after": poa * (1 - pod)}
+
+    theory = SearchTheory.from_dict({
+        "pc": 0.9, "pos": 0.05, "cumulative_pos": 0.05, "rest_of_world_poa": 0.6, "rest_of_world_poa_after": 0.63,
+        "inside_area": 0.4, "segments": [row("North-west", 3, 0.28, 0.1234), row("East", 2, 0.12, 0.0351),
+                                         row("rest of the area", 0, 0.0, 0.0)]})
+    west, east, empty = np.zeros((3, 2, 3), dtype=bool)
+    west[0, :] = west[1, 1] = True  # the west column and the middle of the east one
+    east[1, 0] = True
+    segments = [Segment("North-west", west), Segment("East", east), Segment("rest of the area", empty)]
+    places = tuple(segment_place(s) for s in segments)
+    assert places == (SegmentPlace("North-west", 1.0, 2.0, True), SegmentPlace("East", 2.0, 1.0, True), None)
+    assert segment_labels(places, theory.segments) == (
+        SegmentLabel(1.0, 2.0, "North-west\nPOA 28.0%, POD 12.3%", True),
+        SegmentLabel(2.0, 1.0, "East\nPOA 12.0%, POD 3.5%", True))
+    blocks = (SegmentPlace("A1", 0.6, 10.4), SegmentPlace("A2", 0.6, 5.4), None)
+    assert segment_place(Segment("A1", west, (0, 5, 5, 10))) == blocks[0]
+    block_rows = [row("A1", 25, 0.28, 0.1234), row("A2", 25, 0.12, 0.0351), row("A3", 0, 0.0, 0.0)]
+    block_theory = SearchTheory.from_dict({**theory.as_dict(), "segments": block_rows})
+    assert segment_labels(blocks, block_theory.segments) == (
+        SegmentLabel(0.6, 10.4, "A1 POA 28%\nPOD 12%"), SegmentLabel(0.6, 5.4, "A2 POA 12%\nPOD 4%"))
+    with pytest.raises(ValueError, match="segment 'East''s place paired with 'North-west''s figures"):
+        segment_labels((places[1], places[0], places[2]), theory.segments)
+    with pytest.raises(ValueError, match="2 segments' places for 3"):
+        segment_labels(places[:2], theory.segments)
+    edges = segment_edges([west, east])
+    assert len(edges) == 12  # 10 + 4 edges, the two west and north of the east segment's cell shared
+    assert {tuple(e.ravel()) for e in edges} == {tuple(e.ravel()) for e in (*mask_outline(west), *mask_outline(east))}
+
+
+def test_gcs_plan_labels_the_area_files_segments_with_plan_json_figures(tmp_path: Path, monkeypatch):
+    """`gcs plan --area` of a square with two segments and the rest of the area (an IPP whose
+    rings reach past it: the rest of the world holds most of the prior): the picture outlines the
+    area file's segments, not the grid's blocks, along the edges of the cells plan.json gives
+    them, and labels each, at a cell inside it, with its name and plan.json's POA and POD (the
+    rest of the world's POA in the legend). What `plan_layers` and `map_layers` gave the
+    pictures helper is what is checked: the labels' pixels are hard to assert."""
+    import json
+
+    from gcs.cli import main
+    from gcs.display import overview
+    from gcs.plans.plan_folder import load_plan_dir
+    from gcs.plans.segments import FROM_AREA_FILE, REST, plan_folder_segments
+    from tests.gcs.flight.test_sortie_segments import segments_area
+
+    maps, plans = [], []
+    map_layers, plan_layers = overview.map_layers, overview.plan_layers
+    monkeypatch.setattr(overview, "map_layers", lambda *args: maps.append(map_layers(*args)) or maps[-1])
+    monkeypatch.setattr(overview, "plan_layers", lambda *args: plans.append(plan_layers(*args)) or plans[-1])
+    out = tmp_path / "square"
+    assert main(["plan", "--area", str(segments_area(tmp_path)), "--out", str(out), "--strategy", "exhaustive",
+                 "--no-improve", "--bound-time", "0", "--no-rrd", "--quiet"]) == 0
+    assert Image.open(out / "plan.png").size == (WIDTH_PX, HEIGHT_PX)
+    theory = json.loads((out / "plan.json").read_text())["search_theory"]
+    assert theory["segments_from"] == FROM_AREA_FILE and theory["rest_of_world_poa"] > 0.5
+    rows = theory["segments"]
+    assert [s["name"] for s in rows] == ["North-west", "East", REST]
+    [layers], [drawn] = maps, plans
+    assert layers.blocks == ()
+    segments = plan_folder_segments(load_plan_dir(out), ~layers.no_fly)  # plan.json's, on its grid
+    assert np.array_equal(layers.outlines, overview.segment_edges([s.cells for s in segments]))
+    assert [p.name for p in layers.places] == [s["name"] for s in rows]
+    for place, segment in zip(layers.places, segments):
+        assert segment.cells[round(place.x) - 1, round(place.y) - 1]  # its label on a cell inside it
+    assert [label.text for label in drawn.segments] == [f"{s['name']}\nPOA {s['poa']:.1%}, POD {s['pod']:.1%}"
+                                                        for s in rows]
+    assert [(label.x, label.y) for label in drawn.segments] == [(p.x, p.y) for p in layers.places]
+    assert round(drawn.rest_poa, 6) == theory["rest_of_world_poa"]
+    assert sum(s["poa"] for s in rows) < 0.5  # plan.json's POAs: shares of the whole prior, not the area's
