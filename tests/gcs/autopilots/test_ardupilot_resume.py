@@ -30,13 +30,16 @@ from tests.peers.site import COPTERS, Site
 
 pytestmark = [pytest.mark.autopilot, SITL_WORKER]  # tests/peers/process.py
 
-AWAY_S = 1.0  # and the restarted station's own start: some 30 s of the copter's time at SITL's speed-up 10
+AWAY_S = 1.0  # and the restarted station's own start: some 20 s of the copter's time at SITL's speed-up 7
+#: At 10 a restart slowed by a loaded machine (13.5 s in ci80) let the copter reach its planned way
+#: home, and land by its plan at 25 %, before the restarted station could send it home on fuel
+SPEEDUP = 7
 
 
 def test_a_copter_flies_on_while_the_station_is_dead_and_the_restarted_station_brings_it_home_on_fuel(tmp_path):
     site = Site(COPTERS.airports[1:2])
     plan_dir = site.plan(tmp_path)
-    with ArduPilotSitl("copter", home=site.home(0), speedup=10, params={"BATT_AMP_PERVLT": 17.0 * 3300 / 2600}) as sitl:
+    with ArduPilotSitl("copter", home=site.home(0), speedup=SPEEDUP, params={"BATT_AMP_PERVLT": 17.0 * 3300 / 2600}) as sitl:
         first = station(plan_dir, [sitl.udp_connection])
         before = kill_when(first, plan_dir, lambda s: 1 in s.vehicles and len(s.vehicles[1].battery_samples) >= 10,
                            timeout_s=300)  # 10 s of the copter's time in the air, searching
@@ -53,7 +56,8 @@ def test_a_copter_flies_on_while_the_station_is_dead_and_the_restarted_station_b
     assert v_before.stage.value == "search" and v_before.return_reason is None
     assert "UAV 1: reattached: flying its search (mode AUTO, mission item" in out
     # home on fuel after the restart, above the reserve, at its own airport
-    assert v_after.return_reason == "battery" and v_after.stage.value == "landed", out[-4000:]
+    assert v_after.return_reason == "battery" and v_after.stage.value == "landed", \
+        "\n".join(line for line in out.splitlines() if "UAV 1" in line or "station" in line)
     returns = [t for t, line in after.events if line.uav_id == 1 and "return triggered (reason: battery)" in line.text]
     assert len(returns) == 1 and returns[0] > after.resumed_t[0]
     battery = int(re.search(r"UAV 1: landed - battery (\d+)%", out).group(1))
