@@ -39,7 +39,8 @@ SPEEDUP = 7
 def test_a_copter_flies_on_while_the_station_is_dead_and_the_restarted_station_brings_it_home_on_fuel(tmp_path):
     site = Site(COPTERS.airports[1:2])
     plan_dir = site.plan(tmp_path)
-    with ArduPilotSitl("copter", home=site.home(0), speedup=SPEEDUP, params={"BATT_AMP_PERVLT": 17.0 * 3300 / 2600}) as sitl:
+    with ArduPilotSitl("copter", home=site.home(0), speedup=SPEEDUP,
+                       params={"BATT_AMP_PERVLT": 17.0 * 3300 / 2600}) as sitl:
         first = station(plan_dir, [sitl.udp_connection])
         before = kill_when(first, plan_dir, lambda s: 1 in s.vehicles and len(s.vehicles[1].battery_samples) >= 10,
                            timeout_s=300)  # 10 s of the copter's time in the air, searching

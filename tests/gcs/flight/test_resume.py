@@ -25,6 +25,10 @@ from gcs.telemetry.status import Stage
 from tests.gcs.flight.resume_peers import SimProcess, flight_events, kill_when, readings, station, vehicle_state
 from tests.gcs.flight.test_campaign import closed_form_posterior
 
+#: The module's fixtures (a whole flight, a killed station) are flown once: every test here in one
+#: worker (pytest-xdist's loadgroup), not each fixture once in each worker.
+pytestmark = pytest.mark.xdist_group("resume")
+
 SPEEDUP = 20.0
 DRAIN = 5.0  # every battery drains 5x as fast: the return trigger sends them home on fuel, mid-search
 

@@ -22,6 +22,9 @@ from gcs.plans.plan_folder import load_plan_dir
 from gcs.plans.segments import FROM_AREA_FILE, FROM_GRID, REST, SEGMENTS_FILE
 from planner.search_theory import block_segments
 
+#: The flight (`flown`) is flown once: every test here in one worker (pytest-xdist's loadgroup).
+pytestmark = pytest.mark.xdist_group("sortie-segments")
+
 WEST, EAST, SOUTH, NORTH = 7.996056, 8.003944, 46.997301, 47.002698
 MIDDLE_LON, MIDDLE_LAT = (WEST + EAST) / 2, (SOUTH + NORTH) / 2
 

@@ -19,6 +19,10 @@ from gcs.plans.plan_file import validate_plan_dict
 from gcs.plans.plan_folder import load_plan_dir
 from planner.camera import Camera, camera_sensor
 
+#: The four examples are planned once (`planned`, about 40 s of the 2-core machine): every test here in
+#: one worker (pytest-xdist's loadgroup), not the fixture once in each (ci80: twice, 87 s).
+pytestmark = pytest.mark.xdist_group("examples")
+
 MISSIONS = Path(__file__).resolve().parents[3] / "missions"
 EXAMPLES = ("paper", "irregular", "large", "hiker")
 #: Options beyond the defaults: the large example's exhaustive search keeps the suite quick (legs are
