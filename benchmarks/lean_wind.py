@@ -10,6 +10,7 @@ off in GUIDED to 40 m and hovers, and prints the mean lean of the thrust (the ta
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 import time
@@ -74,8 +75,12 @@ def lean_in(wind_m_s: float, source_deg: float = 250.0, altitude_m: float = 40.0
 
 
 def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("winds", nargs="*", type=float, default=[8.0, 4.0, 0.0], metavar="WIND_M_S",
+                        help="steady winds to hover in, m/s from 250 degrees (default: 8 4 0)")
+    args = parser.parse_args()
     require_ardupilot()
-    for wind in [float(a) for a in sys.argv[1:]] or [8.0, 4.0, 0.0]:
+    for wind in args.winds:
         lean_in(wind)
     return 0
 
