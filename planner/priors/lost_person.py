@@ -22,6 +22,12 @@ from planner.georef import Grid
 QUANTILE_Z = (-0.6744897501960817, 0.0, 0.6744897501960817, 1.6448536269514722)
 QUANTILES = (0.25, 0.50, 0.75, 0.95)
 
+def _whole_ecoregion(subject: str, climate: str, km: tuple[float, float, float, float]
+                     ) -> dict[tuple[str, str, str], tuple[float, float, float, float]]:
+    """One row of the book's for a whole ecoregion, as the table's rows of both terrains."""
+    return {(subject, terrain, climate): km for terrain in ("flat", "mountainous")}
+
+
 #: (subject, terrain, climate) -> km within which 25 / 50 / 75 / 95 % of subjects were found:
 #: Koester, Lost Person Behavior (dbS Productions, 2008), the ISRID "distance from the IPP"
 #: tables, whose kilometre column is given here. A row is here only when two independent sources
@@ -82,20 +88,13 @@ DISTANCE_KM: dict[tuple[str, str, str], tuple[float, float, float, float]] = {
     ("snowmobiler", "mountainous", "temperate"): (3.2, 6.4, 11.1, 16.1),  # n 26
     # The book's rows for a whole ecoregion, not split by terrain (as both sources give them): the
     # one figure stands for its flat and its mountainous terrain alike.
-    ("autistic", "flat", "temperate"): (0.6, 1.6, 3.7, 15.2),  # n 20, temperate
-    ("autistic", "mountainous", "temperate"): (0.6, 1.6, 3.7, 15.2),
-    ("child 1-3", "flat", "dry"): (0.6, 1.3, 3.9, 9.0),  # n 13, dry
-    ("child 1-3", "mountainous", "dry"): (0.6, 1.3, 3.9, 9.0),
-    ("child 4-6", "flat", "dry"): (0.6, 1.9, 3.2, 8.2),  # n 19, dry
-    ("child 4-6", "mountainous", "dry"): (0.6, 1.9, 3.2, 8.2),
-    ("climber", "flat", "temperate"): (0.2, 1.6, 3.2, 14.7),  # n 25, temperate
-    ("climber", "mountainous", "temperate"): (0.2, 1.6, 3.2, 14.7),
-    ("gatherer", "flat", "dry"): (1.6, 2.6, 5.8, 11.1),  # n 14, dry
-    ("gatherer", "mountainous", "dry"): (1.6, 2.6, 5.8, 11.1),
-    ("intellectual disability", "flat", "dry"): (1.1, 4.0, 8.7, 62.6),  # n 21, dry
-    ("intellectual disability", "mountainous", "dry"): (1.1, 4.0, 8.7, 62.6),
-    ("runner", "flat", "temperate"): (1.4, 2.6, 3.4, 5.8),  # n 14, temperate
-    ("runner", "mountainous", "temperate"): (1.4, 2.6, 3.4, 5.8),
+    **_whole_ecoregion("autistic", "temperate", (0.6, 1.6, 3.7, 15.2)),  # n 20, temperate
+    **_whole_ecoregion("child 1-3", "dry", (0.6, 1.3, 3.9, 9.0)),  # n 13, dry
+    **_whole_ecoregion("child 4-6", "dry", (0.6, 1.9, 3.2, 8.2)),  # n 19, dry
+    **_whole_ecoregion("climber", "temperate", (0.2, 1.6, 3.2, 14.7)),  # n 25, temperate
+    **_whole_ecoregion("gatherer", "dry", (1.6, 2.6, 5.8, 11.1)),  # n 14, dry
+    **_whole_ecoregion("intellectual disability", "dry", (1.1, 4.0, 8.7, 62.6)),  # n 21, dry
+    **_whole_ecoregion("runner", "temperate", (1.4, 2.6, 3.4, 5.8)),  # n 14, temperate
 }
 
 #: Share of subjects found on or near each kind of feature (Koester 2008's find locations, as
