@@ -28,7 +28,6 @@ from gcs.missions.items import (
     mission_items,
     waypoint_items,
 )
-from planner.camera import Camera, camera_sensor
 from planner.georef import Grid, LocalFrame
 from planner.motion import STEPS, MoveCosts, OrientationConstraint, constraint_by_name
 from planner.return_exact import UNREACHABLE, follow_table, return_table
@@ -125,18 +124,13 @@ class FleetPlan:
     @property
     def pc(self) -> float:
         """The Pc per look the plan was made with: plan.json's `search_theory.pc`, the one its
-        figures were reckoned with; for a plan older than that record, its camera's (`planner.camera`,
-        at the lowest altitude it flies, as `gcs plan` derived it) when its campaign options name
-        one, else its `pc` (0.9 for a plan that records none)."""
+        figures were reckoned with (its camera's when it was made with one: every plan that names
+        a camera records it), else its options' `pc` (0.9 for a plan that records none)."""
         recorded = (self.raw.get("search_theory") or {}).get("pc")
         if recorded is not None:
             return float(recorded)
         options = (self.raw.get("campaign") or {}).get("options") or {}
-        fov = options.get("camera_fov_deg")
-        if fov is None:
-            return float(options.get("pc", 0.9))
-        camera = Camera(float(fov), options.get("camera_pixels"), float(options.get("camera_pd", 1.0)))
-        return camera_sensor(camera, min(float(u["altitude_m"]) for u in self.raw["uavs"]), self.cell_size_m).pc
+        return float(options.get("pc", 0.9))
 
     @property
     def pf(self) -> float:
