@@ -566,7 +566,7 @@ def draw_overview(plan: Plan, scenario: Scenario, path: str | Path, caption: str
                   segments: Sequence[Segment] = (), theory: SearchTheory | None = None) -> Path:
     """Write the overview PNG of `plan` (flown over `scenario`) to `path` (WIDTH_PX x HEIGHT_PX),
     `caption` under it (`bound_caption`), `segments` outlined and, with `theory` (the plan's
-    figures over them: `gcs.plans.segments.plan_segment_figures`), labelled."""
+    figures over them: `gcs.plans.segments.sortie_segments`), labelled."""
     layers = map_layers(scenario, segments)
     picture = OverviewPicture(layers)
     picture.render(plan_layers(plan, scenario, layers.places, theory))

@@ -244,12 +244,12 @@ def plan_sorties(area_file: str | Path, area: AreaOptions, search: SearchOptions
         folder = out_dir / prefix
         rrd = _recording(planning.output, folder, sortie, count is not None)
         name = Path(area_file).stem + (f" sortie {sortie}" if sortie > 1 else "")
-        plan = planning.fly(setup.search, rrd, name, setup.area.cells_lonlat,
-                            sortie_segments(setup))  # the picture's and the recording's segments and figures
+        segments = sortie_segments(setup)  # plan.json's, the picture's and the recording's, reckoned once
+        plan = planning.fly(setup.search, rrd, name, setup.area.cells_lonlat, segments)
         section = campaign_section(setup, start, plan, folder, search.seed, options, area_record)
         bound = bound_summary(plan, setup.search.scenario, setup.search.config.oc, planning.output.bound_time_s)
         planning.caption(plan, bound)  # the picture's last line, drawn while the files are made
-        mine = area_outputs(setup, plan, setup.search.seed, area.speed_m_s, section, bound)
+        mine = area_outputs(setup, plan, setup.search.seed, area.speed_m_s, section, bound, segments)
         mine[BELIEF_FILE] = json.dumps(belief_to_dict(start.belief, start.source)) + "\n"
         files.update({prefix + name: text for name, text in mine.items()})
         planned.append((folder, setup, plan, mine, rrd))

@@ -32,7 +32,7 @@ from gcs.plans.area_file import AreaFile, read_area_file
 from gcs.plans.area_prior import area_mass_prior
 from gcs.plans.options import DEFAULT_CELL_SIZE_M, AreaOptions, SearchOptions
 from gcs.plans.plan_file import plan_to_dict
-from gcs.plans.segments import plan_segment_figures, segments_for_teams, segments_from, segments_geojson
+from gcs.plans.segments import SortieSegments, segments_for_teams, segments_from, segments_geojson, sortie_segments
 from gcs.plans.vehicle_file import VehicleRecord, load_vehicles, profile_for_uav, stock_profile
 from planner.area_grid import (
     AREA_MOVE_COSTS,
@@ -340,9 +340,11 @@ def uav_fitted_fence(setup: AreaSetup, flown: FlownPath) -> FittedFence:
 
 
 def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, campaign: dict | None = None,
-                 bound: dict | None = None) -> dict[str, str]:
+                 bound: dict | None = None, segments: SortieSegments | None = None) -> dict[str, str]:
     """File name -> text of every output of an area plan; `campaign` is plan.json's campaign
-    section (`gcs.plans.campaign`), `bound` its `summary.bound` (`gcs.plans.plan_bound`)."""
+    section (`gcs.plans.campaign`), `bound` its `summary.bound` (`gcs.plans.plan_bound`),
+    `segments` the sortie's segments whose figures the picture and the recording were given
+    (`gcs.plans.segments.sortie_segments` of `setup` when None)."""
     source, area = setup.source, setup.area
     missions: list[UavMission] = []
     paths: dict[int, FlownPath] = {}
@@ -385,7 +387,8 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
                             for uid, why in setup.grounded.items()]
     if campaign is not None:
         data["campaign"] = campaign
-    segments, theory = plan_segment_figures(setup, plan)
+    sortie = segments if segments is not None else sortie_segments(setup)
+    theory = sortie.figures(plan)
     data["search_theory"] = theory.as_dict() | {"segments_from": segments_from(source)}
     files = {"plan.json": json.dumps(data, indent=1) + "\n"}
     for m in missions:
@@ -397,7 +400,7 @@ def area_outputs(setup: AreaSetup, plan: Plan, seed: int, speed_m_s: float, camp
     collection = paths_geojson(missions, lengths, source.name)
     files["paths.geojson"] = json.dumps(collection, indent=1) + "\n"
     files.update(paths_for_teams(collection, missions, source.name))
-    files.update(segments_for_teams(segments_geojson(area, segments, theory, source.name, source), source.name))
+    files.update(segments_for_teams(segments_geojson(area, sortie.segments, theory, source.name, source), source.name))
     return files
 
 

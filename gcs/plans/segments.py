@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -103,25 +103,20 @@ def plan_theory(setup: AreaSetup, plan: Plan, segments: list[Segment]) -> Search
                            segments, belief.looks_before, inside)
 
 
-def plan_segment_figures(setup: AreaSetup, plan: Plan) -> tuple[list[Segment], SearchTheory]:
-    """An area plan's segments and their figures (`area_segments`, `plan_theory`), as plan.json
-    reports them: what the plan's picture labels and its recording logs
-    (`gcs.recording.plan.PlanRecorder.log_segments`), there from `SortieSegments`."""
-    segments = area_segments(setup.area, setup.source)
-    return segments, plan_theory(setup, plan, segments)
-
-
-@dataclass(frozen=True)
+@dataclass
 class SortieSegments:
     """An area sortie's segments (`area_segments`), known before its plan is (the picture's map
     outlines them), and `figures`, the plan's figures over them as plan.json reports them
-    (`plan_theory`): what the plan's picture labels and its recording logs."""
+    (`plan_theory`): what plan.json, the plan's picture and its recording give, reckoned once."""
 
     setup: AreaSetup
     segments: list[Segment]
+    _figures: tuple[Plan, SearchTheory] | None = field(default=None, repr=False)
 
     def figures(self, plan: Plan) -> SearchTheory:
-        return plan_theory(self.setup, plan, self.segments)
+        if self._figures is None or self._figures[0] is not plan:
+            self._figures = (plan, plan_theory(self.setup, plan, self.segments))
+        return self._figures[1]
 
 
 def sortie_segments(setup: AreaSetup) -> SortieSegments:

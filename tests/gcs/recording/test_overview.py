@@ -158,7 +158,7 @@ def test_gcs_plan_draws_the_bound_plan_json_holds(tmp_path: Path):
     from gcs.display.overview import bound_caption
     from gcs.plans.make import plan_area, plan_scenario
     from gcs.plans.options import OutputOptions, SearchOptions
-    from gcs.plans.segments import plan_segment_figures
+    from gcs.plans.segments import sortie_segments
 
     output = OutputOptions(record=False, progress=False)
     result = plan_area(Path(__file__).parents[1] / "plans" / "gis" / "caltopo.kml",
@@ -169,7 +169,8 @@ def test_gcs_plan_draws_the_bound_plan_json_holds(tmp_path: Path):
     caption = bound_caption(summary["expected_targets_found"], summary["bound"])
     assert caption is not None and f"of a bound {summary['bound']['expected_targets_found_max']:.2f}" in caption
     scenario = sortie.setup.search.scenario
-    segments, theory = plan_segment_figures(sortie.setup, sortie.plan)
+    figures = sortie_segments(sortie.setup)
+    segments, theory = figures.segments, figures.figures(sortie.plan)
     assert sortie.picture.read_bytes() == draw_overview(sortie.plan, scenario, tmp_path / "a.png", caption, segments,
                                                         theory).read_bytes()
 
@@ -229,7 +230,7 @@ def test_an_area_plan_is_drawn_in_metres_with_its_segments(tmp_path: Path):
     from gcs.plans.make import fly_with_progress
     from gcs.plans.options import SearchOptions
     from gcs.plans.planning import build_area_search
-    from gcs.plans.segments import plan_segment_figures
+    from gcs.plans.segments import sortie_segments
     from tests.gcs.flight.test_sortie_segments import segments_area
 
     for k, area_file in enumerate([Path(__file__).parents[1] / "plans" / "gis" / "caltopo.kml",
@@ -237,7 +238,8 @@ def test_an_area_plan_is_drawn_in_metres_with_its_segments(tmp_path: Path):
         setup = build_area_search(area_file, search=SearchOptions(np_steps=2, strategy="exhaustive"))
         plan = fly_with_progress(setup.search, progress=False)
         scenario = setup.search.scenario
-        segments, theory = plan_segment_figures(setup, plan)  # plan.json's
+        figures = sortie_segments(setup)
+        segments, theory = figures.segments, figures.figures(plan)  # plan.json's
         layers = map_layers(scenario, segments)
         assert layers.cell_m == 30.0
         labels = plan_layers(plan, scenario, layers.places, theory)

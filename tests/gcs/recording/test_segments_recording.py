@@ -61,7 +61,7 @@ def test_segments_cost_a_few_logs_not_one_per_segment(tmp_path):
 
     from gcs.plans.options import AreaOptions, SearchOptions
     from gcs.plans.planning import build_area_search
-    from gcs.plans.segments import plan_segment_figures
+    from gcs.plans.segments import sortie_segments
     from gcs.recording.plan import PlanRecorder
     from tests.areas import PAPER_AREA
 
@@ -69,7 +69,9 @@ def test_segments_cost_a_few_logs_not_one_per_segment(tmp_path):
     search = setup.search
     for _ in search.run():
         pass
-    segments, theory = plan_segment_figures(setup, search.plan())
+    plan = search.plan()
+    figures = sortie_segments(setup)
+    segments, theory = figures.segments, figures.figures(plan)
     assert len(segments) == 36
     sizes = []
     for k, logged in enumerate((False, True)):
