@@ -70,6 +70,17 @@ def test_fly_takes_a_plan_folder_or_an_area_not_both(plan_dir, capsys, extra, me
     assert sorted(p.name for p in plan_dir.iterdir()) == before
 
 
+@pytest.mark.parametrize("seconds, message", [("-1", "must be 0 or more seconds"), ("soon", "not a number of seconds")])
+def test_fly_area_bound_time_is_0_or_more_seconds(tmp_path, capsys, seconds, message):
+    """`gcs fly --area --bound-time`: one line naming the option, nothing planned or flown."""
+    out = tmp_path / "out"
+    assert main(["fly", "--area", str(ROOT / "missions" / "paper.geojson"), "--sim", "--out", str(out),
+                 "--bound-time", seconds]) == 2
+    line = _one_error_line(capsys)
+    assert "--bound-time" in line and message in line, line
+    assert not out.exists()
+
+
 def test_plan_without_geo_reference(tmp_path, capsys):
     out = tmp_path / "plan.json"
     assert main(["plan", "--scenario", "paper", "--strategy", "exhaustive", "--range", "20", "--out", str(out),
