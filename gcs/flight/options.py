@@ -20,8 +20,8 @@ class FlyOptions:
     `profiles[uav]`: the energy profile of the vehicle flying as that UAV (`gcs fly --vehicles`);
     a UAV without one gets its autopilot's stock profile (`gcs.plans.vehicle_file.stock_profile`).
     `confirm_s`: vehicle seconds the return trigger must hold before it is acted on.
-    `fit_charge`: a vehicle whose charge cannot pay for its plan flies a range cut to its charge
-    instead of being kept on the ground. `wind_m_s`: (east, north) m/s the air moves towards, as
+    `fit_charge`: a vehicle whose charge cannot pay for its plan flies it until its battery calls
+    it home instead of being kept on the ground. `wind_m_s`: (east, north) m/s the air moves towards, as
     the crew measured it at launch: the check before arming and the trigger price the plan in it
     until the vehicle's own wind reading replaces it. `vehicles_file`: the vehicles.json the profiles this
     flight learns are merged into. `landed_away_m[airframe]`: farther than this from its airport a

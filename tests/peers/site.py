@@ -88,22 +88,17 @@ class Site:
         return {"type": "FeatureCollection", "properties": {"cell_size_m": self.cell_m}, "features": features}
 
     def plan(self, folder: Path, *extra: str) -> Path:
-        """Plan the site with `gcs plan --area` into `folder`; the plan folder. Without the
-        improvement (`--no-improve`): the energy fleets' figures, taken on the plans DTSCS flies,
-        did not hold on the improved ones (ci77-78). A learned profile's vehicle came home by fuel
-        at 16 of 20 waypoints, its improved plan's corners costing more than the metres its range
-        was sized with: since the improvement prices a copter's path by its time
-        (`planner.time_pricing`) that flight passes improved (2026-12-02, twice). The still-air
-        fleet's UAV 3, its 2500 m plan cut to its charge (1376 m), still turns home by that range at
-        7 of 27 waypoints and lands at 42 % (reserve + 12): its improved plan heads away from home
-        there, and the range order prices the way home from the poses ahead (974 m) where it then
-        cruised some 665 m home; a flight matter the plan's pricing does not reach."""
+        """Plan the site with `gcs plan --area` into `folder` (the `--area` default: DTSCS, then
+        the whole-mission improvement); the plan folder. The improved plans fly the energy
+        fleets since `--fit-charge` leaves the return to the battery: a range in metres priced
+        at the plan's average cost of a metre turned the still-air fleet's UAV 3 home at 7 of 27
+        waypoints, landing at 42 % (ci77-78 flew DTSCS's plans for that)."""
         folder.mkdir(parents=True, exist_ok=True)
         area = folder / "site.geojson"
         area.write_text(json.dumps(self.geojson()))
         out = folder / "plan"
         code = main(["plan", "--area", str(area), "--out", str(out), "--quiet", "--no-rrd", "--strategy", "exhaustive",
-                     "--no-improve", *extra])
+                     *extra])
         assert code == 0
         return out
 

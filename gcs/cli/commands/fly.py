@@ -56,8 +56,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_bus_arguments(p)
     add_tak_arguments(p, "the plan folder's name")
     p.add_argument("--fit-charge", action="store_true",
-                   help="a vehicle whose charge cannot pay for its plan flies a range cut to its charge instead of "
-                        "staying on the ground")
+                   help="a vehicle whose charge cannot pay for its plan flies it until its battery calls it home "
+                        "instead of staying on the ground")
     p.add_argument("--wind", metavar="M_S@FROM_DEG", type=wind_arg,
                    help="the wind at the launch site (e.g. 8@250: 8 m/s from 250 degrees): the check before arming "
                         "and the return trigger price each way in it until a vehicle reads its own")

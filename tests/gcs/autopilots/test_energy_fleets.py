@@ -192,10 +192,10 @@ def test_a_mixed_fleet_brings_its_fast_draining_px4_home_first_and_a_pack_that_c
     assert not [e for e in by_uav.get(2, []) if e["kind"] in ("takeoff", "landed")]
 
 
-def test_a_range_cut_that_cannot_fly_its_shortest_way_out_and_home_is_not_flown_and_a_copter_down_away_is_reported(
+def test_a_charge_short_of_its_shortest_way_out_and_home_stays_down_and_a_copter_down_away_is_reported(
         tmp_path):
-    """One flight for two checks (a SITL start fewer). `--fit-charge` flies a range cut to the
-    charge, but not one shorter than the plan's first step and the way home from it: UAV 2's
+    """One flight for two checks (a SITL start fewer). `--fit-charge` flies a plan on the
+    battery, but not with a charge short of the plan's first step and the way home from it: UAV 2's
     1800 mAh would fly a loop its charge does not pay for, and stays down. UAV 1's GPS fails once
     it is 150 m from its airport, searching: ArduCopter's EKF failsafe lands it where it is, and
     the station reports it for its crew to fetch."""

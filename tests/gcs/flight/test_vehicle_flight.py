@@ -4,7 +4,6 @@ of its own per vehicle."""
 
 from __future__ import annotations
 
-import math
 import time
 
 import pytest
@@ -102,24 +101,32 @@ def test_a_vehicle_seen_now_and_then_keeps_its_place_on_the_plan_from_its_curren
         assert st.track_index == 0
 
 
-def test_a_range_cut_to_the_charge_is_never_shorter_in_metres_than_the_shortest_way_out_and_home(plan):
-    """`--fit-charge` in a 4 m/s wind blowing north: UAV 2's shortest way out and home is cheaper
-    per metre than its plan, so a charge can pay for that way in mAh while the range it buys, in
-    metres along the plan, is shorter than it (at 40.5 % used: 184 m against 193 m). The range is
-    flown in metres: such a vehicle stays on the ground, and every cut flown fits that way."""
+def test_fit_charge_flies_the_plan_on_the_battery_but_never_a_charge_short_of_the_shortest_way_out_and_home(plan):
+    """`--fit-charge` in a 4 m/s wind blowing north: a vehicle whose charge cannot pay for its
+    plan flies it with no range in metres set (its battery calls it home), and stays on the ground
+    exactly when what its charge buys of the mission is less, in mAh, than its first step and the
+    way home from there in that wind."""
     from gcs.flight import preflight
 
     flown = refused = 0
-    for used_pct in [38.0 + 0.5 * i for i in range(11)]:
+    for used_pct in [30.0 + 2.0 * i for i in range(20)]:
         lines: list[str] = []
         controller = FlightController(plan, [], fast_options(fit_charge=True, wind_m_s=(0.0, 4.0)), out=lines.append)
         vehicle = controller.vehicles[2]
-        vehicle.energy.fuel.used_mah = vehicle.energy.fuel.capacity_mah * used_pct / 100
-        shortest_m = vehicle.track.flown_m(1) + sum(math.hypot(e, n) for e, n in vehicle.track.home_legs(1))
+        fuel = vehicle.energy.fuel
+        fuel.used_mah = fuel.capacity_mah * used_pct / 100
+        path_m = float(vehicle.plan.raw_uav(2).get("length_m", vehicle.track.length_m))
+        charge = vehicle.energy.plan_charge(path_m, vehicle.track)
+        assert charge is not None and not charge.enough, used_pct
+        home = fuel.way_cost(vehicle.track.home_legs(1))
+        buys_mah = (charge.covers_m - (path_m - vehicle.track.length_m)) * charge.mah_per_m
+        shortest_mah = vehicle.track.flown_m(1) * charge.mah_per_m + home.mah
         if preflight.charge_covers_plan(vehicle):
             flown += 1
-            assert vehicle.operator_range is not None and vehicle.operator_range >= shortest_m, (used_pct, lines)
+            assert buys_mah >= shortest_mah, (used_pct, lines)
+            assert vehicle.operator_range is None and "until its battery calls it home" in lines[-1]
         else:
             refused += 1
+            assert buys_mah < shortest_mah, (used_pct, lines)
             assert vehicle.status.stage is Stage.FAILED and "less than its shortest way out and home" in lines[-1]
     assert flown and refused
