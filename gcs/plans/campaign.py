@@ -21,12 +21,13 @@ import numpy as np
 
 from gcs.errors import UserError
 from gcs.plans.belief_file import BELIEF_FILE, SORTIE_FILE, belief_from_dict, belief_to_dict, file_sha256
+from gcs.plans.charge_fit import fit_ranges_to_paths
 from gcs.plans.gis_formats import area_sha256
 from gcs.plans.options import AreaOptions, OutputOptions, SearchOptions, options_from_record, options_record
 from gcs.plans.plan_bound import bound_summary
 from gcs.plans.planning import AreaSetup, area_out_dir, area_outputs, build_area_search, write_outputs
 from gcs.plans.segments import SortieSegments, sortie_segments
-from gcs.plans.vehicle_file import VEHICLES_FILE
+from gcs.plans.vehicle_file import VEHICLES_FILE, load_vehicles
 from planner.campaign import Belief, predicted_after
 from planner.dtscs import ClosedSearch
 from planner.plan import Plan
@@ -231,6 +232,8 @@ def plan_sorties(area_file: str | Path, area: AreaOptions, search: SearchOptions
                 raise UserError(f"--out {folder} holds a flown sortie ({SORTIE_FILE}): a new plan there would "
                                 f"orphan its record; give another --out")
     setup = build_area_search(area_file, area, search, start.belief if start else None)
+    if area.vehicles:
+        setup, _ = fit_ranges_to_paths(setup, load_vehicles(area.vehicles))
     start = start or SortieStart(setup.belief, "prior", [])
     area_record = {"file": str(Path(area_file).resolve()), "sha256": area_sha256(area_file)}
     options = options_record(area, search)
