@@ -2,7 +2,7 @@
 how tight the bound is against the exact optimum on tiny areas.
 
     .venv/bin/python benchmarks/success_bound.py figures [--areas 5] [--time 60] [--no-large]
-    .venv/bin/python benchmarks/success_bound.py gap [--instances 12] [--time 120]
+    .venv/bin/python benchmarks/success_bound.py gap [--instances 12] [--time 120] [--dual-time 5]
     .venv/bin/python benchmarks/success_bound.py figures --smoke     # (and gap --smoke): a tiny run
 
 `figures`: the paper scenario (`gcs plan --scenario paper`: paper CPIO), the areas of missions/
@@ -10,13 +10,19 @@ and `--areas` seeded random areas (`benchmarks/areas.py`, as `gcs plan --area` p
 DTSCS: CPIO + horizon value, before any whole-mission improvement), each with that plan's
 expected finds, the bound (the smaller of the LP
 optimum and the MIP's dual bound in `--time` seconds, the tightest model of at most `--arcs`
-flow arcs) and the plan's share of it.
+flow arcs; where that is not the per-heading model and the Lagrangian dual of it fits the time,
+the LP and then the dual in the time left instead of the MIP, the smaller of the two) and the
+plan's share of it;
+with the dual, the floor its master LP reached: the per-heading LP is at least that, so no bound
+of that model can be tighter.
 
 `gap`: `--instances` tiny random areas (8-12 cells across, 2-3 UAVs, ranges of 10-16 cell sides
 in metres, 3OC), each with the DTSCS plan (CPIO + horizon value), the exact optimum (`planner.bound.exact_optimum`:
 the per-(step, cell, heading) model solved by HiGHS to optimality, separation aside) and the
 LP bound `gcs plan` reports (the tightest model that fits); the LP-to-optimum gap is LP / optimum
-- 1. Also the LPs of the looser models (the OC dropped; 2 x 2 blocks) over the optimum."""
+- 1. Also the LPs of the looser models (the OC dropped; 2 x 2 blocks) over the optimum, and the
+Lagrangian dual of the per-heading model after `--dual-time` seconds over its LP and over the
+optimum."""
 
 from __future__ import annotations
 
@@ -58,12 +64,17 @@ class Row:
         share = "-" if b.share(self.expected) is None else f"{b.share(self.expected):.1%}"
         mip = "-" if not math.isfinite(b.mip_dual) else f"{b.mip_dual:.1f}"
         model = b.model.value + (f" b={b.block}" if b.block > 1 else "")
-        return (f"| {self.name} | {self.expected:.1f} | {b.value:.1f} | **{share}** | {b.lp:.1f} | {mip} | "
-                f"{b.mip_gap:.1%} | {model} | {b.seconds:.0f} |")
+        lp = "-" if not math.isfinite(b.lp) else f"{b.lp:.1f}"
+        gap = "-" if not math.isfinite(b.mip_gap) else f"{b.mip_gap:.1%}"
+        dual = "-" if not math.isfinite(b.lagrangian) else f"{b.lagrangian:.1f} ({b.iterations})"
+        floor = "-" if not math.isfinite(b.floor) else f"{b.floor:.1f}"
+        return (f"| {self.name} | {self.expected:.1f} | {b.value:.1f} | **{share}** | {lp} | {mip} | "
+                f"{gap} | {dual} | {floor} | {model} | {b.seconds:.0f} |")
 
 
-HEADER = ("| scenario | DTSCS plan E[found] | bound | plan / bound | LP | MIP dual | MIP gap | model | bound s |\n"
-          "|---|---:|---:|---:|---:|---:|---:|---|---:|")
+HEADER = ("| scenario | DTSCS plan E[found] | bound | plan / bound | LP | MIP dual | MIP gap | Lagrangian (iterations) "
+          "| headings LP >= | model | bound s |\n"
+          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|")
 
 
 def row(name: str, scenario: Scenario, config: MissionConfig, seconds: float, arcs: int) -> Row:
@@ -71,7 +82,7 @@ def row(name: str, scenario: Scenario, config: MissionConfig, seconds: float, ar
     plan = fly(scenario, config, seed=0)
     plan_s = time.perf_counter() - start
     assert plan.success is not None
-    bound = success_bound(scenario, config.oc, seconds, max_arcs=arcs)
+    bound = success_bound(scenario, config.oc, seconds, max_arcs=arcs, dual_iterations=10**6)   # the time given
     if bound.finished and plan.success.expected > bound.value + 1e-6:
         raise AssertionError(f"{name}: the plan expects {plan.success.expected} > the bound {bound.value}")
     return Row(name, plan.success.expected, plan.success.available, bound, plan_s)
@@ -121,9 +132,10 @@ def tiny_instance(seed: int) -> Scenario:
 def gap(args: argparse.Namespace) -> None:
     count = 1 if args.smoke else args.instances
     print("| instance | cells | UAVs | ranges (cells) | DTSCS plan | exact optimum | LP bound | LP / optimum | "
-          "plan / optimum | LP cells / optimum | LP blocks b=2 / optimum | MIP s |\n"
-          "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    gaps, plans = [], []
+          "plan / optimum | LP cells / optimum | LP blocks b=2 / optimum | Lagrangian / LP headings | "
+          "Lagrangian / optimum | MIP s |\n"
+          "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    gaps, plans, duals = [], [], []
     for seed in range(count):
         scenario = tiny_instance(seed)
         plan = fly(scenario, AREA_CONFIG, seed=seed)
@@ -132,6 +144,10 @@ def gap(args: argparse.Namespace) -> None:
         bound = success_bound(scenario, OC3, args.time, mip=False, max_arcs=args.arcs)
         looser = [success_bound(scenario, OC3, args.time, mip=False, model=model, block=2).lp
                   for model in (BoundModel.CELLS, BoundModel.BLOCKS)]
+        headings = success_bound(scenario, OC3, args.time, mip=False, model=BoundModel.HEADINGS).lp
+        dual = success_bound(scenario, OC3, args.dual_time, model=BoundModel.LAGRANGIAN, dual_iterations=10**6).value
+        duals.append(dual / headings - 1)
+        assert dual >= headings - 1e-6 * headings
         nx, ny = scenario.search_map.shape
         ranges = "/".join(f"{u.range_units / scenario.move_costs.straight:.0f}" for u in scenario.uavs)
         if exact.optimal:
@@ -144,10 +160,13 @@ def gap(args: argparse.Namespace) -> None:
               f"{(bound.lp / exact.mip_best if exact.optimal else math.nan):.3f} | "
               f"{(plan.success.expected / exact.mip_best if exact.optimal else math.nan):.1%} | "
               + "".join(f"{(v / exact.mip_best if exact.optimal else math.nan):.3f} | " for v in looser)
+              + f"{dual / headings:.4f} | {(dual / exact.mip_best if exact.optimal else math.nan):.3f} | "
               + f"{exact.seconds:.1f} |", flush=True)
     if gaps:
         print(f"\nLP bound over optimum: mean +{statistics.mean(gaps):.1%}, largest +{max(gaps):.1%}; DTSCS plan over "
               f"optimum: mean {statistics.mean(plans):.1%}, lowest {min(plans):.1%} ({len(gaps)} of {count} solved)")
+    print(f"Lagrangian dual over the headings LP after {args.dual_time:g} s: mean +{statistics.mean(duals):.2%}, "
+          f"largest +{max(duals):.2%}")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -156,12 +175,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--areas", type=int, default=5, help="seeded random areas (figures)")
     parser.add_argument("--instances", type=int, default=12, help="tiny areas (gap)")
     parser.add_argument("--time", type=float, default=60.0, help="seconds per bound (LP and MIP) or exact optimum")
+    parser.add_argument("--dual-time", type=float, default=5.0, help="seconds for the Lagrangian dual (gap)")
     parser.add_argument("--arcs", type=int, default=DEFAULT_MAX_ARCS, help="largest model, in flow arcs")
     parser.add_argument("--no-large", action="store_true", help="leave out missions/large.geojson")
     parser.add_argument("--smoke", action="store_true", help="a tiny run that exercises every path (tests)")
     args = parser.parse_args(argv)
     if args.smoke:
         args.time = min(args.time, 20.0)
+        args.dual_time = min(args.dual_time, 1.0)
     (figures if args.what == "figures" else gap)(args)
 
 

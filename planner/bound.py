@@ -11,8 +11,9 @@ diagonal sqrt 2 of them over a real area), spends at most its range T_i (eq. 23:
 within `footprint_radius` of its cell) at every point of its trajectory, the airport at step 0
 included (`planner.success.plan_looks`). DTSCS plans (`planner.dtscs`) are such trajectories with
 more rules (the start heading, the OC on every turn, no two UAVs in one cell at a step), so none
-can expect more. Three models, tightest first; `success_bound` takes the tightest whose flow arcs
-fit `max_arcs`:
+can expect more. Three LP models, tightest first, and a dual one; `success_bound` takes the
+tightest LP model whose flow arcs fit `max_arcs`, and when that is not `HEADINGS`, also the
+`LAGRANGIAN` dual when its DP fits the time (`lagrangian_fits`), reporting the smaller:
 
 - `HEADINGS`: one node per (step, cell, heading), arcs the OC's turns from the start pose on,
   and the metre budget as a knapsack row (sum of the arcs' costs <= T_i). Its integer optimum is
@@ -25,6 +26,10 @@ fit `max_arcs`:
   start. A unit flow per UAV runs through (window, block) nodes from its airport's block back to
   it; a window's at most b (2r + 1)^2 readings go to blocks that near the occupied one. The
   budget counts steps (T_i // the axis step's cost), diagonals as cheap as axis moves.
+- `LAGRANGIAN`: the Lagrangian relaxation of `HEADINGS` (the cells' read rows and the metre
+  rows relaxed with multipliers), each UAV's part a DP over (step, cell, heading) instead of
+  arcs, minimised by column generation (`planner.bound_lagrange`). Every value bounds the
+  `HEADINGS` LP from above, and their infimum equals it; in the time given it stops above.
 
 In every model a node or a reading exists only where some free cell can be reached and left
 within the budget: out + home <= T_i, with home the exact OC return table's cost (Section 4's
@@ -57,10 +62,15 @@ from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
 from planner.return_exact import UNREACHABLE, return_table
 from planner.scenario import Scenario
 
-__all__ = ["Bound", "BoundModel", "MAX_LOOKS_LISTED", "bound_model_size", "exact_optimum", "success_bound"]
+__all__ = ["Bound", "BoundModel", "MAX_LOOKS_LISTED", "bound_model_size", "exact_optimum", "lagrangian_fits",
+           "success_bound"]
 
 #: Looks per cell listed as separate gains; later ones are credited with the largest unlisted gain.
 MAX_LOOKS_LISTED = 12
+
+#: The share of `success_bound`'s time its iterations of the `LAGRANGIAN` dual are sized to (the
+#: LP model before it takes the rest: its arcs are sized to the time too).
+DUAL_SHARE = 0.7
 
 #: The flow arcs a model may have by default: HiGHS solves its LP in a few seconds on one core.
 DEFAULT_MAX_ARCS = 15_000
@@ -70,6 +80,7 @@ class BoundModel(str, Enum):
     HEADINGS = "headings"
     CELLS = "cells"
     BLOCKS = "blocks"
+    LAGRANGIAN = "lagrangian"
 
 
 @dataclass(frozen=True)
@@ -80,9 +91,13 @@ class Bound:
     `lp`: the LP relaxation's optimum; `mip_dual`: the MIP's dual bound (inf without one);
     `mip_best`: the best integer solution's worth (-inf without one; in `HEADINGS` a set of
     trajectories that keeps the OC and the budgets, separation aside); `mip_gap` its relative gap;
-    `finished`: the LP solved within the time; `optimal`: the MIP solved to optimality (then
-    `mip_best` is the exact optimum of the model); `model`, `block` (b; 1 for the cell models),
-    the model's size and the seconds it took, building included."""
+    `finished`: a bound was had within the time (the LP solved, or an iterate of the Lagrangian
+    dual); `optimal`: the MIP solved to optimality (then `mip_best` is the exact optimum of the
+    model); `model` the model `value` comes from, `block` (b; 1 for the other models), the LP
+    model's size and the seconds it took, building included; `lagrangian` the smallest value of
+    the `LAGRANGIAN` dual (inf when it did not run), `floor` what its master LP reached (the
+    `HEADINGS` LP is at least that: no bound of that model can be below it; -inf without one)
+    and `iterations` its evaluations of L."""
 
     value: float
     lp: float
@@ -96,6 +111,9 @@ class Bound:
     columns: int
     rows: int
     seconds: float
+    lagrangian: float = math.inf
+    floor: float = -math.inf
+    iterations: int = 0
 
     def share(self, expected: float) -> float | None:
         """`expected` over the bound (a plan's share of the most any plan could expect); None
@@ -521,19 +539,52 @@ def bound_model_size(scenario: Scenario, oc: OrientationConstraint = OC3, max_ar
     return BoundModel.BLOCKS, b, _block_arcs(scenario, b)
 
 
+def lagrangian_fits(scenario: Scenario, oc: OrientationConstraint, time_limit_s: float) -> bool:
+    """Whether the `LAGRANGIAN` dual (its DP steps x cells x 8 headings x the OC's branching per
+    UAV and evaluation, and its master LP: `planner.bound_lagrange.dual_seconds`) makes its
+    first evaluations within `time_limit_s` and its choice table fits the memory."""
+    from planner.bound_lagrange import dual_fits
+
+    return dual_fits(_uavs(scenario, oc), scenario.search_map.no_fly.size, oc, time_limit_s)
+
+
+def _lagrangian(scenario: Scenario, oc: OrientationConstraint, uavs: list[_Uav], time_limit_s: float,
+                planned_s: float, iterations: int | None) -> tuple[float, float, int]:
+    """(the smallest value of the `LAGRANGIAN` dual within `time_limit_s`, the floor its master LP
+    reached, its iterations): `iterations` of them, by default as many as its work estimate fits
+    in `planned_s`, the same figure every run."""
+    from planner.bound_lagrange import dual_seconds, scenario_dual
+
+    if iterations is None:
+        iterations = max(2, int(planned_s / dual_seconds(uavs, scenario.search_map.no_fly.size, oc)))
+    dual = scenario_dual(scenario, oc, time_limit_s, iterations)
+    return float(dual.value), float(dual.floor), dual.iterations
+
+
 def success_bound(scenario: Scenario, oc: OrientationConstraint = OC3, time_limit_s: float = 5.0, mip: bool = True,
                   max_arcs: int = DEFAULT_MAX_ARCS, model: BoundModel | None = None, block: int | None = None,
-                  mip_nodes: int | None = None) -> Bound:
+                  mip_nodes: int | None = None, dual_iterations: int | None = None) -> Bound:
     """The upper bound of the module docstring on the expected finds of any closed plan of
     `scenario` under `oc`, within `time_limit_s` seconds (building the model included): the LP
     first, then with `mip` the MIP in the time left (at most `mip_nodes` branch-and-bound nodes:
     its dual bound comes mostly from the cuts at the root). `model` (and `block` for `BLOCKS`) forces a
-    model; by default the tightest whose arcs fit `max_arcs`."""
+    model; by default the tightest LP model whose arcs fit `max_arcs`, and when that is not
+    `HEADINGS` and the `LAGRANGIAN` dual fits the time, the LP and then, instead of the MIP, the
+    dual in the time left (as many iterations as its work estimate fits in that time, so the
+    same scenario gives the same bound; the time is still a hard stop), the smaller reported.
+    `lower`: a value the optimum is known to reach (a plan's expected finds), the dual's target."""
     start = time.perf_counter()
     if not scenario.uavs:
         return Bound(0.0, 0.0, 0.0, 0.0, 0.0, True, True, BoundModel.CELLS, 1, 0, 0, 0.0)
+    if model is BoundModel.LAGRANGIAN:
+        value, floor, iterations = _lagrangian(scenario, oc, _uavs(scenario, oc), time_limit_s, time_limit_s,
+                                                dual_iterations)
+        return Bound(value, math.inf, math.inf, -math.inf, math.inf, math.isfinite(value), False, model, 1, 0, 0,
+                     time.perf_counter() - start, value, floor, iterations)
+    dual = False
     if model is None:
         model, b, _ = bound_model_size(scenario, oc, max_arcs)
+        dual = model is not BoundModel.HEADINGS and lagrangian_fits(scenario, oc, time_limit_s)
     else:
         b = 1 if model is not BoundModel.BLOCKS else (block or bound_model_size(scenario, oc, max_arcs)[1])
     uavs = _uavs(scenario, oc)
@@ -547,15 +598,25 @@ def success_bound(scenario: Scenario, oc: OrientationConstraint = OC3, time_limi
     if left > 0:
         status, lp, _, _ = built.solve(False, left)
         finished = status == "optimal"
+    if dual:
+        left = time_limit_s - (time.perf_counter() - start)
+        value, floor, iterations = (_lagrangian(scenario, oc, uavs, left, DUAL_SHARE * time_limit_s, dual_iterations)
+                                    if left > 0
+                                    else (math.inf, -math.inf, 0))
+        lp = lp if finished else math.inf
+        tighter = value < lp
+        return Bound(min(lp, value), lp, math.inf, -math.inf, math.inf, finished or math.isfinite(value), False,
+                     BoundModel.LAGRANGIAN if tighter else model, 1 if tighter else b, built.columns, len(built.lo),
+                     time.perf_counter() - start, value, floor, iterations)
     if not finished:
         return Bound(math.inf, math.inf, math.inf, -math.inf, math.inf, False, False, model, b, built.columns,
                      len(built.lo), time.perf_counter() - start)
-    dual, best, gap, optimal = math.inf, -math.inf, math.inf, False
+    dual_bound, best, gap, optimal = math.inf, -math.inf, math.inf, False
     left = time_limit_s - (time.perf_counter() - start)
     if mip and left > 0:
-        status, best, dual, gap = built.solve(True, left, mip_nodes)
+        status, best, dual_bound, gap = built.solve(True, left, mip_nodes)
         optimal = status == "optimal"
-    return Bound(min(lp, dual), lp, dual, best, gap, True, optimal, model, b, built.columns, len(built.lo),
+    return Bound(min(lp, dual_bound), lp, dual_bound, best, gap, True, optimal, model, b, built.columns, len(built.lo),
                  time.perf_counter() - start)
 
 

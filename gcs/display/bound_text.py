@@ -14,7 +14,8 @@ MOST = "the most any plan of these airports and ranges could expect"
 class BoundTerms:
     """A bound's figures as text: `share` the plan's share of it ("77.3%"), `expected_max` and
     `pos_max` the bound on expected finds ("396.36") and on the PoS ("32.8%"), `lp` the model it
-    was solved over ("the LP over blocks 17x17"); all None when it was not had in time, and then
+    was solved over ("the LP over blocks 17x17", "the Lagrangian dual of the LP over headings"); all
+    None when it was not had in time, and then
     `missing` says so ("not had within --bound-time 0.5 s (cells model)")."""
 
     share: str | None
@@ -29,6 +30,9 @@ def bound_terms(bound: dict) -> BoundTerms:
     if "share_of_max" not in bound:
         return BoundTerms(None, None, None, None,
                           f"not had within --bound-time {bound['time_limit_s']:g} s ({bound['model']} model)")
-    model = bound["model"] + (f" {bound['block']}x{bound['block']}" if bound["block"] > 1 else "")
+    if bound["model"] == "lagrangian":
+        over = "the Lagrangian dual of the LP over headings"
+    else:
+        over = "the LP over " + bound["model"] + (f" {bound['block']}x{bound['block']}" if bound["block"] > 1 else "")
     return BoundTerms(f"{bound['share_of_max']:.1%}", f"{bound['expected_targets_found_max']:.2f}",
-                      f"{bound['probability_of_success_max']:.1%}", f"the LP over {model}", None)
+                      f"{bound['probability_of_success_max']:.1%}", over, None)

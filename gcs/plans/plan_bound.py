@@ -29,7 +29,9 @@ def bound_summary(plan: Plan, scenario: Scenario, oc: OrientationConstraint, sec
     """plan.json's `summary.bound` for `plan` of `scenario` under `oc`, the bound given
     `seconds` (None when `seconds` is 0: no bound asked for). The LP relaxation only: the MIP's
     dual bound never improved on it on the examples but for `large` (docs/success.md), and it
-    would take all the time given (benchmarks/success_bound.py reports both)."""
+    would take all the time given (benchmarks/success_bound.py reports both); where the
+    per-heading LP is too large, the Lagrangian dual of it too when it fits the time, the smaller
+    reported."""
     if seconds <= 0 or plan.success is None:
         return None
     from planner.bound import success_bound

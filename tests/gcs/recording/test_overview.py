@@ -142,6 +142,8 @@ def test_the_summarys_bound_line_says_the_captions_bound():
     assert bound_line(had) == ("bound: at least 77.3% of the most any plan of these airports and ranges could expect "
                                "(E <= 396.36, PoS <= 32.8%; the LP over blocks 17x17)")
     assert bound_line({**had, "model": "headings", "block": 1}).endswith("; the LP over headings)")
+    dual = bound_line({**had, "model": "lagrangian", "block": 1})
+    assert dual is not None and dual.endswith("; the Lagrangian dual of the LP over headings)")
     late = {"time_limit_s": 0.5, "finished": False, "model": "cells", "block": 1}
     assert bound_line(late) == ("bound: not had within --bound-time 0.5 s (cells model); a longer --bound-time may "
                                 "have it")
