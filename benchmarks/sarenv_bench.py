@@ -4,7 +4,9 @@ SAREnv's own evaluator (`sarenv.analytics.metrics.PathEvaluator`).
     tools/setup --test                                                     # .venv-bench: the bench extra
     .venv-bench/bin/python benchmarks/sarenv_bench.py                      # the eight shipped scenarios
     .venv-bench/bin/python benchmarks/sarenv_bench.py --ids 1 --drones 2 --budget 8000 --size small
-    .venv-bench/bin/python benchmarks/sarenv_bench.py --no-improve         # gcs as before issue 37
+    B=".venv-bench/bin/python benchmarks/sarenv_bench.py --cell-m 66.3 --footprint 0 --np 5 --strategy cpio"
+    $B                                                                     # gcs as the bench planned it before
+    $B --no-improve                                                        # and as before issue 37
 
 Per scenario (`--datasets DIR/ID/heatmap.npy`, the centre of the id from `--source`'s
 `data/export_all_data.py`), as SAREnv's README and `DatasetLoader.load_environment` place it: the
@@ -17,8 +19,14 @@ Pizza, RandomWalk) run with the published runs' parameters; their unseeded gener
 gcs plans the same scenario through the product: an area file (the circle, one airport per UAV
 at the IPP, the heatmap as its raster prior) planned as `gcs plan --area` plans it, each UAV's
 range its share of the budget, the camera of SAREnv's setting (45 deg FOV at 80 m: a 66.3 m
-swath, so cells of the swath's width and one look per cell flown); its closed paths (IPP -> mission -> IPP, from the
-plan's `paths.geojson`) are projected to the UTM zone and scored like the baselines.
+swath). By default gcs plans as a crew would with `gcs plan --area FILE --cell-size 22.1 --footprint 1
+--pc 0.95 --pf 0.01 --np 7 --strategy exhaustive`: cells a third of the swath, the footprint's 3 x 3
+cells the swath, so a step is credited with the ground its metres see (an axis step of 22 m 3 new
+cells, a diagonal of 31 m 5), and a look-ahead of 7 steps (155 m) searched exhaustively; the
+options are printed under the table. `--cell-m 66.3 --footprint 0 --np 5 --strategy cpio` plans as
+the bench did before (cells of the swath's width, one look per cell flown). Its closed paths (IPP ->
+mission -> IPP, from the plan's `paths.geojson`) are projected to the UTM zone and scored like the
+baselines.
 
 Victims: `--victims` points drawn from the cropped heatmap with `--seed` (SAREnv draws them from
 its features files, which are not shipped), the same for every planner.
@@ -61,7 +69,10 @@ FOV_DEG = 45.0
 ALTITUDE_M = 80.0
 DISCOUNT = 0.999
 SWATH_M = 2 * ALTITUDE_M * math.tan(math.radians(FOV_DEG / 2))  # 66.3 m on the ground
-CELL_M = SWATH_M  # a cell flown is a cell seen
+CELL_M = 22.1  # a third of the swath (22.10 m), as a crew would write it: the footprint's 3 x 3 cells are the swath
+GCS_FOOTPRINT = 1
+GCS_NP = 7
+GCS_STRATEGY = "exhaustive"
 GCS_PC = 0.95  # SAREnv's evaluator counts every bin within the swath as seen
 GCS_PF = 0.01
 
@@ -280,16 +291,24 @@ def area_file_for(scenario: Scenario, drones: int, budget_m: float, folder: Path
 
 @dataclass(frozen=True)
 class GcsSettings:
-    """How gcs plans a SAREnv scenario: its cell size, sensor and search strategy; `improve`
-    False plans as gcs did before issue 37's whole-mission improvement (`gcs plan --no-improve`:
-    DTSCS's plan as flown), None as `gcs plan --area` does by default (improved)."""
+    """How gcs plans a SAREnv scenario: its cell size, sensor (Pc, Pf, footprint radius in cells)
+    and search (strategy, Np); `improve` False plans as gcs did before issue 37's whole-mission
+    improvement (`gcs plan --no-improve`: DTSCS's plan as flown), None as `gcs plan --area` does by
+    default (improved)."""
 
     cell_m: float = CELL_M
     pc: float = GCS_PC
     pf: float = GCS_PF
-    strategy: str = "cpio"
-    np_steps: int = 5
+    footprint: int = GCS_FOOTPRINT
+    strategy: str = GCS_STRATEGY
+    np_steps: int = GCS_NP
     improve: bool | None = None
+
+    def command_line(self) -> str:
+        """The `gcs plan` options a crew would pass for the same plan."""
+        improve = " --no-improve" if self.improve is False else ""
+        return (f"gcs plan --area FILE --cell-size {self.cell_m:g} --footprint {self.footprint} --pc {self.pc:g} "
+                f"--pf {self.pf:g} --np {self.np_steps} --strategy {self.strategy}{improve}")
 
 
 def plan_gcs(scenario: Scenario, drones: int, budget_m: float, seed: int, out_dir: Path,
@@ -301,8 +320,8 @@ def plan_gcs(scenario: Scenario, drones: int, budget_m: float, seed: int, out_di
 
     area_path = area_file_for(scenario, drones, budget_m, out_dir, settings.cell_m)
     options = AreaOptions(altitude_m=ALTITUDE_M, speed_m_s=12.0)
-    search = SearchOptions(seed=seed, pc=settings.pc, pf=settings.pf, strategy=settings.strategy,
-                           np_steps=settings.np_steps, improve=settings.improve)
+    search = SearchOptions(seed=seed, pc=settings.pc, pf=settings.pf, footprint=settings.footprint,
+                           strategy=settings.strategy, np_steps=settings.np_steps, improve=settings.improve)
     setup = build_area_search(area_path, options, search)
     plan = fly_with_progress(setup.search, progress=False)
     files = area_outputs(setup, plan, seed, options.speed_m_s)
@@ -402,7 +421,8 @@ def table(results: dict[int, list[Score]], bounds: dict[int, float], drones: int
         if ident in bounds:
             lines.append(f"{ident:>3} {'bound':<11} {bounds[ident]:>10.4f}")
     planner = "DTSCS alone, --no-improve" if settings.improve is False else "DTSCS and the improvement, the default"
-    lines.append(f"({drones} UAVs, {budget_m:g} m in all, {budget_m / drones:g} m each; gcs: {planner}; "
+    lines.append(f"({drones} UAVs, {budget_m:g} m in all, {budget_m / drones:g} m each; gcs: {planner}, "
+                 f"{settings.command_line()}; "
                  "published: SAREnv's "
                  "results/*.csv where it has the same runs; Greedy and RandomWalk: the mean of --repeats seeds, "
                  "their least and greatest likelihood in brackets; bound: the most any paths of the budget can "
@@ -435,18 +455,30 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=5, help="runs (seeds) of the baselines that draw random numbers")
     parser.add_argument("--no-improve", dest="improve", action="store_false", default=None,
                         help="gcs without the whole-mission improvement (gcs plan --no-improve): as before issue 37")
+    parser.add_argument("--cell-m", type=float, default=CELL_M,
+                        help=f"gcs's cell side in metres (gcs plan --cell-size; {CELL_M:g}: a third of the swath)")
+    parser.add_argument("--footprint", type=int, default=GCS_FOOTPRINT,
+                        help="gcs's sensor footprint radius in cells (gcs plan --footprint)")
+    parser.add_argument("--np", dest="np_steps", type=int, default=GCS_NP, help="gcs's Np (gcs plan --np)")
+    parser.add_argument("--strategy", default=GCS_STRATEGY, help="gcs's search strategy (gcs plan --strategy)")
     args = parser.parse_args(argv)
     try:
         ids = parse_ids(args.ids)
         if args.drones < 1 or not (args.budget > 0) or args.victims < 1 or args.repeats < 1:
             raise BenchError("--drones, --budget, --victims and --repeats must be positive")
+        if not (args.cell_m > 0) or args.footprint < 0 or args.np_steps < 1:
+            raise BenchError("--cell-m and --np must be positive, --footprint not negative")
+        from planner.search import STRATEGIES
+        if args.strategy not in STRATEGIES:
+            raise BenchError(f"--strategy: unknown {args.strategy} (of {', '.join(sorted(STRATEGIES))})")
         chosen = tuple(b for b in args.baselines.split(",") if b)
         unknown = sorted(set(chosen) - set(BASELINES))
         if unknown or not chosen:
             raise BenchError(f"--baselines: unknown {', '.join(unknown) or 'none given'} (of {', '.join(BASELINES)})")
         sarenv = load_sarenv(args.source)
         scenarios = [load_scenario(sarenv, args.datasets, ident, args.size) for ident in ids]
-        settings = GcsSettings(improve=args.improve)
+        settings = GcsSettings(args.cell_m, footprint=args.footprint, strategy=args.strategy, np_steps=args.np_steps,
+                               improve=args.improve)
         results, bounds = {}, {}
         for scenario in scenarios:
             results[scenario.ident] = run_scenario(sarenv, scenario, args.drones, args.budget, args.seed, args.victims,

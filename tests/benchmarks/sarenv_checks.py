@@ -33,13 +33,15 @@ def test_one_scenario_through_the_evaluator(sarenv, capsys) -> None:
     gcs, best = float(rows["gcs"][2]), max(float(rows[n][2]) for n in ("Spiral", "Pizza"))
     assert float(rows["bound"][2]) > gcs > 0.9 * best
     assert float(rows["gcs"][4]) > max(float(rows[n][5]) for n in ("Spiral", "Pizza"))  # time-discounted
+    assert ("gcs plan --area FILE --cell-size 22.1 --footprint 1 --pc 0.95 --pf 0.01 --np 7 --strategy exhaustive"
+            in out)  # the options a crew would pass for gcs's column
     ratio = out.strip().splitlines()[-1]
     assert re.fullmatch(r"gcs vs the best baseline: likelihood mean [\d.]+x, min [\d.]+x; "
                         r"time-discounted mean [\d.]+x, min [\d.]+x", ratio)
 
 
 def test_gcs_paths_are_closed_at_the_ipp_within_each_share(sarenv, tmp_path) -> None:
-    """gcs's default plan (improved) and, with --no-improve, the plan as before issue 37."""
+    """gcs's default plan (improved, cells a third of the swath) and, with --no-improve, DTSCS's plan."""
     scenario = sb.load_scenario(sarenv, sb.DEFAULT_DATASETS, 1, "small")
     ipp = Point(scenario.centre_xy)
     for improve in (None, False):
@@ -57,3 +59,5 @@ def test_bad_input_is_one_line(capsys) -> None:
     assert capsys.readouterr().err == "error: --ids must be comma-separated dataset ids, got '1,x'\n"
     assert sb.main(["--baselines", "Greedy,Lawn"]) == 2
     assert capsys.readouterr().err.startswith("error: --baselines: unknown Lawn")
+    assert sb.main(["--strategy", "lawn"]) == 2
+    assert capsys.readouterr().err.startswith("error: --strategy: unknown lawn (of cpio, exhaustive")
