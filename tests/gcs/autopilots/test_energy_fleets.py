@@ -115,18 +115,17 @@ def test_a_fleet_spends_its_batteries_on_the_search(tmp_path, fleet, site, extra
 
 def test_a_learned_profile_plans_a_flight_that_spends_the_battery(tmp_path, copters_in_still_air):
     """Fly once with stock profiles, plan again with the vehicles.json that flight wrote, fly
-    again: every vehicle flies its new plan and lands with at most reserve + 10 %. The second plan
-    is DTSCS's (`--no-improve`): what a metre cost differs by up to 7 % between two still-air
-    flights of one ArduCopter SITL (2026-12-02: UAV 3 learned 1.055 mAh/m from the first, drew
-    1.133 in the second); flying the improved plan (1519 m of its 1539 m range) UAV 3 came home by
-    battery at 16 of 20 waypoints, touching down at the 30 % reserve."""
+    again: every vehicle flies its new plan and lands with at most reserve + 10 %. The second
+    plan fits each copter's range to what its path costs (`gcs.plans.charge_fit`): without that,
+    UAV 3's learned cruise metre (1.055 mAh, what the first flight's path cost) sized a range whose
+    plan cost 6.6 % more a metre, and it came home by battery at 16 of 20 waypoints (2026-12-02)."""
     first = copters_in_still_air
     learned = first.plan_dir / "vehicles.json"
     assert learned.exists(), first.stdout[-3000:]
     records = json.loads(learned.read_text())["vehicles"]
     assert {r["uav_id"] for r in records.values()} == {1, 2, 3}
     assert {r["uav_id"]: r["profile"]["capacity_mah"] for r in records.values()}[2] == 2200
-    plan_dir = FIELD_COPTERS.plan(tmp_path / "second", "--vehicles", str(learned), "--no-improve")
+    plan_dir = FIELD_COPTERS.plan(tmp_path / "second", "--vehicles", str(learned))
     second = fly_fleet(tmp_path / "second", FIELD_COPTERS, COPTERS, "--vehicles", str(learned), plan_dir=plan_dir)
     for v in second.verdicts.values():
         assert v.flew_its_search and v.touchdown_pct is not None and v.touchdown_pct <= RESERVE_PCT + 10, \
