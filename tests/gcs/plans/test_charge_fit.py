@@ -36,7 +36,8 @@ def _cost_over_charge(setup, plan, profiles):
         if u.uav_id in profiles:
             path = _closed_path_en(setup, u.uav_id, [(p.x, p.y) for p in u.trajectory])
             p = profiles[u.uav_id]
-            out[u.uav_id] = p.path_mah_per_m(path) * path_length_m(path) / (p.cruise_mah_per_m * setup.ranges_m[u.uav_id])
+            paid_mah = p.cruise_mah_per_m * setup.ranges_m[u.uav_id]
+            out[u.uav_id] = p.path_mah_per_m(path) * path_length_m(path) / paid_mah
     return out
 
 
