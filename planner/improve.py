@@ -9,7 +9,12 @@ the cell (every pose of every UAV, its footprint included, the airport at step 0
 how often each cell is read, not on when, so a window's worth is exact: the readings it adds,
 given every other reading of the plan.
 
-Two moves, each solved by a depth-first search over every path under the OC (kernel
+First, in rounds until no UAV gains (`ResponseSettings.rounds`), each UAV's whole path is
+re-planned as its best response to every other reading of the plan (`planner.best_response`: a
+time-indexed programme over (step, cell, heading) from its airport pose home, the other UAVs'
+cells at each step forbidden, mu per unit of cost on a ladder, every candidate scored exactly);
+then the windows polish what it left, long windows by dynamic programming (`_dp_sweep`), then
+two moves, each solved by a depth-first search over every path under the OC (kernel
 `_improve_uav`):
 
 - a **window** of L steps between two fixed poses of a path: every path of L steps from the
@@ -46,6 +51,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from planner.best_response import ResponseSettings, respond
 from planner.config import njit
 from planner.motion import HEADING_DX, HEADING_DY, MoveCosts, OrientationConstraint
 from planner.plan import Plan, Stage, TargetOutcome, TrajectoryPoint, UavPlan
@@ -67,7 +73,8 @@ class ImproveSettings:
     """`paths`: at most this many paths per exact window (fixes L); `stride`: steps between the
     starts of two windows of a sweep; `rounds`: sweeps over every UAV at most (fewer when one
     gains nothing); `extra`: steps a tail may grow by; `dp_steps`, `dp_stride`: the long windows
-    solved by dynamic programming (0: none)."""
+    solved by dynamic programming (0: none); `response`: each UAV's whole path re-planned first,
+    in rounds, as its best response to the others' (`planner.best_response`; None: not)."""
 
     paths: int = 6561
     stride: int = 2
@@ -75,6 +82,7 @@ class ImproveSettings:
     extra: int = 4
     dp_steps: int = 36
     dp_stride: int = 9
+    response: ResponseSettings | None = ResponseSettings()
 
     def __post_init__(self) -> None:
         if self.paths < 2 or self.stride < 1 or self.rounds < 0 or self.extra < 0 or self.dp_steps < 0 \
@@ -500,6 +508,15 @@ def _improve_uav(path: np.ndarray, n_poses: int, budget: int, time_budget: int, 
     return total, n_poses
 
 
+def _others(paths: np.ndarray, lengths: np.ndarray, i: int) -> np.ndarray:
+    """Every UAV's cells but UAV i's by step (-1 once landed), as the kernels take them."""
+    others = np.delete(paths[:, :, :2], i, axis=0)
+    for j in range(len(paths) - 1):
+        k = j if j < i else j + 1
+        others[j, lengths[k]:] = -1
+    return others
+
+
 def _tail_start(path: np.ndarray, n_poses: int, table: np.ndarray, move_costs: np.ndarray) -> int:
     """The first pose from which the rest of the path is a lowest-cost way home."""
     rest = 0
@@ -572,6 +589,8 @@ def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, rese
     most = max(len(u.trajectory) for u in plan.uavs) + settings.extra * (settings.rounds + 1) + 1
     longest = max(u.range_units // costs.cheapest + 1 for u in plan.uavs)
     capacity = max(most, min(longest, most + settings.extra * 64))
+    if settings.response is not None and settings.response.rounds > 0:
+        capacity = max(capacity, longest)
     paths = np.full((len(plan.uavs), capacity, 3), -1, dtype=np.int64)
     lengths = np.zeros(len(plan.uavs), dtype=np.int64)
     for i, u in enumerate(plan.uavs):
@@ -585,13 +604,24 @@ def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, rese
         for x, y, _ in paths[i, : lengths[i]]:
             _look(counts, base, qpow, sensor.pc, int(x), int(y), sensor.footprint_radius, 1)
 
+    response = settings.response or ResponseSettings(rounds=0)
+    rungs: list[int | None] = [None] * len(plan.uavs)
+    for _ in range(response.rounds):
+        gained = 0.0
+        for i, u in enumerate(plan.uavs):
+            b = budgets[i]
+            gain, n, rungs[i] = respond(paths[i], int(lengths[i]), b.units, b.time_units, counts, base, qpow,
+                                        sensor.pc, sensor.footprint_radius, _others(paths, lengths, i), blocked,
+                                        successors, allowed, tables[u.uav_id], HEADING_DX, HEADING_DY, by_heading,
+                                        b.turns, response, rungs[i])
+            lengths[i] = n
+            gained += gain
+        if gained <= MIN_GAIN:
+            break
     for _ in range(settings.rounds):
         gained = 0.0
         for i, u in enumerate(plan.uavs):
-            others = np.delete(paths[:, :, :2], i, axis=0)
-            for j in range(len(plan.uavs) - 1):
-                k = j if j < i else j + 1
-                others[j, lengths[k]:] = -1
+            others = _others(paths, lengths, i)
             b = budgets[i]
             if settings.dp_steps >= 2:
                 gained += _dp_sweep(paths[i], int(lengths[i]), b.units, b.time_units, settings.dp_steps,

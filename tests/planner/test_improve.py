@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from planner.best_response import ResponseSettings, _walk_dp, respond
 from planner.dtscs import ClosedSearch, MissionConfig
 from planner.energy import Airframe, EnergyProfile
 from planner.improve import (
@@ -174,6 +175,104 @@ def test_a_reading_taken_back_gives_back_what_it_added():
     assert np.array_equal(counts, before)
 
 
+# ---- the best response: one UAV's whole path re-planned against the others (`planner.best_response`) -----------
+
+
+def _closed_walks(pose, steps, oc, blocked, home_cell):
+    """Reference: every walk of exactly `steps` moves from `pose` that ends on `home_cell`."""
+    for rows in _all_paths(pose, steps, oc, blocked):
+        if rows and rows[-1][:2] == home_cell:
+            yield rows
+
+
+@pytest.mark.parametrize("seed, oc", [(0, OC3), (1, OC8), (2, OC4), (3, OC3)])
+def test_the_walk_programme_finds_the_best_additive_closed_walk_at_every_step(seed, oc):
+    """Axis and diagonal moves alike cost one step and no turn is priced, so at mu = 0 the
+    programme is exact: at every step t its best end on the airport is the largest prize sum of
+    any walk of t moves from the airport pose back to it, off another UAV's cell at each step."""
+    n = 7
+    blocked, base, _ = _case(seed, n)
+    start = (3, 3, 2)
+    steps = 6 if oc is OC3 else 4
+    prize = base * PC
+    others = np.full((1, steps + 1, 2), -1, dtype=np.int64)
+    others[0, 2] = (4, 3)
+    home = return_table(blocked, start[:2], oc, STEPS)
+    parent = np.zeros((steps + 1, n, n, 8), dtype=np.int8)
+    end_value = np.empty((steps + 1, 8))
+    end_cost = np.zeros((steps + 1, 8), dtype=np.int64)
+    end_turns = np.zeros((steps + 1, 8), dtype=np.int64)
+    _walk_dp(*start, steps, steps, steps, prize, 0, 0, blocked, others, home, oc.successors, HEADING_DX, HEADING_DY,
+             STEPS.by_heading, np.zeros(8, dtype=np.int64), 0.0, 0.0, parent, end_value, end_cost, end_turns)
+    for t in range(1, steps + 1):
+        walks = [w for w in _closed_walks(start, t, oc, blocked, start[:2])
+                 if not any(tuple(others[0, s + 1]) == c[:2] for s, c in enumerate(w) if s + 1 < others.shape[1])]
+        best = max((sum(prize[x, y] for x, y, _ in w) for w in walks), default=-np.inf)
+        assert end_value[t].max() == pytest.approx(best, rel=1e-12)
+        if walks:
+            assert end_cost[t, int(np.argmax(end_value[t]))] == t
+
+
+def _pocket(others=None):
+    """One UAV at (1, 7) heading east under 3OC, 40 steps of range, a loop of 8 moves near its
+    airport as its path; nothing to find but three cells far east, (10..12, 7)."""
+    n = 16
+    blocked = np.zeros((n, n), dtype=np.bool_)
+    base = np.zeros((n, n))
+    base[10:13, 7] = 1.0
+    loop = [(2, 7, 2), (3, 8, 1), (3, 9, 0), (2, 10, 7), (1, 10, 6), (0, 9, 5), (0, 8, 4), (1, 7, 3)]
+    path = np.full((41, 3), -1, dtype=np.int64)
+    path[0] = (1, 7, 2)
+    path[1:9] = loop
+    counts = np.zeros((n, n), dtype=np.int64)
+    for x, y, _ in path[:9]:
+        counts[x, y] += 1
+    others = np.full((1, 41, 2), -1, dtype=np.int64) if others is None else others
+    home = return_table(blocked, (1, 7), OC3, STEPS)
+    return path, counts, base, blocked, others, home
+
+
+@pytest.mark.parametrize("held", [False, True])
+def test_the_best_response_flies_to_a_rich_far_pocket_and_home(held):
+    """The loop reads nothing; the walk east along row 7 reads the three rich cells and comes
+    home within the 40 steps. `held`: another UAV stands on (10, 7) at step 9, when the straight
+    line would get there: the walk reads the pocket at other steps."""
+    others = None
+    if held:
+        others = np.full((1, 41, 2), -1, dtype=np.int64)
+        others[0, 9] = (10, 7)
+    path, counts, base, blocked, others, home = _pocket(others)
+    before = counts.copy()
+    gain, n, _ = respond(path, 9, 40, 40, counts, base, QPOW, PC, 0, others, blocked, OC3.successors,
+                         np.array(OC3.allowed), home, HEADING_DX, HEADING_DY, STEPS.by_heading,
+                         np.zeros(8, dtype=np.int64), ResponseSettings())
+    walk = [tuple(int(v) for v in r) for r in path[:n]]
+    assert {(x, 7) for x in range(10, 13)} <= {(x, y) for x, y, _ in walk}
+    assert gain >= 3 * PC
+    assert walk[0] == (1, 7, 2) and walk[-1][:2] == (1, 7) and n - 1 <= 40
+    for (x, y, h), (qx, qy, g) in zip(walk, walk[1:]):
+        assert OC3.allows(h, g) and (qx - x, qy - y) == (HEADING_DX[g], HEADING_DY[g])
+    assert all(tuple(others[0, s]) != (x, y) for s, (x, y, _) in enumerate(walk))
+    expect = before.copy()
+    for x, y, _ in _pocket()[0][1:9]:
+        expect[x, y] -= 1
+    assert gain == pytest.approx(_gain_of([c[:2] for c in walk[1:]], expect, base, 0), rel=1e-12)
+    for x, y, _ in walk[1:]:
+        expect[x, y] += 1
+    assert np.array_equal(counts, expect)
+
+
+def test_a_best_response_that_finds_nothing_better_leaves_the_path_and_counts():
+    """Nothing left to find: no walk gains, and the path and the counts stay as they were."""
+    path, counts, base, blocked, others, home = _pocket()
+    base[:] = 0.0
+    before, old = counts.copy(), path.copy()
+    gain, n, _ = respond(path, 9, 40, 40, counts, base, QPOW, PC, 0, others, blocked, OC3.successors,
+                         np.array(OC3.allowed), home, HEADING_DX, HEADING_DY, STEPS.by_heading,
+                         np.zeros(8, dtype=np.int64), ResponseSettings())
+    assert (gain, n) == (0.0, 9) and np.array_equal(path, old) and np.array_equal(counts, before)
+
+
 def _fly(scenario, config, seed=0):
     search = ClosedSearch(scenario, config, seed)
     for _ in search.run():
@@ -183,8 +282,10 @@ def _fly(scenario, config, seed=0):
 
 @settings(max_examples=without_jit(12, 3), deadline=None)
 @given(seed=st.integers(0, 10_000), oc_index=st.integers(0, 2), metres=st.booleans(), radius=st.integers(0, 1),
-       reserve=st.integers(0, 2))
-def test_improved_plans_are_safe_and_never_expect_less(seed, oc_index, metres, radius, reserve):
+       reserve=st.integers(0, 2), mode=st.integers(0, 2))
+def test_improved_plans_are_safe_and_never_expect_less(seed, oc_index, metres, radius, reserve, mode):
+    """`mode` 0: the windows alone; 1: the best responses (`planner.best_response`), then the
+    windows; 2: the best responses alone."""
     oc = (OC3, OC4, OC8)[oc_index]
     costs = cell_lengths() if metres else STEPS
     scenario = random_scenario(seed, n_uavs=3, range_steps=without_jit(30, 16), oc=oc, costs=costs)
@@ -197,7 +298,9 @@ def test_improved_plans_are_safe_and_never_expect_less(seed, oc_index, metres, r
     except ValueError:
         return
     before = search.plan()
-    after = improve_plan(before, scenario, oc, search.reserve, seed, ImproveSettings(dp_steps=8, dp_stride=3))
+    response = ResponseSettings(ladder=4) if mode else None
+    after = improve_plan(before, scenario, oc, search.reserve, seed,
+                         ImproveSettings(dp_steps=8, dp_stride=3, response=response, rounds=2 if mode < 2 else 0))
     assert_plan_safe(after, scenario, oc)
     for u in after.uavs:
         assert u.spent <= u.range_units - search.reserve
@@ -319,14 +422,15 @@ def test_zero_turn_prices_and_a_time_budget_that_never_binds_plan_as_metres_alon
 
 def test_the_metre_priced_improvement_overruns_a_copters_charge_and_the_time_priced_one_does_not():
     """On 50 m cells under 3OC, UAV 1's DTSCS path fits in what its range pays for in time; the
-    improvement pricing only metres fills the range with corners and takes longer than that
-    charge flies; priced by time it does not, and still expects more than DTSCS's plan."""
+    improvement's windows pricing only metres fill the range with corners and take longer than
+    that charge flies; priced by time they do not, and still expect more than DTSCS's plan (the
+    windows alone: the best responses' paths here fit the charge either way)."""
     seed, cell_m, costs = 0, 50.0, cell_lengths()
     scenario = random_scenario(seed, n_uavs=2, range_steps=30, oc=OC3, costs=costs)
     pricing = time_pricing(COPTER, cell_m, costs)
     search = _dtscs(_priced(scenario, pricing), OC3, seed)
     before = search.plan()
-    settings_ = ImproveSettings(dp_steps=8, dp_stride=3)
+    settings_ = ImproveSettings(dp_steps=8, dp_stride=3, response=None)
     metres = improve_plan(before, scenario, OC3, 0, seed, settings_)
     timed = improve_plan(before, _priced(scenario, pricing), OC3, 0, seed, settings_)
     range_m = before.uavs[0].range_units * cell_m / costs.straight

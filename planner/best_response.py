@@ -1,0 +1,383 @@
+"""One UAV's best whole path against every other reading of the plan (issue 37, item 3): a walk
+from its airport pose back to its airport, re-planned whole, the others' paths fixed.
+
+`planner.improve` re-solves windows of a path between fixed poses; a path whose DTSCS start took
+it the wrong way cannot leave its corridor by windows. This move replaces everything after the
+airport pose at once. The prize of standing on cell c is what reading its footprint adds given
+every other reading of the plan (the other UAVs' paths and this UAV's airport pose at step 0):
+`base * (1 - Pc)^n * Pc` summed over the footprint, as `planner.improve._look` adds it.
+
+**The programme.** Over (step, cell, heading), time-indexed, from the airport pose: a move goes
+from a pose to a successor heading the OC allows, into the grid, off no-fly cells, off every cell
+another UAV holds at that step (exact: the programme knows the step), and only where the way home
+still fits (`tables`, the lowest cost home from each pose: the cost so far plus it within the
+range less reserve, and within the time budget with turns priced). A walk may end on the airport
+at any step. The value of a state is the best sum of prizes less mu times the path's cost (its
+moves, and, for a copter priced by its time where its time can bind, its turn charges,
+`planner.time_pricing`): a Lagrangian relaxation of the metre (and time) budget. Each state keeps
+its best penalised path's cost and turn charges, and that cost decides whether the way home
+still fits, so every end on the airport fits both budgets; the path a state drops may have been
+the cheaper one, so this is exact only where every move costs the same and no turn is priced
+(then at mu = 0 every step's end is the best prize sum of any closed walk of that many steps,
+which the tests check against every walk). For a given number of steps a larger mu trades
+prizes for fewer diagonals (and corners), which leaves range for more steps: mu runs over a
+ladder, 0 and then `scale * 2^(k - 2)` for k = 0 .. `ResponseSettings.ladder - 1` (`scale` the
+mean prize over the dearest move), and every step's best end at every rung is a candidate. A
+UAV's later responses run only the rung whose walk scored best and its two neighbours.
+
+**Reading a cell twice** adds less than the programme counts (it sums first readings): each
+candidate is scored exactly from `counts` (self-overlaps and footprints as `planner.success`
+counts them), and the best kept. Then the prizes of the cells the best walk read m > 1 times are
+lowered to the mean of its m readings' gains, (1 - (1 - Pc)^m) / (m Pc) of the first, and the
+programme run again (`ResponseSettings.passes`); the best walk over all passes wins.
+
+The new path replaces the old only when its exact gain beats the old path's by `MIN_GAIN` and it
+keeps every invariant (`_walk_is_safe`, checked again apart from the programme): the improvement's
+expected finds never fall.
+
+Cost: O(steps x cells x 8 x OC branching) per run over the box of cells the UAV can reach and come
+back from, and memory of one byte per (step, cell, heading) for the parents: a UAV whose programme
+exceeds `ResponseSettings.states` states is left to the windows (`missions/large.geojson`'s
+8 UAVs of 1150 steps over 400 x 400 cells)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from planner.config import njit
+
+__all__ = ["ResponseSettings", "respond"]
+
+#: Gains below this (expected targets) are not worth a change (as `planner.improve.MIN_GAIN`).
+MIN_GAIN = 1e-9
+
+
+@dataclass(frozen=True)
+class ResponseSettings:
+    """`rounds`: best-response sweeps over every UAV at most (fewer when none gains; 0: none);
+    `passes`: runs of the programme per response (the first with first-reading prizes, each next
+    with the prizes of cells the best walk re-read lowered); `ladder`: rungs of mu above 0
+    (module docstring); `states`: the most (step, cell, heading) states one programme may have
+    (above it the UAV is not re-planned whole)."""
+
+    rounds: int = 3
+    passes: int = 2
+    ladder: int = 9
+    states: int = 60_000_000
+
+    def __post_init__(self) -> None:
+        if self.rounds < 0 or self.passes < 1 or self.ladder < 0 or self.states < 1:
+            raise ValueError(f"bad best-response settings {self}")
+
+
+@njit
+def _read(counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, x: int, y: int, radius: int,
+          sign: int) -> float:
+    """Add (sign 1) or take back (sign -1) one reading of cell (x, y)'s footprint; the gain of the
+    reading (as it was when added)."""
+    nx, ny = counts.shape
+    gain = 0.0
+    for cx in range(x - radius, x + radius + 1):
+        for cy in range(y - radius, y + radius + 1):
+            if cx < 0 or cy < 0 or cx >= nx or cy >= ny:
+                continue
+            if sign < 0:
+                counts[cx, cy] -= 1
+            n = min(counts[cx, cy], qpow.shape[0] - 1)
+            gain += base[cx, cy] * qpow[n] * pc
+            if sign > 0:
+                counts[cx, cy] += 1
+    return gain
+
+
+@njit
+def _walk_gain(walk: np.ndarray, n: int, counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float,
+               radius: int) -> float:
+    """The exact expected finds walk[:n]'s readings add to `counts` (left as it was)."""
+    gain = 0.0
+    for i in range(n):
+        gain += _read(counts, base, qpow, pc, walk[i, 0], walk[i, 1], radius, 1)
+    for i in range(n - 1, -1, -1):
+        _read(counts, base, qpow, pc, walk[i, 0], walk[i, 1], radius, -1)
+    return gain
+
+
+@njit
+def _prizes(counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, radius: int, blocked: np.ndarray,
+            factor: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+    """Each cell's prize over the box [x0, x1] x [y0, y1]: its footprint's next readings' gains,
+    each base cell's times `factor` (1: a first reading)."""
+    nx, ny = counts.shape
+    prize = np.zeros((x1 - x0 + 1, y1 - y0 + 1), dtype=np.float64)
+    for x in range(x0, x1 + 1):
+        for y in range(y0, y1 + 1):
+            if blocked[x, y]:
+                continue
+            p = 0.0
+            for cx in range(x - radius, x + radius + 1):
+                for cy in range(y - radius, y + radius + 1):
+                    if 0 <= cx < nx and 0 <= cy < ny:
+                        p += base[cx, cy] * qpow[min(counts[cx, cy], qpow.shape[0] - 1)] * pc * factor[cx, cy]
+            prize[x - x0, y - y0] = p
+    return prize
+
+
+@njit
+def _walk_dp(sx: int, sy: int, sh: int, steps: int, budget: int, time_budget: int, prize: np.ndarray, x0: int,
+             y0: int, blocked: np.ndarray, others: np.ndarray, home: np.ndarray, successors: np.ndarray,
+             dx: np.ndarray, dy: np.ndarray, move_costs: np.ndarray, turns: np.ndarray, mu: float,
+             turn_weight: float, parent: np.ndarray, end_value: np.ndarray, end_cost: np.ndarray,
+             end_turns: np.ndarray) -> None:
+    """The programme (module docstring) at penalty `mu` per unit of cost (moves, and
+    `turn_weight` times each turn's charge), over the box of `prize` from (x0, y0). Writes the
+    parents (`parent[t, i, j, h]`: the heading before pose t) and, per step t and heading h, the
+    best walk's penalised value, cost and turn charges ending on the airport (sx, sy) there
+    (`end_value` -inf where none)."""
+    bw, bh = prize.shape
+    value = np.full((2, bw, bh, 8), -np.inf)
+    cost = np.zeros((2, bw, bh, 8), dtype=np.int32)
+    turned = np.zeros((2, bw, bh, 8), dtype=np.int32)
+    occupied = np.zeros((bw, bh), dtype=np.bool_)
+    end_value[:] = -np.inf
+    si = sx - x0
+    sj = sy - y0
+    value[0, si, sj, sh] = 0.0
+    i0, i1, j0, j1 = si, si, sj, sj
+    width = successors.shape[1]
+    for t in range(steps):
+        cur = t & 1
+        nxt = 1 - cur
+        r0 = max(0, i0 - 1)
+        r1 = min(bw - 1, i1 + 1)
+        c0 = max(0, j0 - 1)
+        c1 = min(bh - 1, j1 + 1)
+        value[nxt, r0:r1 + 1, c0:c1 + 1, :] = -np.inf
+        if t + 1 < others.shape[1]:
+            for u in range(others.shape[0]):
+                ox = others[u, t + 1, 0] - x0
+                oy = others[u, t + 1, 1] - y0
+                if others[u, t + 1, 0] >= 0 and 0 <= ox < bw and 0 <= oy < bh:
+                    occupied[ox, oy] = True
+        n0, n1, m0, m1 = bw, -1, bh, -1
+        for i in range(i0, i1 + 1):
+            for j in range(j0, j1 + 1):
+                for h in range(8):
+                    v = value[cur, i, j, h]
+                    if v == -np.inf:
+                        continue
+                    c_here = cost[cur, i, j, h]
+                    t_here = turned[cur, i, j, h]
+                    for k in range(width):
+                        g = successors[h, k]
+                        if g < 0:
+                            break
+                        qi = i + dx[g]
+                        qj = j + dy[g]
+                        if qi < 0 or qj < 0 or qi >= bw or qj >= bh or occupied[qi, qj]:
+                            continue
+                        qx = x0 + qi
+                        qy = y0 + qj
+                        if blocked[qx, qy]:
+                            continue
+                        c = c_here + move_costs[g]
+                        turn = turns[(g - h) & 7] if t >= 1 else 0
+                        back = home[g, qx, qy]
+                        if c + back > budget or c + t_here + turn + back > time_budget:
+                            continue
+                        w = v + prize[qi, qj] - mu * (move_costs[g] + turn_weight * turn)
+                        if w > value[nxt, qi, qj, g]:
+                            value[nxt, qi, qj, g] = w
+                            cost[nxt, qi, qj, g] = c
+                            turned[nxt, qi, qj, g] = t_here + turn
+                            parent[t + 1, qi, qj, g] = h
+                            n0 = min(n0, qi)
+                            n1 = max(n1, qi)
+                            m0 = min(m0, qj)
+                            m1 = max(m1, qj)
+        if t + 1 < others.shape[1]:
+            for u in range(others.shape[0]):
+                ox = others[u, t + 1, 0] - x0
+                oy = others[u, t + 1, 1] - y0
+                if others[u, t + 1, 0] >= 0 and 0 <= ox < bw and 0 <= oy < bh:
+                    occupied[ox, oy] = False
+        for h in range(8):
+            end_value[t + 1, h] = value[nxt, si, sj, h]
+            end_cost[t + 1, h] = cost[nxt, si, sj, h]
+            end_turns[t + 1, h] = turned[nxt, si, sj, h]
+        if n1 < 0:
+            break
+        i0, i1, j0, j1 = n0, n1, m0, m1
+
+
+@njit
+def _best_end(sx: int, sy: int, x0: int, y0: int, budget: int, time_budget: int, parent: np.ndarray,
+              end_value: np.ndarray, end_cost: np.ndarray, end_turns: np.ndarray, counts: np.ndarray,
+              base: np.ndarray, qpow: np.ndarray, pc: float, radius: int, dx: np.ndarray, dy: np.ndarray,
+              out: np.ndarray, scratch: np.ndarray) -> tuple[float, int]:
+    """The walks `_walk_dp` ends on the airport (sx, sy) that fit both budgets, the best
+    penalised one per step, each scored exactly: the best one's gain and number of poses (in
+    `out`), (-1, 0) when none fits."""
+    steps = end_value.shape[0] - 1
+    best = -1.0
+    best_n = 0
+    for t in range(1, steps + 1):
+        pick = -1
+        for h in range(8):
+            if end_value[t, h] == -np.inf or end_cost[t, h] > budget \
+                    or end_cost[t, h] + end_turns[t, h] > time_budget:
+                continue
+            if pick < 0 or end_value[t, h] > end_value[t, pick]:
+                pick = h
+        if pick < 0:
+            continue
+        i = sx - x0
+        j = sy - y0
+        h = pick
+        for s in range(t, 0, -1):
+            scratch[s - 1, 0] = x0 + i
+            scratch[s - 1, 1] = y0 + j
+            scratch[s - 1, 2] = h
+            p = parent[s, i, j, h]
+            i -= dx[h]
+            j -= dy[h]
+            h = p
+        gain = _walk_gain(scratch, t, counts, base, qpow, pc, radius)
+        if gain > best:
+            best = gain
+            best_n = t
+            out[:t] = scratch[:t]
+    return best, best_n
+
+
+@njit
+def _multiplicity_factor(walk: np.ndarray, n: int, shape_x: int, shape_y: int, radius: int, q: float) -> np.ndarray:
+    """Per cell, the mean gain of the walk's m readings of it over a first reading's,
+    (1 - q^m) / (m (1 - q)) (1 where m <= 1)."""
+    m = np.zeros((shape_x, shape_y), dtype=np.int64)
+    for k in range(n):
+        for cx in range(walk[k, 0] - radius, walk[k, 0] + radius + 1):
+            for cy in range(walk[k, 1] - radius, walk[k, 1] + radius + 1):
+                if 0 <= cx < shape_x and 0 <= cy < shape_y:
+                    m[cx, cy] += 1
+    factor = np.ones((shape_x, shape_y), dtype=np.float64)
+    for cx in range(shape_x):
+        for cy in range(shape_y):
+            if m[cx, cy] > 1:
+                factor[cx, cy] = (1.0 - q ** m[cx, cy]) / (m[cx, cy] * (1.0 - q))
+    return factor
+
+
+def _reach_box(start: tuple[int, int], home: np.ndarray, budget: int,
+               cheapest: int) -> tuple[int, int, int, int] | None:
+    """The box of cells a walk from `start` can reach and come home from within `budget`: the
+    Chebyshev distance out, at the cheapest move, plus the lowest cost home."""
+    nx, ny = home.shape[1:]
+    xs = np.arange(nx)[:, None]
+    ys = np.arange(ny)[None, :]
+    out = np.maximum(np.abs(xs - start[0]), np.abs(ys - start[1])) * cheapest
+    ok = out + home.min(axis=0).astype(np.int64) <= budget
+    if not ok.any():
+        return None
+    cx = np.flatnonzero(ok.any(axis=1))
+    cy = np.flatnonzero(ok.any(axis=0))
+    return int(cx[0]), int(cy[0]), int(cx[-1]), int(cy[-1])
+
+
+def _walk_is_safe(walk: np.ndarray, n: int, start: tuple[int, int, int], budget: int, time_budget: int,
+                  blocked: np.ndarray, others: np.ndarray, allowed: np.ndarray, dx: np.ndarray, dy: np.ndarray,
+                  move_costs: np.ndarray, turns: np.ndarray) -> bool:
+    """walk[:n] after the airport pose `start`: OC moves in the grid, off no-fly cells and the
+    others' cells at each step, home at the end, its cost within `budget` and its time-priced
+    cost (moves and turns at its inner poses) within `time_budget`."""
+    nx, ny = blocked.shape
+    if n < 1 or (int(walk[n - 1, 0]), int(walk[n - 1, 1])) != start[:2]:
+        return False
+    x, y, h = start
+    cost = 0
+    timed = 0
+    for s in range(n):
+        wx, wy, g = (int(v) for v in walk[s])
+        if not allowed[h, g] or (wx - x, wy - y) != (int(dx[g]), int(dy[g])):
+            return False
+        if not (0 <= wx < nx and 0 <= wy < ny) or blocked[wx, wy]:
+            return False
+        if s + 1 < others.shape[1] and np.any((others[:, s + 1, 0] == wx) & (others[:, s + 1, 1] == wy)):
+            return False
+        cost += int(move_costs[g])
+        timed += int(move_costs[g]) + (int(turns[(g - h) & 7]) if s >= 1 else 0)
+        x, y, h = wx, wy, g
+    return cost <= budget and timed <= time_budget
+
+
+def respond(path: np.ndarray, n_poses: int, budget: int, time_budget: int, counts: np.ndarray, base: np.ndarray,
+            qpow: np.ndarray, pc: float, radius: int, others: np.ndarray, blocked: np.ndarray,
+            successors: np.ndarray, allowed: np.ndarray, home: np.ndarray, dx: np.ndarray, dy: np.ndarray,
+            move_costs: np.ndarray, turns: np.ndarray, settings: ResponseSettings,
+            hint: int | None = None) -> tuple[float, int, int | None]:
+    """UAV's best response: `path[:n_poses]` (rows x, y, heading; its readings counted in
+    `counts`) replaced whole by the best walk the programme finds from its airport pose home,
+    when that gains more than `MIN_GAIN`; `path`, `counts` change in place. `budget`: range less
+    reserve (move-cost units); `time_budget`: the most its time-priced cost may be (moves, and
+    `turns` at inner poses); `others[u, step]` the other UAVs' cells (-1 when not flying);
+    `home` its return table. `hint`: the rung of mu's ladder whose walk scored best last time
+    (None: the whole ladder; else only it and its neighbours). Returns the gain (0.0 when
+    unchanged), the number of poses, and the rung for the next call."""
+    cheapest = int(move_costs.min())
+    steps = min(budget // cheapest, path.shape[0] - 1)
+    start = (int(path[0, 0]), int(path[0, 1]), int(path[0, 2]))
+    box = _reach_box(start[:2], home, budget, cheapest) if steps >= 1 else None
+    if box is None:
+        return 0.0, n_poses, hint
+    x0, y0, x1, y1 = box
+    if (steps + 1) * (x1 - x0 + 1) * (y1 - y0 + 1) * 8 > settings.states:
+        return 0.0, n_poses, hint
+    old_gain = 0.0
+    for i in range(n_poses - 1, 0, -1):
+        old_gain += _read(counts, base, qpow, pc, int(path[i, 0]), int(path[i, 1]), radius, -1)
+    parent = np.zeros((steps + 1, x1 - x0 + 1, y1 - y0 + 1, 8), dtype=np.int8)
+    end_value = np.empty((steps + 1, 8))
+    end_cost = np.zeros((steps + 1, 8), dtype=np.int64)
+    end_turns = np.zeros((steps + 1, 8), dtype=np.int64)
+    best = np.zeros((steps, 3), dtype=np.int64)
+    walk = np.zeros((steps, 3), dtype=np.int64)
+    scratch = np.zeros((steps, 3), dtype=np.int64)
+    # turns priced in the programme only where the time budget can bind: a path within the
+    # metres whose every inner pose takes the dearest turn still fits, or not
+    turn_weight = 1.0 if time_budget < budget + max(steps - 1, 0) * int(turns.max()) else 0.0
+    factor = np.ones(counts.shape)
+    best_gain, best_n, best_rung = -1.0, 0, hint
+    for done in range(settings.passes):
+        if done > 0:
+            if best_n == 0:
+                break
+            factor = _multiplicity_factor(best, best_n, counts.shape[0], counts.shape[1], radius, 1.0 - pc)
+            if factor.min() >= 1.0:
+                break
+        prize = _prizes(counts, base, qpow, pc, radius, blocked, factor, x0, y0, x1, y1)
+        positive = prize[prize > 0]
+        if positive.size == 0:
+            break
+        scale = float(positive.mean()) / float(move_costs.max())
+        rungs = range(-1, settings.ladder) if best_rung is None else \
+            range(max(-1, best_rung - 1), min(settings.ladder, best_rung + 2))
+        for rung in rungs:
+            mu = 0.0 if rung < 0 else scale * 2.0 ** (rung - 2)
+            _walk_dp(start[0], start[1], start[2], steps, budget, time_budget, prize, x0, y0, blocked, others, home,
+                     successors, dx, dy, move_costs, turns, mu, turn_weight, parent, end_value, end_cost, end_turns)
+            gain, n = _best_end(start[0], start[1], x0, y0, budget, time_budget, parent, end_value, end_cost,
+                                end_turns, counts, base, qpow, pc, radius, dx, dy, walk, scratch)
+            if n > 0 and gain > best_gain:
+                best_gain, best_n, best_rung = gain, n, rung
+                best[:n] = walk[:n]
+    if best_n == 0 or best_gain <= old_gain + MIN_GAIN or not _walk_is_safe(
+            best, best_n, start, budget, time_budget, blocked, others, allowed, dx, dy, move_costs, turns):
+        for i in range(1, n_poses):
+            _read(counts, base, qpow, pc, int(path[i, 0]), int(path[i, 1]), radius, 1)
+        return 0.0, n_poses, best_rung
+    path[1:best_n + 1] = best[:best_n]
+    path[best_n + 1:] = -1
+    for i in range(1, best_n + 1):
+        _read(counts, base, qpow, pc, int(path[i, 0]), int(path[i, 1]), radius, 1)
+    return best_gain - old_gain, best_n + 1, best_rung
