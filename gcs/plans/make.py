@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import gc
 import sys
+import threading
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
@@ -61,7 +62,24 @@ def fly_with_progress(search: ClosedSearch, progress: bool = True,
                 on_step(record)
             bar.update(1)
             bar.set_postfix(found=sum(s is not None for s in search.found_step))
-    return search.plan()
+    if search.config.improve is None:
+        return search.plan()
+    with tqdm(desc="improving the whole mission", bar_format="{desc}: {elapsed}", leave=False,
+              file=sys.stderr) as bar:
+        ticking = threading.Event()
+        ticker = threading.Thread(target=_tick, args=(bar, ticking), daemon=True)
+        ticker.start()
+        try:
+            return search.plan()
+        finally:
+            ticking.set()
+            ticker.join()
+
+
+def _tick(bar, stop: threading.Event) -> None:
+    """Refresh `bar`'s elapsed time every half second until `stop`."""
+    while not stop.wait(0.5):
+        bar.refresh()
 
 
 def warm_up_picture() -> None:

@@ -158,3 +158,27 @@ def test_the_recording_goes_beside_the_plan_or_where_asked(tmp_path):
     assert OutputOptions(record=False, rrd="run.rrd").recording_path(default) is None
     with pytest.raises(UserError, match="--rrd must name a .rrd file, got run.txt"):
         OutputOptions(rrd="run.txt").recording_path(default)
+
+
+def test_a_terminal_sees_the_planning_bar_and_then_the_improvement_s_elapsed_time(area_file, monkeypatch):
+    """On a terminal the search's steps show as a bar, and the whole-mission improvement after it,
+    which can take many seconds and has no steps to count, as its elapsed time; a pipe gets
+    neither."""
+    import io
+
+    from gcs.plans.make import fly_with_progress
+    from gcs.plans.planning import build_area_search
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    for stream, shown in ((Terminal(), True), (io.StringIO(), False)):
+        monkeypatch.setattr(sys, "stderr", stream)
+        setup = build_area_search(area_file, search=SearchOptions(np_steps=2))
+        assert setup.search.config.improve is not None
+        plan = fly_with_progress(setup.search)
+        assert plan.settings.get("improved") is True
+        text = stream.getvalue()
+        assert ("planning:" in text and "improving the whole mission: 00:0" in text) is shown, text
+        assert bool(text) is shown
