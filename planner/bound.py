@@ -46,24 +46,25 @@ Pure computation: no printing, no files. HiGHS runs on one thread within the tim
 from __future__ import annotations
 
 import math
-import os
-import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from enum import Enum
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from planner.environment import footprint_cells
+from planner.highs_solver import quiet_highs
 from planner.horizon import steps_from
 from planner.motion import HEADING_DX, HEADING_DY, OC3, OrientationConstraint
 from planner.return_exact import UNREACHABLE, return_table
 from planner.scenario import Scenario
 
+if TYPE_CHECKING:
+    from planner.bound_lagrange import Dual
+
 __all__ = ["Bound", "BoundModel", "MAX_LOOKS_LISTED", "bound_model_size", "exact_optimum", "lagrangian_fits",
-           "success_bound"]
+           "scenario_dual", "success_bound"]
 
 #: Looks per cell listed as separate gains; later ones are credited with the largest unlisted gain.
 MAX_LOOKS_LISTED = 12
@@ -194,12 +195,8 @@ class _Model:
             kinds = np.concatenate(self.integer)
             lp.integrality_ = [highspy.HighsVarType.kInteger if k else highspy.HighsVarType.kContinuous
                                for k in kinds]
-        with _stdout_closed():
-            h = highspy.Highs()  # type: ignore[no-untyped-call]
-        h.setOptionValue("output_flag", False)
+        h = quiet_highs()
         h.setOptionValue("time_limit", max(float(time_limit_s), 0.01))
-        h.setOptionValue("random_seed", 0)
-        h.setOptionValue("threads", 1)
         if integral:
             h.setOptionValue("mip_rel_gap", 1e-6)
             if mip_nodes is not None:
@@ -216,20 +213,6 @@ class _Model:
             return name, objective, -math.inf, math.inf
         dual = -info.mip_dual_bound if math.isfinite(info.mip_dual_bound) else math.inf
         return name, objective, dual, info.mip_gap
-
-
-@contextmanager
-def _stdout_closed() -> Iterator[None]:
-    """File descriptor 1 on /dev/null: HiGHS prints its banner there when its first solver is made."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 1)
-        yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
 
 
 @dataclass(frozen=True)
@@ -548,12 +531,24 @@ def lagrangian_fits(scenario: Scenario, oc: OrientationConstraint, time_limit_s:
     return dual_fits(_uavs(scenario, oc), scenario.search_map.no_fly.size, oc, time_limit_s)
 
 
+def scenario_dual(scenario: Scenario, oc: OrientationConstraint, time_limit_s: float, max_iterations: int = 100_000,
+                  trace: list[float] | None = None) -> Dual:
+    """`planner.bound_lagrange.minimise_dual` over `scenario`'s UAVs, prior and sensor (this
+    module's reading of them)."""
+    from planner.bound_lagrange import minimise_dual
+
+    return minimise_dual(_uavs(scenario, oc), oc, scenario.search_map.no_fly, _marginal(scenario),
+                         scenario.sensor.pc, _listed_looks(scenario.sensor.pc), scenario.sensor.footprint_radius,
+                         scenario.move_costs.by_heading, scenario.move_costs.straight, time_limit_s,
+                         max_iterations, trace)
+
+
 def _lagrangian(scenario: Scenario, oc: OrientationConstraint, uavs: list[_Uav], time_limit_s: float,
                 planned_s: float, iterations: int | None) -> tuple[float, float, int]:
     """(the smallest value of the `LAGRANGIAN` dual within `time_limit_s`, the floor its master LP
     reached, its iterations): `iterations` of them, by default as many as its work estimate fits
     in `planned_s`, the same figure every run."""
-    from planner.bound_lagrange import dual_seconds, scenario_dual
+    from planner.bound_lagrange import dual_seconds
 
     if iterations is None:
         iterations = max(2, int(planned_s / dual_seconds(uavs, scenario.search_map.no_fly.size, oc)))

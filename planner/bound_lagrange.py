@@ -51,12 +51,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from planner.config import njit
+from planner.highs_solver import quiet_highs
 from planner.motion import HEADING_DX, HEADING_DY, OrientationConstraint
 from planner.return_exact import UNREACHABLE
 
 if TYPE_CHECKING:
     from planner.bound import _Uav
-    from planner.scenario import Scenario
 
 #: Work units (one successor looked at in the DP) a second, measured on the 2-core machine
 #: (2-5e8 on its own, less with the master LP and a loaded machine): sizes the model to the time.
@@ -325,8 +325,6 @@ class _Master:
     def __init__(self, lagrangian: _Lagrangian) -> None:
         import highspy
 
-        from planner.bound import _stdout_closed
-
         n, m = lagrangian.gains.shape[0], len(lagrangian.walkers)
         looks = lagrangian.gains.shape[1]
         self.n, self.m = n, m
@@ -343,11 +341,7 @@ class _Master:
         lp.a_matrix_.start_ = np.arange(cols + 1, dtype=np.int32)
         lp.a_matrix_.index_ = np.concatenate([np.repeat(np.arange(n), looks), np.arange(n)]).astype(np.int32)
         lp.a_matrix_.value_ = np.ones(cols)
-        with _stdout_closed():
-            self.h = highspy.Highs()  # type: ignore[no-untyped-call]
-        self.h.setOptionValue("output_flag", False)
-        self.h.setOptionValue("threads", 1)
-        self.h.setOptionValue("random_seed", 0)
+        self.h = quiet_highs()
         self.h.passModel(lp)
 
     def add(self, uav: int, walk: Walk) -> None:
@@ -421,17 +415,6 @@ def minimise_dual(uavs: list[_Uav], oc: OrientationConstraint, no_fly: np.ndarra
         # mispricing: no walk found pays at the master's own duals; the next point is nearer them
         smoothing = SMOOTHING if max(priced) > 1e-9 * abs(best) else smoothing / 2
     return Dual(best, first, floor, it, time.perf_counter() - start)
-
-
-def scenario_dual(scenario: Scenario, oc: OrientationConstraint, time_limit_s: float, max_iterations: int = 100_000,
-                  trace: list[float] | None = None) -> Dual:
-    """`minimise_dual` over `scenario`'s UAVs, prior and sensor (`planner.bound`'s reading of them)."""
-    from planner.bound import _listed_looks, _marginal, _uavs
-
-    return minimise_dual(_uavs(scenario, oc), oc, scenario.search_map.no_fly, _marginal(scenario),
-                         scenario.sensor.pc, _listed_looks(scenario.sensor.pc), scenario.sensor.footprint_radius,
-                         scenario.move_costs.by_heading, scenario.move_costs.straight, time_limit_s,
-                         max_iterations, trace)
 
 
 def _add_footprints(reads: np.ndarray, path: np.ndarray, radius: int) -> None:

@@ -1,7 +1,8 @@
 """Compile every numba kernel into its on-disk cache (`planner.config.CACHE`) before the first
 plan needs it: short closed searches of the paper scenario with every strategy and return
 planner, in the paper's unit steps and in metres with the horizon value and the improvement (what
-`gcs plan --area` flies), reach every kernel with the argument types a plan gives it. A fresh install's first plan
+`gcs plan --area` flies), and a few evaluations of the bound's Lagrangian dual
+(`planner.bound.scenario_dual`) reach every kernel with the argument types a plan gives it. A fresh install's first plan
 then loads the kernels instead of spending some 25 s compiling them (`tools/setup` runs this).
 Kernels compiled before any planner source changed are dropped first (`drop_stale_kernels`).
 
@@ -14,6 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from planner.area_grid import AREA_MOVE_COSTS
+from planner.bound import scenario_dual
 from planner.dtscs import ClosedSearch, MissionConfig
 from planner.horizon import HorizonValue
 from planner.improve import ImproveSettings
@@ -79,6 +81,7 @@ def precompile(seed: int = 0) -> None:
         for _ in search.run():
             pass
         search.plan()
+    scenario_dual(metres, MissionConfig().oc, time_limit_s=60.0, max_iterations=2)
 
 
 if __name__ == "__main__":

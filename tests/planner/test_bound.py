@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from planner.bound import BoundModel, exact_optimum, success_bound
-from planner.bound_lagrange import _best_walk, scenario_dual
+from planner.bound import BoundModel, exact_optimum, scenario_dual, success_bound
+from planner.bound_lagrange import _best_walk
 from planner.dtscs import MissionConfig, fly
 from planner.environment import Sensor
 from planner.horizon import HorizonValue

@@ -121,7 +121,7 @@ def test_a_profile_that_prices_a_path_by_its_time_learns_its_second_and_predicts
     plan's own path (its corners spread over it), the return trigger's gauge still at the metre
     the plan was sized with; the learned profile's second moves as its metre did, so that priced
     along the same plan it costs what the flight learned."""
-    timed = replace(PROFILE, cornering=ARDUCOPTER_CORNERING, moving_mah_per_s=8.0)
+    timed = replace(PROFILE, cornering=ARDUCOPTER_CORNERING, moving_mah_per_s=9.0)
     track = PlanTrack(plan, 1).track_m
     per_m = timed.path_mah_per_m(track)
     assert per_m != pytest.approx(timed.cruise_mah_per_m, rel=0.02)
@@ -140,5 +140,5 @@ def test_a_profile_that_prices_a_path_by_its_time_learns_its_second_and_predicts
     learned = learned_profile(energy)
     assert learned is not None and learned.cornering == ARDUCOPTER_CORNERING
     assert learned.cruise_mah_per_m == pytest.approx(whole_cruise_mah_per_m(energy))
-    assert learned.moving_mah_per_s == pytest.approx(8.0 * learned.cruise_mah_per_m / per_m)
+    assert learned.moving_mah_per_s == pytest.approx(9.0 * learned.cruise_mah_per_m / per_m)
     assert learned.path_mah_per_m(track) == pytest.approx(learned.cruise_mah_per_m)
