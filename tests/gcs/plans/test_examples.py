@@ -26,8 +26,13 @@ pytestmark = pytest.mark.xdist_group("examples")
 MISSIONS = Path(__file__).resolve().parents[3] / "missions"
 EXAMPLES = ("paper", "irregular", "large", "hiker")
 #: Options beyond the defaults: the large example's exhaustive search keeps the suite quick (legs are
-#: checked alike); the hiker is searched with a camera's sensor.
+#: checked alike); the hiker is searched with a camera's sensor. No bound (`--bound-time 0`: its line
+#: and record are tested in tests/gcs/recording/test_overview.py and tests/planner/test_bound.py), and
+#: the irregular area without the whole-mission improvement (its best responses take some 40 s of CPU
+#: there, docs/benchmarks.md; the improvement's invariants are property tests in tests/planner/test_improve.py).
+COMMON = ["--bound-time", "0"]
 OPTIONS = {"large": ["--strategy", "exhaustive"],
+           "irregular": ["--no-improve"],
            "hiker": ["--strategy", "exhaustive", "--camera-fov", "45", "--no-rrd"]}
 
 
@@ -38,7 +43,7 @@ def planned(tmp_path_factory):
     out = {}
     for name in EXAMPLES:
         args = ["plan", "--area", str(MISSIONS / f"{name}.geojson"), "--out", str(root / name), "--quiet",
-                *OPTIONS.get(name, [])]
+                *COMMON, *OPTIONS.get(name, [])]
         assert main(args) == 0
         out[name] = root / name
     return out
