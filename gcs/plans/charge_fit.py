@@ -7,8 +7,10 @@ it costs `path_mah_per_m` a metre (its seconds at the profile's `moving_mah_per_
 planner's metre ranges do not see. A learned profile's `cruise_mah_per_m` is what the last
 flight's path cost a metre, and the next plan's path may turn more: on ArduCopter SITL a plan
 sized that way cost 6 % more than its charge paid for, and its copter came home by battery at 16
-of 20 waypoints. `fit_ranges_to_paths` plans the fleet, prices each such UAV's closed path (its
-airport, its cells' centres, its airport) by its profile, and every UAV whose path costs more
+of 20 waypoints. `fit_ranges_to_paths` plans the fleet by DTSCS alone (the whole-mission
+improvement after it keeps each such copter's time-priced path within what its range's charge
+pays for, `planner.improve`, and costs many times the search), prices each such UAV's closed
+path (its airport, its cells' centres, its airport) by its profile, and every UAV whose path costs more
 than its range was sized to pay for gets the range whose metres, each at its path's price, the
 charge pays for (a plan may fly all of its range: its trial path may have left some); a shorter
 path can turn more, so it plans again with those ranges (the same seed) and fits again what is
@@ -78,8 +80,9 @@ def fit_ranges_to_paths(setup: AreaSetup, records: dict[str, VehicleRecord]) -> 
     cell = setup.area.grid.cell_size_m
     scenario, config = setup.search.scenario, setup.search.config
     fitted: dict[int, RangeFit] = {}
+    trial_config = replace(config, improve=None)  # the improvement keeps a copter's time within its range's charge
     for _ in range(FIT_PLANS):
-        trial = ClosedSearch(scenario, config, seed=setup.search.seed)
+        trial = ClosedSearch(scenario, trial_config, seed=setup.search.seed)
         for _ in trial.run():
             pass
         specs, changed = [], False
