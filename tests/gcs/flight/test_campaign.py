@@ -23,6 +23,7 @@ from gcs.flight.events import ReadingReceived
 from gcs.flight.sortie import SortieLog
 from gcs.plans.belief_file import file_sha256, validate_belief_dict, validate_sortie_dict
 from gcs.plans.campaign import continued_start
+from gcs.plans.charge_fit import fit_ranges_to_paths
 from gcs.plans.options import options_record
 from gcs.plans.plan_file import validate_plan_dict
 from gcs.plans.plan_folder import load_plan_dir
@@ -218,6 +219,7 @@ def test_the_next_sortie_plans_from_the_posterior_with_fresh_batteries_and_stays
     assert (nxt.area_file, Path(nxt.out)) == (campaign.area.resolve(), second.resolve())
     assert options_record(nxt.area, nxt.search) == c["options"]
     setup = build_area_search(nxt.area_file, nxt.area, nxt.search, nxt.start.belief)
+    setup, _ = fit_ranges_to_paths(setup, load_vehicles(nxt.area.vehicles))  # as `gcs plan` does with --vehicles
     for _ in setup.search.run():
         pass
     replanned = setup.search.plan()
