@@ -5,7 +5,7 @@ from its airport pose back to its airport, re-planned whole, the others' paths f
 it the wrong way cannot leave its corridor by windows. This move replaces everything after the
 airport pose at once. The prize of standing on cell c is what reading its footprint adds given
 every other reading of the plan (the other UAVs' paths and this UAV's airport pose at step 0):
-`base * (1 - Pc)^n * Pc` summed over the footprint, as `planner.improve._look` adds it.
+`base * (1 - Pc)^n * Pc` summed over the footprint (`read_footprint`, `planner.improve`'s too).
 
 **The programme.** Over (step, cell, heading), time-indexed, from the airport pose: a move goes
 from a pose to a successor heading the OC allows, into the grid, off no-fly cells, off every cell
@@ -48,7 +48,7 @@ import numpy as np
 
 from planner.config import njit
 
-__all__ = ["ResponseSettings", "respond"]
+__all__ = ["ResponseSettings", "read_footprint", "respond"]
 
 #: Gains below this (expected targets) are not worth a change (as `planner.improve.MIN_GAIN`).
 MIN_GAIN = 1e-9
@@ -73,7 +73,7 @@ class ResponseSettings:
 
 
 @njit
-def _read(counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, x: int, y: int, radius: int,
+def read_footprint(counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, x: int, y: int, radius: int,
           sign: int) -> float:
     """Add (sign 1) or take back (sign -1) one reading of cell (x, y)'s footprint; the gain of the
     reading (as it was when added)."""
@@ -98,9 +98,9 @@ def _walk_gain(walk: np.ndarray, n: int, counts: np.ndarray, base: np.ndarray, q
     """The exact expected finds walk[:n]'s readings add to `counts` (left as it was)."""
     gain = 0.0
     for i in range(n):
-        gain += _read(counts, base, qpow, pc, walk[i, 0], walk[i, 1], radius, 1)
+        gain += read_footprint(counts, base, qpow, pc, walk[i, 0], walk[i, 1], radius, 1)
     for i in range(n - 1, -1, -1):
-        _read(counts, base, qpow, pc, walk[i, 0], walk[i, 1], radius, -1)
+        read_footprint(counts, base, qpow, pc, walk[i, 0], walk[i, 1], radius, -1)
     return gain
 
 
@@ -335,7 +335,7 @@ def respond(path: np.ndarray, n_poses: int, budget: int, time_budget: int, count
         return 0.0, n_poses, hint
     old_gain = 0.0
     for i in range(n_poses - 1, 0, -1):
-        old_gain += _read(counts, base, qpow, pc, int(path[i, 0]), int(path[i, 1]), radius, -1)
+        old_gain += read_footprint(counts, base, qpow, pc, int(path[i, 0]), int(path[i, 1]), radius, -1)
     parent = np.zeros((steps + 1, x1 - x0 + 1, y1 - y0 + 1, 8), dtype=np.int8)
     end_value = np.empty((steps + 1, 8))
     end_cost = np.zeros((steps + 1, 8), dtype=np.int64)
@@ -374,10 +374,10 @@ def respond(path: np.ndarray, n_poses: int, budget: int, time_budget: int, count
     if best_n == 0 or best_gain <= old_gain + MIN_GAIN or not _walk_is_safe(
             best, best_n, start, budget, time_budget, blocked, others, allowed, dx, dy, move_costs, turns):
         for i in range(1, n_poses):
-            _read(counts, base, qpow, pc, int(path[i, 0]), int(path[i, 1]), radius, 1)
+            read_footprint(counts, base, qpow, pc, int(path[i, 0]), int(path[i, 1]), radius, 1)
         return 0.0, n_poses, best_rung
     path[1:best_n + 1] = best[:best_n]
     path[best_n + 1:] = -1
     for i in range(1, best_n + 1):
-        _read(counts, base, qpow, pc, int(path[i, 0]), int(path[i, 1]), radius, 1)
+        read_footprint(counts, base, qpow, pc, int(path[i, 0]), int(path[i, 1]), radius, 1)
     return best_gain - old_gain, best_n + 1, best_rung

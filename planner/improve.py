@@ -51,7 +51,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from planner.best_response import ResponseSettings, respond
+from planner.best_response import ResponseSettings, read_footprint, respond
 from planner.config import njit
 from planner.motion import HEADING_DX, HEADING_DY, MoveCosts, OrientationConstraint
 from planner.plan import Plan, Stage, TargetOutcome, TrajectoryPoint, UavPlan
@@ -92,26 +92,6 @@ class ImproveSettings:
     def window(self, branching: int) -> int:
         """L: the most steps whose `branching`^L paths stay within `paths`."""
         return max(2, int(math.floor(math.log(self.paths) / math.log(max(branching, 2)) + 1e-9)))
-
-
-@njit
-def _look(counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, x: int, y: int, radius: int,
-          sign: int) -> float:
-    """Add (sign 1) or take back (sign -1) one reading from cell (x, y): its footprint's counts
-    change, and the gain of the reading (as it was when added) is returned."""
-    nx, ny = counts.shape
-    gain = 0.0
-    for cx in range(x - radius, x + radius + 1):
-        for cy in range(y - radius, y + radius + 1):
-            if cx < 0 or cy < 0 or cx >= nx or cy >= ny:
-                continue
-            if sign < 0:
-                counts[cx, cy] -= 1
-            n = min(counts[cx, cy], qpow.shape[0] - 1)
-            gain += base[cx, cy] * qpow[n] * pc
-            if sign > 0:
-                counts[cx, cy] += 1
-    return gain
 
 
 @njit
@@ -186,7 +166,7 @@ def _best_window(path: np.ndarray, a: int, steps: int, tail: bool, max_steps: in
     while d >= 0:
         if d == depth_max or choice[d] >= width or successors[hs[d], choice[d]] < 0:
             if d > 0:
-                _look(counts, base, qpow, pc, xs[d], ys[d], radius, -1)
+                read_footprint(counts, base, qpow, pc, xs[d], ys[d], radius, -1)
             choice[d] = 0
             d -= 1
             continue
@@ -215,7 +195,7 @@ def _best_window(path: np.ndarray, a: int, steps: int, tail: bool, max_steps: in
         cost[d] = c
         timed[d] = t
         choice[d] = 0
-        gain[d] = gain[d - 1] + _look(counts, base, qpow, pc, qx, qy, radius, 1)
+        gain[d] = gain[d - 1] + read_footprint(counts, base, qpow, pc, qx, qy, radius, 1)
         end = qx == ex and qy == ey and (tail or (d == steps and (next_h < 0 or allowed[g, next_h])))
         if end and next_h >= 0:
             end = t + turns[(next_h - g) & 7] <= time_room
@@ -425,7 +405,7 @@ def _dp_sweep(path: np.ndarray, n_poses: int, budget: int, time_budget: int, ste
         for i in range(a + 1, a + steps + 1):
             old_cost += move_costs[path[i, 2]]
         for i in range(a + steps - 1, a, -1):
-            old_gain += _look(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, -1)
+            old_gain += read_footprint(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, -1)
         old_timed = _span_units(path, a + 1, a + steps, n_poses, move_costs, turns)
         room = budget - spent + old_cost
         found = _fitting_window(path, a, steps, room, time_budget - timed + old_timed, counts, base, qpow, pc, radius,
@@ -437,9 +417,9 @@ def _dp_sweep(path: np.ndarray, n_poses: int, budget: int, time_budget: int, ste
             for i in range(steps):
                 cost += move_costs[out[i, 2]]
             for i in range(steps - 1):
-                gain += _look(counts, base, qpow, pc, out[i, 0], out[i, 1], radius, 1)
+                gain += read_footprint(counts, base, qpow, pc, out[i, 0], out[i, 1], radius, 1)
             for i in range(steps - 2, -1, -1):
-                _look(counts, base, qpow, pc, out[i, 0], out[i, 1], radius, -1)
+                read_footprint(counts, base, qpow, pc, out[i, 0], out[i, 1], radius, -1)
         better = found and gain > old_gain + min_gain
         if better:
             for i in range(steps):
@@ -450,7 +430,7 @@ def _dp_sweep(path: np.ndarray, n_poses: int, budget: int, time_budget: int, ste
             timed += _span_units(path, a + 1, a + steps, n_poses, move_costs, turns) - old_timed
             total += gain - old_gain
         for i in range(a + 1, a + steps):
-            _look(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, 1)
+            read_footprint(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, 1)
         a += stride
     return total
 
@@ -481,7 +461,7 @@ def _improve_uav(path: np.ndarray, n_poses: int, budget: int, time_budget: int, 
         for i in range(a + 1, a + steps + 1):
             old_cost += move_costs[path[i, 2]]
         for i in range(a + steps, a, -1):
-            old_gain += _look(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, -1)
+            old_gain += read_footprint(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, -1)
         old_timed = _span_units(path, a + 1, a + steps, n_poses, move_costs, turns)
         max_steps = min(steps + extra, path.shape[0] - 1 - a)
         gain, n = _best_window(path, a, steps, tail, max_steps, budget - spent + old_cost,
@@ -501,7 +481,7 @@ def _improve_uav(path: np.ndarray, n_poses: int, budget: int, time_budget: int, 
                 n_poses = a + 1 + n
             timed += _span_units(path, a + 1, a + n, n_poses, move_costs, turns) - old_timed
         for i in range(a + 1, a + 1 + (n if better else steps)):
-            _look(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, 1)
+            read_footprint(counts, base, qpow, pc, path[i, 0], path[i, 1], radius, 1)
         if tail:
             break
         a += stride
@@ -602,7 +582,7 @@ def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, rese
     counts = np.zeros(shape, dtype=np.int64)
     for i in range(len(plan.uavs)):
         for x, y, _ in paths[i, : lengths[i]]:
-            _look(counts, base, qpow, sensor.pc, int(x), int(y), sensor.footprint_radius, 1)
+            read_footprint(counts, base, qpow, sensor.pc, int(x), int(y), sensor.footprint_radius, 1)
 
     response = settings.response or ResponseSettings(rounds=0)
     rungs: list[int | None] = [None] * len(plan.uavs)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from planner.best_response import ResponseSettings, _walk_dp, respond
+from planner.best_response import ResponseSettings, _walk_dp, read_footprint, respond
 from planner.dtscs import ClosedSearch, MissionConfig
 from planner.energy import Airframe, EnergyProfile
 from planner.improve import (
@@ -18,7 +18,6 @@ from planner.improve import (
     ImproveSettings,
     _best_window,
     _dp_window,
-    _look,
     _with_outcomes,
     improve_plan,
 )
@@ -169,9 +168,9 @@ def test_the_dynamic_programme_finds_the_best_additive_path(seed, oc, penalty, t
 def test_a_reading_taken_back_gives_back_what_it_added():
     _, base, counts = _case(7)
     before = counts.copy()
-    added = _look(counts, base, QPOW, PC, 2, 5, 1, 1)
+    added = read_footprint(counts, base, QPOW, PC, 2, 5, 1, 1)
     assert added == pytest.approx(_gain_of([(2, 5)], before, base, 1))
-    assert _look(counts, base, QPOW, PC, 2, 5, 1, -1) == pytest.approx(added)
+    assert read_footprint(counts, base, QPOW, PC, 2, 5, 1, -1) == pytest.approx(added)
     assert np.array_equal(counts, before)
 
 

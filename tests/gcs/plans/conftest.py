@@ -62,3 +62,14 @@ def run_gcs(tmp_path, capsys):
         code = main(["plan", "--area", str(path), "--out", str(out), "--quiet", *extra])
         return code, capsys.readouterr().err, out
     return run
+
+
+def vehicles_file(tmp_path, profiles) -> str:
+    """A vehicles.json in `tmp_path` of ArduPilot vehicles sysid:N with the given profiles {N: profile}."""
+    from gcs.plans.vehicle_file import VehicleRecord, vehicles_to_dict
+
+    records = {f"sysid:{uav}": VehicleRecord(f"sysid:{uav}", uav, uav, "ardupilot", 1, "2026-12-02T10:00:00+00:00", p)
+               for uav, p in profiles.items()}
+    path = tmp_path / "vehicles.json"
+    path.write_text(json.dumps(vehicles_to_dict(records)))
+    return str(path)

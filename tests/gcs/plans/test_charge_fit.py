@@ -13,20 +13,13 @@ from gcs.cli import main
 from gcs.plans.charge_fit import FIT_MARGIN, _closed_path_en, fit_ranges_to_paths
 from gcs.plans.options import AreaOptions, SearchOptions
 from gcs.plans.planning import build_area_search
-from gcs.plans.vehicle_file import STOCK_PROFILES, VehicleRecord, load_vehicles, vehicles_to_dict
+from gcs.plans.vehicle_file import STOCK_PROFILES, load_vehicles
 from planner.energy import Airframe
 from planner.path_time import path_length_m
+from tests.gcs.plans.conftest import vehicles_file
 from tests.peers.site import COPTERS
 
 ARDUCOPTER = STOCK_PROFILES[("ardupilot", Airframe.COPTER)]
-
-
-def _vehicles(tmp_path, profiles):
-    records = {f"sysid:{uav}": VehicleRecord(f"sysid:{uav}", uav, uav, "ardupilot", 1, "2026-12-02T10:00:00+00:00", p)
-               for uav, p in profiles.items()}
-    path = tmp_path / "vehicles.json"
-    path.write_text(json.dumps(vehicles_to_dict(records)))
-    return str(path)
 
 
 def _cost_over_charge(setup, plan, profiles):
@@ -50,7 +43,7 @@ def test_a_copter_whose_corners_cost_more_than_its_range_was_sized_for_is_fitted
     area.write_text(json.dumps(COPTERS.geojson()))
     straight = replace(ARDUCOPTER, cruise_mah_per_m=ARDUCOPTER.moving_mah_per_s / ARDUCOPTER.cruise_speed_m_s)
     metres = replace(ARDUCOPTER, cornering=None, moving_mah_per_s=None)
-    vehicles = _vehicles(tmp_path, {1: straight, 2: metres})
+    vehicles = vehicles_file(tmp_path, {1: straight, 2: metres})
     options = AreaOptions(vehicles=vehicles)
     records = load_vehicles(vehicles)
     before = build_area_search(area, options, SearchOptions())
@@ -77,7 +70,7 @@ def test_a_fleet_without_cornering_profiles_is_planned_once_as_before(tmp_path):
     area = tmp_path / "site.geojson"
     area.write_text(json.dumps(COPTERS.geojson()))
     metres = replace(ARDUCOPTER, cornering=None, moving_mah_per_s=None)
-    vehicles = _vehicles(tmp_path, {1: metres, 2: metres})
+    vehicles = vehicles_file(tmp_path, {1: metres, 2: metres})
     setup = build_area_search(area, AreaOptions(vehicles=vehicles), SearchOptions())
     same, fits = fit_ranges_to_paths(setup, load_vehicles(vehicles))
     assert fits == [] and same is setup and setup.search.step_index == 0

@@ -12,11 +12,12 @@ import pytest
 
 from gcs.plans.options import AreaOptions, SearchOptions
 from gcs.plans.planning import build_area_search
-from gcs.plans.vehicle_file import STOCK_PROFILES, VehicleRecord, vehicles_to_dict
+from gcs.plans.vehicle_file import STOCK_PROFILES
 from planner.area_grid import AREA_MOVE_COSTS
 from planner.energy import Airframe
 from planner.path_time import path_time_s
 from planner.time_pricing import time_pricing
+from tests.gcs.plans.conftest import vehicles_file
 from tests.peers.site import COPTERS, PLANE
 
 ARDUCOPTER = STOCK_PROFILES[("ardupilot", Airframe.COPTER)]
@@ -28,14 +29,6 @@ def site_file(tmp_path_factory: pytest.TempPathFactory):
     path = tmp_path_factory.mktemp("site") / "site.geojson"
     path.write_text(json.dumps(COPTERS.geojson()))
     return path
-
-
-def _vehicles(tmp_path, profiles):
-    records = {f"sysid:{uav}": VehicleRecord(f"sysid:{uav}", uav, uav, "ardupilot", 1, "2026-12-02T10:00:00+00:00", p)
-               for uav, p in profiles.items()}
-    path = tmp_path / "vehicles.json"
-    path.write_text(json.dumps(vehicles_to_dict(records)))
-    return str(path)
 
 
 def test_a_copter_without_a_vehicles_file_is_priced_as_the_stock_arducopter_and_a_plane_by_its_metres(site_file,
@@ -55,7 +48,7 @@ def test_each_copter_is_priced_by_its_own_vehicles_profile(site_file, tmp_path):
     seconds; UAV 2's prices metres (no cornering): no time pricing."""
     learned = replace(ARDUCOPTER, moving_mah_per_s=9.0)
     metres = replace(ARDUCOPTER, cornering=None, moving_mah_per_s=None)
-    setup = build_area_search(site_file, AreaOptions(vehicles=_vehicles(tmp_path, {1: learned, 2: metres})),
+    setup = build_area_search(site_file, AreaOptions(vehicles=vehicles_file(tmp_path, {1: learned, 2: metres})),
                               SearchOptions(improve=False))
     first, second = setup.search.scenario.uavs
     assert first.time_pricing == time_pricing(learned, 30.0, AREA_MOVE_COSTS)
