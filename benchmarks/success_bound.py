@@ -17,7 +17,8 @@ with the dual, the floor its master LP reached: the per-heading LP is at least t
 of that model can be tighter.
 
 `gap`: `--instances` tiny random areas (8-12 cells across, 2-3 UAVs, ranges of 10-16 cell sides
-in metres, 3OC), each with the DTSCS plan (CPIO + horizon value), the exact optimum (`planner.bound.exact_optimum`:
+in metres, 3OC), each with the DTSCS plan (CPIO + horizon value), the improved plan `gcs plan
+--area` makes by default (the same, then `planner.improve`), the exact optimum (`planner.bound.exact_optimum`:
 the per-(step, cell, heading) model solved by HiGHS to optimality, separation aside) and the
 LP bound `gcs plan` reports (the tightest model that fits); the LP-to-optimum gap is LP / optimum
 - 1. Also the LPs of the looser models (the OC dropped; 2 x 2 blocks) over the optimum, and the
@@ -31,7 +32,7 @@ import math
 import statistics
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -44,10 +45,12 @@ from planner.bound import DEFAULT_MAX_ARCS, Bound, BoundModel, exact_optimum, su
 from planner.dtscs import MissionConfig, fly, uavs_that_cannot_leave  # noqa: E402
 from planner.environment import SearchMap, Sensor  # noqa: E402
 from planner.horizon import HorizonValue  # noqa: E402
+from planner.improve import ImproveSettings  # noqa: E402
 from planner.motion import OC3, cell_lengths  # noqa: E402
 from planner.scenario import Scenario, UavSpec, paper_scenario  # noqa: E402
 
 AREA_CONFIG = MissionConfig(strategy="cpio", horizon=HorizonValue())   # gcs plan --area's DTSCS
+IMPROVED_CONFIG = replace(AREA_CONFIG, improve=ImproveSettings())       # gcs plan --area's default
 PAPER_CONFIG = MissionConfig(strategy="cpio")                          # gcs plan --scenario paper's default
 
 
@@ -131,15 +134,17 @@ def tiny_instance(seed: int) -> Scenario:
 
 def gap(args: argparse.Namespace) -> None:
     count = 1 if args.smoke else args.instances
-    print("| instance | cells | UAVs | ranges (cells) | DTSCS plan | exact optimum | LP bound | LP / optimum | "
-          "plan / optimum | LP cells / optimum | LP blocks b=2 / optimum | Lagrangian / LP headings | "
+    print("| instance | cells | UAVs | ranges (cells) | DTSCS plan | improved plan | exact optimum | LP bound | "
+          "LP / optimum | plan / optimum | improved / optimum | improved / LP | LP cells / optimum | "
+          "LP blocks b=2 / optimum | Lagrangian / LP headings | "
           "Lagrangian / optimum | MIP s |\n"
-          "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    gaps, plans, duals = [], [], []
+          "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    gaps, plans, improved_plans, lp_shares, duals = [], [], [], [], []
     for seed in range(count):
         scenario = tiny_instance(seed)
         plan = fly(scenario, AREA_CONFIG, seed=seed)
-        assert plan.success is not None
+        improved = fly(scenario, IMPROVED_CONFIG, seed=seed).success
+        assert plan.success is not None and improved is not None
         exact = exact_optimum(scenario, OC3, args.time)
         bound = success_bound(scenario, OC3, args.time, mip=False, max_arcs=args.arcs)
         looser = [success_bound(scenario, OC3, args.time, mip=False, model=model, block=2).lp
@@ -153,18 +158,25 @@ def gap(args: argparse.Namespace) -> None:
         if exact.optimal:
             gaps.append(bound.lp / exact.mip_best - 1)
             plans.append(plan.success.expected / exact.mip_best)
-            assert bound.lp + 1e-6 >= exact.mip_best >= plan.success.expected - 1e-6
+            improved_plans.append(improved.expected / exact.mip_best)
+            assert bound.lp + 1e-6 >= exact.mip_best >= max(plan.success.expected, improved.expected) - 1e-6
+        lp_shares.append(improved.expected / bound.lp)
         best = f"{exact.mip_best:.2f}" if exact.optimal else f"<= {exact.mip_dual:.2f} (time)"
-        print(f"| {seed} | {nx}x{ny} | {len(scenario.uavs)} | {ranges} | {plan.success.expected:.2f} | {best} | "
-              f"{bound.lp:.2f} ({bound.model.value}) | "
+        print(f"| {seed} | {nx}x{ny} | {len(scenario.uavs)} | {ranges} | {plan.success.expected:.2f} | "
+              f"{improved.expected:.2f} | {best} | {bound.lp:.2f} ({bound.model.value}) | "
               f"{(bound.lp / exact.mip_best if exact.optimal else math.nan):.3f} | "
               f"{(plan.success.expected / exact.mip_best if exact.optimal else math.nan):.1%} | "
+              f"{(improved.expected / exact.mip_best if exact.optimal else math.nan):.1%} | "
+              f"{improved.expected / bound.lp:.1%} | "
               + "".join(f"{(v / exact.mip_best if exact.optimal else math.nan):.3f} | " for v in looser)
               + f"{dual / headings:.4f} | {(dual / exact.mip_best if exact.optimal else math.nan):.3f} | "
               + f"{exact.seconds:.1f} |", flush=True)
     if gaps:
         print(f"\nLP bound over optimum: mean +{statistics.mean(gaps):.1%}, largest +{max(gaps):.1%}; DTSCS plan over "
-              f"optimum: mean {statistics.mean(plans):.1%}, lowest {min(plans):.1%} ({len(gaps)} of {count} solved)")
+              f"optimum: mean {statistics.mean(plans):.1%}, lowest {min(plans):.1%}; improved plan over optimum: "
+              f"mean {statistics.mean(improved_plans):.1%}, lowest {min(improved_plans):.1%} "
+              f"({len(gaps)} of {count} solved)")
+    print(f"Improved plan over the LP bound: mean {statistics.mean(lp_shares):.1%}, lowest {min(lp_shares):.1%}")
     print(f"Lagrangian dual over the headings LP after {args.dual_time:g} s: mean +{statistics.mean(duals):.2%}, "
           f"largest +{max(duals):.2%}")
 
