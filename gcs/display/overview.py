@@ -174,13 +174,32 @@ def uav_label(plan: Plan, u: UavPlan) -> str:
     return label + ("\n    " + ", ".join(more) if more else "")
 
 
+STRATEGY_NAMES = {"cpio": "CPIO", "exhaustive": "exhaustive search", "lawnmower": "lawnmower"}
+
+
 def settings_text(settings: dict) -> str:
-    """The plan's settings in one line; the horizon value's as "horizon value w 1, L 0.5", a
-    flag that is on by its name alone ("improved")."""
+    """The plan's settings in one line a crew reads: "look-ahead 5 steps, 3OC turns, CPIO, exact
+    return, horizon value w 1 L 1, whole-mission improvement"; a reserve and a diagonal's cost
+    only where they are not the default (none; sqrt 2 of a side), other keys as "key value"."""
     out = []
     for key, value in settings.items():
-        if key == "horizon_value" and isinstance(value, dict):
-            out.append(f"horizon value w {value['weight']:g}, L {value['length']:g}")
+        if key == "np":
+            out.append(f"look-ahead {value} steps")
+        elif key == "oc":
+            out.append(f"{value} turns")
+        elif key == "strategy":
+            out.append(STRATEGY_NAMES.get(value, str(value)))
+        elif key == "return_planner":
+            out.append(f"{'ST' if value == 'st' else value} return")
+        elif key == "reserve_steps":
+            out.extend([f"reserve {value} cell sides"] if value else [])
+        elif key == "move_costs" and isinstance(value, dict):
+            ratio = value["diagonal"] / value["straight"]
+            out.extend([] if abs(ratio - math.sqrt(2)) < 1e-3 else [f"a diagonal costs {ratio:.3g} sides"])
+        elif key == "horizon_value" and isinstance(value, dict):
+            out.append(f"horizon value w {value['weight']:g} L {value['length']:g}")
+        elif key == "improved" and value is True:
+            out.append("whole-mission improvement")
         elif value is True:
             out.append(key)
         else:

@@ -351,3 +351,17 @@ def test_gcs_plan_labels_the_area_files_segments_with_plan_json_figures(tmp_path
     assert [(label.x, label.y) for label in drawn.segments] == [(p.x, p.y) for p in layers.places]
     assert round(drawn.rest_poa, 6) == theory["rest_of_world_poa"]
     assert sum(s["poa"] for s in rows) < 0.5  # plan.json's POAs: shares of the whole prior, not the area's
+
+
+def test_the_title_says_the_settings_in_a_crews_words():
+    from gcs.display.overview import settings_text
+
+    area = {"np": 5, "oc": "3OC", "strategy": "cpio", "return_planner": "exact", "reserve_steps": 0,
+            "move_costs": {"straight": 1000, "diagonal": 1415},
+            "horizon_value": {"weight": 1.0, "length": 0.5, "radius": 5, "every": 1}, "improved": True}
+    assert settings_text(area) == ("look-ahead 5 steps, 3OC turns, CPIO, exact return, horizon value w 1 L 0.5, "
+                                   "whole-mission improvement")
+    steps = {"np": 7, "oc": "5OC", "strategy": "exhaustive", "return_planner": "st", "reserve_steps": 3,
+             "move_costs": {"straight": 1, "diagonal": 1}}
+    assert settings_text(steps) == ("look-ahead 7 steps, 5OC turns, exhaustive search, ST return, "
+                                    "reserve 3 cell sides, a diagonal costs 1 sides")
