@@ -23,7 +23,7 @@ Two ways to the next sortie's belief:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -54,17 +54,21 @@ class Belief:
 
     `search_map`: TEP, EU and no-fly now; its `visits` count the readings folded in since this
     belief started. `p0`: the campaign's first prior TEP. `looks_before`: readings per cell of
-    the sorties before this belief started. `sortie`: the sortie this belief is for."""
+    the sorties before this belief started. `sortie`: the sortie this belief is for. `found`:
+    (x, y, sortie) of the exercise's true targets earlier sorties found (the simulation's
+    ground truth, not the belief: a later sortie's simulation leaves them out)."""
 
     search_map: SearchMap
     p0: np.ndarray
     looks_before: np.ndarray
     sortie: int = 1
+    found: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
 
     def __post_init__(self) -> None:
         shape = self.search_map.shape
         self.p0 = np.ascontiguousarray(self.p0, dtype=np.float64)
         self.looks_before = np.ascontiguousarray(self.looks_before, dtype=np.int64)
+        self.found = np.asarray(self.found, dtype=np.int64).reshape(-1, 3)
         if self.p0.shape != shape or self.looks_before.shape != shape:
             raise ValueError(f"p0 and looks_before must be {shape[0]}x{shape[1]} grids like the map")
         if self.looks_before.min(initial=0) < 0:
@@ -98,7 +102,13 @@ class Belief:
         """The belief the next sortie starts from: this map, every reading so far counted before it."""
         m = self.search_map
         return Belief(SearchMap(m.tep.copy(), m.eu.copy(), m.no_fly.copy()), self.p0.copy(), self.looks.copy(),
-                      self.sortie + 1)
+                      self.sortie + 1, self.found.copy())
+
+    def with_found(self, cells: list[tuple[int, int]]) -> Belief:
+        """This belief, the targets at `cells` found by its sortie."""
+        known = {(int(x), int(y)) for x, y, _ in self.found}
+        new = [(x, y, self.sortie) for x, y in sorted(set(cells)) if (x, y) not in known]
+        return replace(self, found=np.concatenate([self.found, np.array(new, dtype=np.int64).reshape(-1, 3)]))
 
     def scenario(self, scenario: Scenario) -> Scenario:
         """`scenario` (the same grid, UAVs and sensor) searching this belief."""
@@ -108,8 +118,11 @@ class Belief:
         if not np.array_equal(scenario.search_map.no_fly, self.search_map.no_fly):
             raise ValueError("the belief's no-fly cells are not the scenario's")
         m = self.search_map
+        found = {(int(x), int(y)) for x, y, _ in self.found}
+        missing = [(int(x), int(y)) for x, y in scenario.targets if (int(x), int(y)) not in found]
         return replace(scenario, search_map=SearchMap(m.tep.copy(), m.eu.copy(), m.no_fly.copy()), p0=self.p0.copy(),
-                       looks_before=self.looks.copy())
+                       looks_before=self.looks.copy(), targets=np.array(missing, dtype=np.int64).reshape(-1, 2),
+                       found_before=self.found.copy())
 
 
 def _plan_looks(plan: Plan, footprint_radius: int) -> list[tuple[int, int, int, int]]:
@@ -128,8 +141,9 @@ def look_counts(plan: Plan, footprint_radius: int) -> np.ndarray:
 
 def predicted_after(belief: Belief, plan: Plan, sensor: Sensor) -> Belief:
     """The belief the next sortie starts from when `plan` (flown from `belief`) reports nothing:
-    every look of the plan folded in as a reading without a report (eq. 3 and eq. 4)."""
-    flown = Belief(belief.search_map.copy(), belief.p0, belief.looks_before, belief.sortie)
+    every look of the plan folded in as a reading without a report (eq. 3 and eq. 4); the targets
+    its simulation found are out of the next sortie's."""
+    flown = Belief(belief.search_map.copy(), belief.p0, belief.looks_before, belief.sortie, belief.found)
     for _, _, x, y in _plan_looks(plan, sensor.footprint_radius):
         flown.search_map.observe(x, y, False, sensor.pc, sensor.pf)
-    return flown.next_sortie()
+    return flown.with_found([(t.x, t.y) for t in plan.targets if t.found_step is not None]).next_sortie()

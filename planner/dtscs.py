@@ -543,7 +543,8 @@ class ClosedSearch:
         if self.config.horizon is not None:
             settings["horizon_value"] = self.config.horizon.as_dict(self.config.np_steps, self.map.shape)
         return Plan(self.scenario.name, *self.map.shape, self.map.no_fly.copy(), uavs, targets, self.false_alarms,
-                    settings, self.success(), self.costs, self.scenario.unit_m)
+                    settings, self.success(), self.costs, self.scenario.unit_m,
+                    [(int(x), int(y), int(k)) for x, y, k in self.scenario.found_before])
 
     def success(self) -> Success:
         """Expected targets found by the trajectories so far, under the scenario's prior and

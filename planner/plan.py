@@ -80,7 +80,8 @@ class TargetOutcome:
 @dataclass
 class Plan:
     """Every UAV's closed trajectory and what was found. Ranges are in `move_costs` units, each
-    `unit_m` metres long over a real area (None: abstract steps, as in the paper)."""
+    `unit_m` metres long over a real area (None: abstract steps, as in the paper). `targets` are
+    the ones this sortie could find; `found_before` (x, y, sortie) those earlier sorties found."""
 
     scenario: str
     nx: int
@@ -93,6 +94,7 @@ class Plan:
     success: Success | None = None
     move_costs: MoveCosts = STEPS
     unit_m: float | None = None
+    found_before: list[tuple[int, int, int]] = field(default_factory=list)
 
     def metres(self, units: float) -> float | None:
         """Move-cost units in metres; None for a plan without a scale (the paper's steps)."""

@@ -39,7 +39,9 @@ class Scenario:
     A later sortie of a campaign (`planner.campaign`) searches a `search_map` that is the belief
     the earlier sorties left; `p0` is then the campaign's first prior TEP and `looks_before` the
     earlier sorties' readings per cell, and the probability of success counts against them
-    (`planner.success`). Both None: the search map is the prior, nothing was read before."""
+    (`planner.success`). Both None: the search map is the prior, nothing was read before.
+    `targets` are an exercise's true targets still missing; `found_before` (x, y, sortie) those
+    earlier sorties found, out of this sortie's simulation."""
 
     name: str
     search_map: SearchMap
@@ -50,9 +52,11 @@ class Scenario:
     looks_before: np.ndarray | None = None
     move_costs: MoveCosts = STEPS
     unit_m: float | None = None
+    found_before: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), dtype=np.int64))
 
     def __post_init__(self) -> None:
         self.targets = np.asarray(self.targets, dtype=np.int64).reshape(-1, 2)
+        self.found_before = np.asarray(self.found_before, dtype=np.int64).reshape(-1, 3)
         nx, ny = self.search_map.shape
         for name in ("p0", "looks_before"):
             value = getattr(self, name)

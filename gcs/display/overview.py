@@ -24,7 +24,7 @@ import io
 import math
 import textwrap
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -140,6 +140,8 @@ def title_outcome(plan: Plan) -> str:
         parts.append(f"PoS {pos.share:.1%} (E {pos.expected:.1f} of {pos.available:.1f} targets)")
     if plan.targets:
         parts.append(f"{plan.targets_found}/{len(plan.targets)} targets found")
+    if plan.found_before:
+        parts.append(f"{len(plan.found_before)} found by earlier sorties")
     parts.append(f"{plan.false_alarms} false alarms, mean eta {plan.mean_eta:.1%}")
     return ", ".join(parts)
 
@@ -346,7 +348,7 @@ class UavLayer:
 class PlanLayers:
     """What the picture shows of a plan over its map, in plain arrays and text: every UAV,
     targets found and missed (1-based cells), the title, the segments' labels and the rest of
-    the world's POA (`segment_labels`)."""
+    the world's POA (`segment_labels`), the targets earlier sorties found."""
 
     uavs: tuple[UavLayer, ...]
     found: np.ndarray
@@ -354,6 +356,7 @@ class PlanLayers:
     title: str
     segments: tuple[SegmentLabel, ...] = ()
     rest_poa: float = 0.0
+    found_before: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 def plan_layers(plan: Plan, scenario: Scenario, places: Sequence[SegmentPlace | None] = (),
@@ -364,12 +367,13 @@ def plan_layers(plan: Plan, scenario: Scenario, places: Sequence[SegmentPlace | 
                  for u in plan.uavs)
     found = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is not None], dtype=float).reshape(-1, 2)
     missed = np.array([(t.x + 1, t.y + 1) for t in plan.targets if t.found_step is None], dtype=float).reshape(-1, 2)
+    before = np.array([(x + 1, y + 1) for x, y, _ in plan.found_before], dtype=float).reshape(-1, 2)
     campaign = campaign_outcome(plan, scenario)
     lines = [f"{plan.scenario}: {title_outcome(plan)}", *([campaign] if campaign else []), settings_text(plan.settings)]
     title = "\n".join(textwrap.fill(line, TITLE_CHARS, subsequent_indent="  ") for line in lines)
     if theory is None:
-        return PlanLayers(uavs, found, missed, title)
-    return PlanLayers(uavs, found, missed, title, segment_labels(places, theory.segments), theory.rest_poa)
+        return PlanLayers(uavs, found, missed, title, found_before=before)
+    return PlanLayers(uavs, found, missed, title, segment_labels(places, theory.segments), theory.rest_poa, before)
 
 
 CAPTION_SIZE = 11
@@ -487,6 +491,8 @@ class OverviewPicture:
         found, missed = plan.found, plan.missed
         ax.plot(found[:, 0], found[:, 1], "*", ms=17, color="gold", mec="black", mew=1.0, zorder=7, ls="none")
         ax.plot(missed[:, 0], missed[:, 1], "X", ms=11, color="crimson", mec="black", mew=0.8, zorder=7, ls="none")
+        before = plan.found_before
+        ax.plot(before[:, 0], before[:, 1], "*", ms=13, color="white", mec="dimgrey", mew=1.2, zorder=7, ls="none")
         ax.set_title(plan.title, fontsize=11, loc="left")
         for x, y, text, centred in plan.segments:
             if centred:  # an area file's segment: on a cell inside it
@@ -509,6 +515,8 @@ class OverviewPicture:
                    label=f"target found ({len(found)})"),
             Line2D([], [], marker="X", ls="none", ms=10, color="crimson", mec="black",
                    label=f"target missed ({len(missed)})"),
+            *([Line2D([], [], marker="*", ls="none", ms=13, color="white", mec="dimgrey", mew=1.2,
+                      label=f"found by an earlier sortie ({len(before)})")] if len(before) else []),
             Patch(color=(0.8, 0.1, 0.1, 0.55), label="no-fly"),
             Patch(facecolor="none", edgecolor=REGION_COLOURS["known"], lw=2, label="known region"),
             Patch(facecolor="none", edgecolor=REGION_COLOURS["key"], lw=2, label="key region"),

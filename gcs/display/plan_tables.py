@@ -61,7 +61,9 @@ def summary_table(plan: Plan, bound: dict | None = None) -> str:
     if line is not None:
         rows.append(line)
     simulated = (f"targets found {plan.targets_found}/{len(plan.targets)}" if len(plan.targets)
-                 else "no targets placed (none to find)")
+                 else "no targets left to find" if plan.found_before else "no targets placed (none to find)")
+    if plan.found_before:
+        simulated += f" ({len(plan.found_before)} found by earlier sorties)"
     rows.append(f"simulated: {simulated}, false alarms {plan.false_alarms}, mean eta {plan.mean_eta:.1%}")
     return "\n".join(rows)
 

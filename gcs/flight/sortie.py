@@ -97,7 +97,8 @@ class SortieLog:
         self.plan_sha256 = file_sha256(self.folder / "plan.json")
         self.start, self.no_belief = self._read_start()
         self.belief = None if self.start is None else Belief(self.start.search_map.copy(), self.start.p0,
-                                                             self.start.looks_before, self.start.sortie)
+                                                             self.start.looks_before, self.start.sortie,
+                                                             self.start.found)
         self.segments, self.segments_from, self.segments_note = self._plan_segments()
         self.readings: list[_Reading] = []
         self.tracks: dict[int, list[tuple[float, float]]] = {uid: [] for uid in plan.uavs}
@@ -253,7 +254,7 @@ class SortieLog:
         if self.belief is not None:
             before, after = self.start.expected(self.pc), self.belief.expected(self.pc)
             available = self.belief.available()
-            data["belief"] = belief_to_dict(self.belief, "flight") | {
+            data["belief"] = belief_to_dict(self.belief.with_found(self.targets_found()), "flight") | {
                 "sortie_looks": self.belief.search_map.visits.tolist()}
             data["campaign"] = {"expected_targets_in_area": available, "expected_before": before,
                                 "expected_after": after, "expected_targets_found": after - before,
@@ -263,6 +264,11 @@ class SortieLog:
             if theory is not None:
                 data["search_theory"] = theory.as_dict() | {"segments_from": self.segments_from}
         return data
+
+    def targets_found(self) -> list[tuple[int, int]]:
+        """The plan's true targets (an exercise's) whose cell got a positive reading."""
+        targets = set(self.plan.targets)
+        return sorted({r.cell for r in self.readings if r.hit and r.cell is not None and r.cell in targets})
 
     def search_theory(self) -> SearchTheory | None:
         """POA / POD / POS per segment of what this flight read (`planner.search_theory`, over the

@@ -51,12 +51,15 @@ def validate_belief_dict(data: dict) -> None:
 def belief_to_dict(belief: Belief, source: str) -> dict:
     """`belief.json`: the belief a sortie is planned from (and a sortie record's posterior):
     TEP, EU, the campaign's first prior `p0` and `looks`, the campaign's readings per cell so
-    far. `source` says where it came from: `prior`, `flight` (a flown sortie's readings),
+    far, and `found_targets` ([x, y, sortie], 1-based) an exercise's targets earlier sorties found
+    (when any). `source` says where it came from: `prior`, `flight` (a flown sortie's readings),
     `predicted` (a planned sortie that reports nothing, `planner.campaign.predicted_after`)."""
     m = belief.search_map
     return {"schema_version": SCHEMA_VERSION, "sortie": belief.sortie, "source": source, "nx": m.shape[0],
             "ny": m.shape[1], "tep": m.tep.tolist(), "eu": m.eu.tolist(), "p0": belief.p0.tolist(),
-            "looks": belief.looks.tolist()}
+            "looks": belief.looks.tolist(),
+            **({"found_targets": [[int(x) + 1, int(y) + 1, int(k)] for x, y, k in belief.found]}
+               if len(belief.found) else {})}
 
 
 def belief_from_dict(data: dict, no_fly: np.ndarray) -> Belief:
@@ -64,6 +67,7 @@ def belief_from_dict(data: dict, no_fly: np.ndarray) -> Belief:
     try:
         tep, eu, p0, looks = (np.asarray(data[k], dtype=float) for k in ("tep", "eu", "p0", "looks"))
         sortie = int(data["sortie"])
+        found = np.asarray(data.get("found_targets", []), dtype=float).reshape(-1, 3)
     except (KeyError, TypeError, ValueError) as exc:
         raise ValueError(f"not a belief map ({type(exc).__name__}: {exc})") from None
     if not all(np.all(np.isfinite(a)) for a in (tep, eu, p0)):
@@ -73,4 +77,8 @@ def belief_from_dict(data: dict, no_fly: np.ndarray) -> Belief:
     if tep.shape != no_fly.shape:
         raise ValueError(f"the belief is a {'x'.join(map(str, tep.shape))} grid, the plan's {no_fly.shape[0]}x"
                          f"{no_fly.shape[1]}")
-    return Belief(SearchMap(tep, eu, no_fly), p0, looks.astype(np.int64), sortie)
+    if np.any(found != np.round(found)) or np.any(found < 1) or np.any(found[:, 0] > tep.shape[0]) \
+            or np.any(found[:, 1] > tep.shape[1]):
+        raise ValueError("found_targets must be [x, y, sortie] of cells in the grid, counted from 1")
+    found_cells = found.astype(np.int64) - np.array([1, 1, 0], dtype=np.int64)
+    return Belief(SearchMap(tep, eu, no_fly), p0, looks.astype(np.int64), sortie, found_cells)

@@ -89,6 +89,8 @@ def _core_dict(plan: Plan, seed: int | None, no_fly: list[list[int]]) -> dict:
         "targets": [
             {"x": t.x + 1, "y": t.y + 1, "found_step": t.found_step, "found_by": t.found_by} for t in plan.targets
         ],
+        **({"targets_found_before": [{"x": x + 1, "y": y + 1, "sortie": k} for x, y, k in plan.found_before]}
+           if plan.found_before else {}),
         "summary": {
             "targets_found": plan.targets_found,
             "targets": len(plan.targets),

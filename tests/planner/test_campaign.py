@@ -113,9 +113,14 @@ def test_split_sorties_are_each_closed_and_legal_and_the_campaign_adds_up(seed, 
     belief = Belief.prior(scenario.search_map)
     searchable = ~scenario.search_map.no_fly
     cumulative = [0.0]
+    truth = {(int(x), int(y)) for x, y in scenario.targets}
     for _ in range(sorties):
         searched, plan = _sortie(scenario, belief, seed, oc, np_steps)
         assert_plan_safe(plan, searched, oc)
+        found_before = {(x, y) for x, y, _ in plan.found_before}  # an exercise's targets: found once, then gone
+        assert found_before == {(int(x), int(y)) for x, y, _ in belief.found} and all(
+            k < belief.sortie for _, _, k in plan.found_before)
+        assert {(t.x, t.y) for t in plan.targets} == truth - found_before
         assert [u.range_units for u in plan.uavs] == [u.range_units for u in scenario.uavs]  # fresh batteries
         counts = look_counts(plan, scenario.sensor.footprint_radius)
         whole = expected_finds(scenario.search_map.tep, searchable, pc, belief.looks + counts)

@@ -127,6 +127,11 @@ def test_a_flight_leaves_the_posterior_of_its_readings_its_tracks_and_its_detect
     hits = {(r[0], r[1]): (r[2], r[3]) for r in log if r[4]}
     assert all(tuple(d["properties"]["cell"]) == hits[(d["properties"]["uav"], d["properties"]["index"])]
                for d in detections)
+    # the exercise's true targets the flight found (a report in their cell) go on record for the next sortie
+    truth = {(t["x"], t["y"]) for t in plan["targets"]}
+    reported = {(x, y) for _, _, x, y, hit, _ in log if hit}
+    assert truth & reported, "the test flight found no target: the record of found targets goes untested"
+    assert belief.get("found_targets", []) == [[x, y, 1] for x, y in sorted(truth & reported)]
 
 
 def test_a_flight_leaves_its_tracks_and_detections_as_kml_and_gpx(campaign):
@@ -202,6 +207,14 @@ def test_the_next_sortie_plans_from_the_posterior_with_fresh_batteries_and_stays
     belief = _json(second / "belief.json")
     validate_belief_dict(belief)
     assert belief["source"] == "flight" and belief["sortie"] == 2 and belief["tep"] == record["belief"]["tep"]
+    # targets the flight found are no longer there to find: drawn and counted as found before, not missed
+    found = {tuple(t[:2]) for t in record["belief"]["found_targets"]}
+    assert belief["found_targets"] == record["belief"]["found_targets"]
+    assert {(t["x"], t["y"]) for t in plan2["targets"]} == {(t["x"], t["y"]) for t in plan1["targets"]} - found
+    assert [(t["x"], t["y"], t["sortie"]) for t in plan2["targets_found_before"]] == \
+        [(x, y, 1) for x, y in sorted(found)]
+    assert plan2["summary"]["targets"] == len(plan1["targets"]) - len(found)
+    assert f"({len(found)} found by earlier sorties)" in printed
     vehicles = load_vehicles(learned)
     for u1, u2 in zip(plan1["uavs"], plan2["uavs"]):  # fresh batteries, ranges from the learned profiles
         vehicle = profile_for_uav(vehicles, u2["id"])
@@ -262,6 +275,11 @@ def test_sortie_after_sortie_the_campaign_counts_every_flight(campaign, capsys):
     assert main(["plan", "--continue", str(second), "--out", str(third), "--no-rrd", "--quiet"]) == 0
     c = _json(third / "plan.json")["campaign"]
     assert [(r["sortie"], r["status"]) for r in c["sorties"]] == [(1, "flown"), (2, "flown"), (3, "planned")]
+    third_plan = _json(third / "plan.json")  # every target found so far, each with the sortie that found it
+    found_first = {tuple(t[:2]) for t in first_record["belief"].get("found_targets", [])}
+    assert {(t["x"], t["y"]) for t in third_plan["targets_found_before"] if t["sortie"] == 1} == found_first
+    assert not {(t["x"], t["y"]) for t in third_plan["targets"]} & {
+        (t["x"], t["y"]) for t in third_plan["targets_found_before"]}
     cumulative = [r["cumulative_pos"] for r in c["sorties"]]
     assert cumulative == sorted(cumulative) and cumulative[0] < cumulative[-1]
     assert c["sorties"][1]["cumulative_pos"] == pytest.approx(record["campaign"]["pos_after"], abs=1e-6)
