@@ -377,8 +377,26 @@ def plan_layers(plan: Plan, scenario: Scenario, places: Sequence[SegmentPlace | 
 
 
 CAPTION_SIZE = 11
+LEGEND_SIZE = 10
+EDGE_PX = 4  # the least white between what is drawn and the picture's edge
 CAPTION_GAP_PX = 8  # between the x axis' label and the caption's top
 CAPTION_MIN_PX = 22  # the caption's top at least this far above the figure's bottom edge
+
+
+def fit_legend(fig: Any, handles: list) -> Any:
+    """The legend right of the map, its font shrunk (to 6 pt at least) until it fits inside the
+    picture: a fleet of eight UAVs' labels ran off its right edge at 10 pt."""
+    size = float(LEGEND_SIZE)
+    while True:
+        legend = fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.71, 0.5), fontsize=size,
+                            frameon=False, labelspacing=0.8)
+        box = legend.get_window_extent(fig.canvas.get_renderer())
+        scale = min((WIDTH_PX - EDGE_PX - box.x0) / max(box.width, 1.0),
+                    (HEIGHT_PX - 2 * EDGE_PX) / max(box.height, 1.0))
+        if scale >= 1.0 or size <= 6.0:
+            return legend
+        legend.remove()
+        size = max(6.0, math.floor(size * scale * 10) / 10)
 
 
 class OverviewPicture:
@@ -445,7 +463,14 @@ class OverviewPicture:
             ax.set_xlabel("metres east of the grid's south-west corner")
             ax.set_ylabel("metres north of the grid's south-west corner")
         ax.apply_aspect()  # the axes' box as drawn: the caption goes under its x axis, left-aligned with it
-        below = ax.xaxis.get_tightbbox(fig.canvas.get_renderer())
+        renderer = fig.canvas.get_renderer()
+        left = ax.yaxis.get_tightbbox(renderer)
+        if left is not None and left.x0 < EDGE_PX:  # wide tick labels (10,000) push the y label off the picture
+            box = ax.get_position()
+            shift = (EDGE_PX - left.x0) / WIDTH_PX
+            ax.set_position((box.x0 + shift, box.y0, box.width - shift, box.height))
+            ax.apply_aspect()
+        below = ax.xaxis.get_tightbbox(renderer)
         self._caption_xy = (ax.get_position().x0,
                             max(CAPTION_MIN_PX, (below.y0 if below is not None else 0) - CAPTION_GAP_PX) / HEIGHT_PX)
         self._map += [ax.xaxis, ax.yaxis]
@@ -531,8 +556,7 @@ class OverviewPicture:
                 handles.append(Line2D([], [], color=SEGMENT_COLOUR, lw=1.6, alpha=0.85, label=label))
             else:
                 handles.append(Line2D([], [], color=SEGMENT_COLOUR, lw=0.9, ls=(0, (4, 3)), label=label))
-        legend = fig.legend(handles=handles, loc="center left", bbox_to_anchor=(0.71, 0.5), fontsize=10,
-                            frameon=False, labelspacing=0.8)
+        legend = fit_legend(fig, handles)
         canvas = fig.canvas
         if self._background is not None:  # the map's pixels, then the axes without the map's artists
             canvas.restore_region(self._background)  # (in their order), then the legend

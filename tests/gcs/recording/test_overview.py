@@ -365,3 +365,24 @@ def test_the_title_says_the_settings_in_a_crews_words():
              "move_costs": {"straight": 1, "diagonal": 1}}
     assert settings_text(steps) == ("look-ahead 7 steps, 5OC turns, exhaustive search, ST return, "
                                     "reserve 3 cell sides, a diagonal costs 1 sides")
+
+
+def test_a_long_legend_is_shrunk_to_fit_the_picture_and_a_short_one_is_not():
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    from gcs.display.overview import DPI, LEGEND_SIZE, fit_legend
+
+    def legend_of(label: str, uavs: int):
+        fig = Figure(figsize=(WIDTH_PX / DPI, HEIGHT_PX / DPI), dpi=DPI)
+        FigureCanvasAgg(fig)
+        legend = fit_legend(fig, [Line2D([], [], label=label.format(i)) for i in range(1, uavs + 1)])
+        return legend, legend.get_window_extent(fig.canvas.get_renderer())
+
+    eight = "UAV {}: 1014 + 3 steps, 28.76 of 28.76 km, eta 100%\n    PoS 0.8%, returned at step 1014: range"
+    legend, box = legend_of(eight, 8)
+    assert box.x1 <= WIDTH_PX and box.y0 >= 0 and box.y1 <= HEIGHT_PX
+    assert legend.get_texts()[0].get_fontsize() < LEGEND_SIZE
+    legend, box = legend_of("UAV {}: 90 + 3 steps", 4)
+    assert legend.get_texts()[0].get_fontsize() == LEGEND_SIZE
