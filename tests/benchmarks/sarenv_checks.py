@@ -31,7 +31,9 @@ def test_one_scenario_through_the_evaluator(sarenv, capsys) -> None:
         likelihood, published = float(rows[name][2]), float(rows[name][3])
         assert abs(likelihood / published - 1) < 0.03, rows[name]
     gcs, best = float(rows["gcs"][2]), max(float(rows[n][2]) for n in ("Spiral", "Pizza"))
-    assert float(rows["bound"][2]) > gcs > 0.9 * best
+    assert float(rows["bound"][2]) > float(rows["seen"][2]) > gcs > 0.9 * best
+    assert float(rows["seen"][2]) == pytest.approx(sb.camera_bound(
+        sb.load_scenario(sarenv, sb.DEFAULT_DATASETS, 1, "medium"), 100_000), rel=1e-3)
     assert float(rows["gcs"][4]) > max(float(rows[n][5]) for n in ("Spiral", "Pizza"))  # time-discounted
     assert ("gcs plan --area FILE --cell-size 22.1 --footprint 1 --pc 0.95 --pf 0.01 --np 7 --strategy exhaustive"
             in out)  # the options a crew would pass for gcs's column
