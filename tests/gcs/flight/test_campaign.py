@@ -404,6 +404,13 @@ def _not_json(folder, campaign):
     return []
 
 
+def _found_off_the_grid(folder, campaign):
+    data = _json(folder / "sortie.json")
+    data["belief"]["found_targets"] = [[0, 5, 1]]
+    (folder / "sortie.json").write_text(json.dumps(data), encoding="utf-8")
+    return []
+
+
 def _no_campaign(folder, campaign):
     data = _json(folder / "plan.json")
     del data["campaign"]
@@ -417,6 +424,7 @@ def _no_campaign(folder, campaign):
     (_plan_changed, [], "plan.json changed since the flight"),
     (_not_json, [], "sortie.json is not readable JSON"),
     (_no_campaign, [], "has no campaign record"),
+    (_found_off_the_grid, [], "found_targets must be [x, y, sortie] of cells in the grid"),
     (_break_nothing, ["--strategy", "cpio", "--np", "3"], "leave out --np, --strategy"),
     (_break_nothing, ["--area", "x.geojson"], "leave out --area"),
     (_break_nothing, ["--out", "SAME"], "that is the folder being continued"),
