@@ -107,7 +107,8 @@ def hatch_image(mask: np.ndarray, px_per_cell: int) -> np.ndarray:
 
 
 def campaign_outcome(plan: Plan, scenario: Scenario) -> str | None:
-    """A later sortie's line: the campaign's probability of success before and after it."""
+    """A later sortie's line: the campaign's probability of success before and after it, and this
+    sortie's share of what the earlier ones left (the POS its segments table sums to)."""
     if plan.success is None or scenario.looks_before is None or not plan.success.available:
         return None
     from planner.success import expected_finds
@@ -115,8 +116,10 @@ def campaign_outcome(plan: Plan, scenario: Scenario) -> str | None:
     m = scenario.search_map
     before = expected_finds(scenario.success_prior, ~m.no_fly, scenario.sensor.pc, scenario.looks_before)
     available = plan.success.available
+    left = available - before
+    conditional = f", {plan.success.expected / left:.1%} of what earlier sorties left" if left > 0 else ""
     return (f"campaign PoS {before / available:.1%} -> {(before + plan.success.expected) / available:.1%} "
-            f"(this sortie +{plan.success.share:.1%})")
+            f"(this sortie +{plan.success.share:.1%}{conditional})")
 
 
 def _rgb(colour: tuple[int, int, int]) -> tuple[float, float, float]:

@@ -71,6 +71,9 @@ def test_a_later_sortie_hatches_what_earlier_sorties_searched(tmp_path: Path):
     assert campaign_outcome(first, scenario) is None
     line = campaign_outcome(second, later)
     assert line.startswith(f"campaign PoS {first.success.share:.1%} -> ")
+    left = second.success.available - first.success.expected  # the POS its segments sum to: of what was left
+    assert line.endswith(f"(this sortie +{second.success.share:.1%}, {second.success.expected / left:.1%} of what "
+                         "earlier sorties left)")
     unread = replace(later, looks_before=np.zeros_like(later.looks_before))  # the same picture but the hatch
     plain = np.asarray(Image.open(draw_overview(second, unread, tmp_path / "a.png")).convert("RGB"), dtype=np.int64)
     hatched = np.asarray(Image.open(draw_overview(second, later, tmp_path / "b.png")).convert("RGB"), dtype=np.int64)
