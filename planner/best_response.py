@@ -24,6 +24,10 @@ prizes for fewer diagonals (and corners), which leaves range for more steps: mu 
 ladder, 0 and then `scale * 2^(k - 2)` for k = 0 .. `ResponseSettings.ladder - 1` (`scale` the
 mean prize over the dearest move), and every step's best end at every rung is a candidate. A
 UAV's later responses run only the rung whose walk scored best and its two neighbours.
+`ResponseSettings.stride` > 1 makes a first response cheaper: every stride-th rung, then the
+rungs beside the best while the best moves (a climb; off by default: the scores are not unimodal
+in the rung, and a stride of 2 lost up to 1 % of E on some benchmark cases, docs/benchmarks.md).
+A UAV is asked again only when some path changed since its last response (`planner.improve`).
 
 **Reading a cell twice** adds less than the programme counts (it sums first readings): each
 candidate is scored exactly from `counts` (self-overlaps and footprints as `planner.success`
@@ -36,7 +40,9 @@ keeps every invariant (`_walk_is_safe`, checked again apart from the programme):
 expected finds never fall.
 
 Cost: O(steps x cells x 8 x OC branching) per run over the box of cells the UAV can reach and come
-back from, and memory of one byte per (step, cell, heading) for the parents: a UAV whose programme
+back from (`_walk_dp` pulls each state from its predecessors, its target's checks made once: half
+the CPU of pushing each state to its successors, the same plans bit for bit), and memory of one
+byte per (step, cell, heading) for the parents: a UAV whose programme
 exceeds `ResponseSettings.states` states is left to the windows (`missions/large.geojson`'s
 8 UAVs of 1150 steps over 400 x 400 cells)."""
 
@@ -48,7 +54,7 @@ import numpy as np
 
 from planner.config import njit
 
-__all__ = ["ResponseSettings", "read_footprint", "respond"]
+__all__ = ["ResponseSettings", "backtrace", "read_footprint", "respond"]
 
 #: Gains below this (expected targets) are not worth a change (as `planner.improve.MIN_GAIN`).
 MIN_GAIN = 1e-9
@@ -59,16 +65,18 @@ class ResponseSettings:
     """`rounds`: best-response sweeps over every UAV at most (fewer when none gains; 0: none);
     `passes`: runs of the programme per response (the first with first-reading prizes, each next
     with the prizes of cells the best walk re-read lowered); `ladder`: rungs of mu above 0
-    (module docstring); `states`: the most (step, cell, heading) states one programme may have
-    (above it the UAV is not re-planned whole)."""
+    (module docstring); `stride`: a first response runs every stride-th rung, then climbs from
+    the best (1: the whole ladder); `states`: the most (step, cell, heading) states one programme
+    may have (above it the UAV is not re-planned whole)."""
 
     rounds: int = 3
     passes: int = 2
     ladder: int = 9
+    stride: int = 1
     states: int = 60_000_000
 
     def __post_init__(self) -> None:
-        if self.rounds < 0 or self.passes < 1 or self.ladder < 0 or self.states < 1:
+        if self.rounds < 0 or self.passes < 1 or self.ladder < 0 or self.stride < 1 or self.states < 1:
             raise ValueError(f"bad best-response settings {self}")
 
 
@@ -125,6 +133,22 @@ def _prizes(counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, r
 
 
 @njit
+def backtrace(parent: np.ndarray, steps: int, i: int, j: int, h: int, x0: int, y0: int, dx: np.ndarray,
+              dy: np.ndarray, out: np.ndarray) -> None:
+    """The walk of `steps` poses a programme's parents (`parent[t, i, j, h]`: the heading before
+    pose t, cells from (x0, y0)) lead back from pose (i, j, h) at step `steps`: rows x, y, heading
+    into `out[:steps]` (`_best_end` and `planner.improve._dp_window`)."""
+    for t in range(steps, 0, -1):
+        out[t - 1, 0] = x0 + i
+        out[t - 1, 1] = y0 + j
+        out[t - 1, 2] = h
+        p = parent[t, i, j, h]
+        i -= dx[h]
+        j -= dy[h]
+        h = p
+
+
+@njit
 def _walk_dp(sx: int, sy: int, sh: int, steps: int, budget: int, time_budget: int, prize: np.ndarray, x0: int,
              y0: int, blocked: np.ndarray, others: np.ndarray, home: np.ndarray, successors: np.ndarray,
              dx: np.ndarray, dy: np.ndarray, move_costs: np.ndarray, turns: np.ndarray, mu: float,
@@ -134,74 +158,118 @@ def _walk_dp(sx: int, sy: int, sh: int, steps: int, budget: int, time_budget: in
     `turn_weight` times each turn's charge), over the box of `prize` from (x0, y0). Writes the
     parents (`parent[t, i, j, h]`: the heading before pose t) and, per step t and heading h, the
     best walk's penalised value, cost and turn charges ending on the airport (sx, sy) there
-    (`end_value` -inf where none)."""
+    (`end_value` -inf where none).
+
+    Each state pulls from its predecessors (the one cell a move g comes from, each heading h the
+    OC lets turn into g, in increasing h; the first best kept): the plans of pushing every state
+    to its successors, bit for bit, with each target's checks made once and written once."""
     bw, bh = prize.shape
+    width = successors.shape[1]
+    preds = np.full((8, 8), -1, dtype=np.int64)
+    npred = 0
+    for g in range(8):
+        k = 0
+        for h in range(8):
+            for m in range(width):
+                if successors[h, m] < 0:
+                    break
+                if successors[h, m] == g:
+                    preds[g, k] = h
+                    k += 1
+                    break
+        npred = max(npred, k)
+    # what the cost so far may be on entering (i, j) by move g, for the range and for the time
+    # (int32 as the costs: a cost near 2^31 never fits, and lower bounds clip to -2^31 + 1)
+    room = np.empty((bw, bh, 8), dtype=np.int32)
+    troom = np.empty((bw, bh, 8), dtype=np.int32)
+    stop = np.zeros((bw, bh), dtype=np.int64)
+    for i in range(bw):
+        for j in range(bh):
+            if blocked[x0 + i, y0 + j]:
+                stop[i, j] = 1
+            for g in range(8):
+                back = move_costs[g] + home[g, x0 + i, y0 + j]
+                room[i, j, g] = max(min(budget - back, 2**31 - 1), -2**31 + 1)
+                troom[i, j, g] = max(min(time_budget - back, 2**31 - 1), -2**31 + 1)
+    # a move's penalty and turn charge by (g, h): none for the turn at the airport pose (step 0)
+    pen = np.empty((2, 8, 8))
+    turn = np.zeros((2, 8, 8), dtype=np.int64)
+    for g in range(8):
+        for h in range(8):
+            pen[0, g, h] = mu * (move_costs[g] + turn_weight * 0)
+            pen[1, g, h] = mu * (move_costs[g] + turn_weight * turns[(g - h) & 7])
+            turn[1, g, h] = turns[(g - h) & 7]
     value = np.full((2, bw, bh, 8), -np.inf)
     cost = np.zeros((2, bw, bh, 8), dtype=np.int32)
     turned = np.zeros((2, bw, bh, 8), dtype=np.int32)
-    occupied = np.zeros((bw, bh), dtype=np.bool_)
     end_value[:] = -np.inf
     si = sx - x0
     sj = sy - y0
     value[0, si, sj, sh] = 0.0
     i0, i1, j0, j1 = si, si, sj, sj
-    width = successors.shape[1]
     for t in range(steps):
         cur = t & 1
         nxt = 1 - cur
+        late = 1 if t >= 1 else 0
         r0 = max(0, i0 - 1)
         r1 = min(bw - 1, i1 + 1)
         c0 = max(0, j0 - 1)
         c1 = min(bh - 1, j1 + 1)
-        value[nxt, r0:r1 + 1, c0:c1 + 1, :] = -np.inf
         if t + 1 < others.shape[1]:
             for u in range(others.shape[0]):
                 ox = others[u, t + 1, 0] - x0
                 oy = others[u, t + 1, 1] - y0
                 if others[u, t + 1, 0] >= 0 and 0 <= ox < bw and 0 <= oy < bh:
-                    occupied[ox, oy] = True
+                    stop[ox, oy] += 1
         n0, n1, m0, m1 = bw, -1, bh, -1
-        for i in range(i0, i1 + 1):
-            for j in range(j0, j1 + 1):
-                for h in range(8):
-                    v = value[cur, i, j, h]
-                    if v == -np.inf:
-                        continue
-                    c_here = cost[cur, i, j, h]
-                    t_here = turned[cur, i, j, h]
-                    for k in range(width):
-                        g = successors[h, k]
-                        if g < 0:
-                            break
-                        qi = i + dx[g]
-                        qj = j + dy[g]
-                        if qi < 0 or qj < 0 or qi >= bw or qj >= bh or occupied[qi, qj]:
-                            continue
-                        qx = x0 + qi
-                        qy = y0 + qj
-                        if blocked[qx, qy]:
-                            continue
-                        c = c_here + move_costs[g]
-                        turn = turns[(g - h) & 7] if t >= 1 else 0
-                        back = home[g, qx, qy]
-                        if c + back > budget or c + t_here + turn + back > time_budget:
-                            continue
-                        w = v + prize[qi, qj] - mu * (move_costs[g] + turn_weight * turn)
-                        if w > value[nxt, qi, qj, g]:
-                            value[nxt, qi, qj, g] = w
-                            cost[nxt, qi, qj, g] = c
-                            turned[nxt, qi, qj, g] = t_here + turn
-                            parent[t + 1, qi, qj, g] = h
-                            n0 = min(n0, qi)
-                            n1 = max(n1, qi)
-                            m0 = min(m0, qj)
-                            m1 = max(m1, qj)
+        for qi in range(r0, r1 + 1):
+            for qj in range(c0, c1 + 1):
+                if stop[qi, qj] > 0:
+                    for g in range(8):
+                        value[nxt, qi, qj, g] = -np.inf
+                    continue
+                p = prize[qi, qj]
+                hit = False
+                for g in range(8):
+                    best = -np.inf
+                    i = qi - dx[g]
+                    j = qj - dy[g]
+                    # the states of step t outside the box [i0, i1] x [j0, j1] are stale
+                    if i0 <= i <= i1 and j0 <= j <= j1:
+                        room_g = room[qi, qj, g]
+                        troom_g = troom[qi, qj, g]
+                        bc = 0
+                        bt = 0
+                        bp = -1
+                        for k in range(npred):
+                            h = preds[g, k]
+                            if h < 0:
+                                break
+                            c_here = cost[cur, i, j, h]
+                            t_here = turned[cur, i, j, h] + turn[late, g, h]
+                            w = value[cur, i, j, h] + p - pen[late, g, h]
+                            if c_here <= room_g and c_here + t_here <= troom_g and w > best:
+                                best = w
+                                bc = c_here
+                                bt = t_here
+                                bp = h
+                        if bp >= 0:
+                            cost[nxt, qi, qj, g] = bc + move_costs[g]
+                            turned[nxt, qi, qj, g] = bt
+                            parent[t + 1, qi, qj, g] = bp
+                            hit = True
+                    value[nxt, qi, qj, g] = best
+                if hit:
+                    n0 = min(n0, qi)
+                    n1 = max(n1, qi)
+                    m0 = min(m0, qj)
+                    m1 = max(m1, qj)
         if t + 1 < others.shape[1]:
             for u in range(others.shape[0]):
                 ox = others[u, t + 1, 0] - x0
                 oy = others[u, t + 1, 1] - y0
                 if others[u, t + 1, 0] >= 0 and 0 <= ox < bw and 0 <= oy < bh:
-                    occupied[ox, oy] = False
+                    stop[ox, oy] -= 1
         for h in range(8):
             end_value[t + 1, h] = value[nxt, si, sj, h]
             end_cost[t + 1, h] = cost[nxt, si, sj, h]
@@ -232,17 +300,7 @@ def _best_end(sx: int, sy: int, x0: int, y0: int, budget: int, time_budget: int,
                 pick = h
         if pick < 0:
             continue
-        i = sx - x0
-        j = sy - y0
-        h = pick
-        for s in range(t, 0, -1):
-            scratch[s - 1, 0] = x0 + i
-            scratch[s - 1, 1] = y0 + j
-            scratch[s - 1, 2] = h
-            p = parent[s, i, j, h]
-            i -= dx[h]
-            j -= dy[h]
-            h = p
+        backtrace(parent, t, sx - x0, sy - y0, pick, x0, y0, dx, dy, scratch)
         gain = _walk_gain(scratch, t, counts, base, qpow, pc, radius)
         if gain > best:
             best = gain
@@ -348,6 +406,22 @@ def respond(path: np.ndarray, n_poses: int, budget: int, time_budget: int, count
     turn_weight = 1.0 if time_budget < budget + max(steps - 1, 0) * int(turns.max()) else 0.0
     factor = np.ones(counts.shape)
     best_gain, best_n, best_rung = -1.0, 0, hint
+
+    def run(rung: int, scale: float, prize: np.ndarray) -> int | None:
+        """The programme at the rung's mu, its best walk kept when it scores best so far; the rung
+        of the best walk so far."""
+        nonlocal best_gain, best_n, best_rung
+        mu = 0.0 if rung < 0 else scale * 2.0 ** (rung - 2)
+        _walk_dp(start[0], start[1], start[2], steps, budget, time_budget, prize, x0, y0, blocked, others, home,
+                 successors, dx, dy, move_costs, turns, mu, turn_weight, parent, end_value, end_cost, end_turns)
+        gain, n = _best_end(start[0], start[1], x0, y0, budget, time_budget, parent, end_value, end_cost, end_turns,
+                            counts, base, qpow, pc, radius, dx, dy, walk, scratch)
+        if n > 0 and gain > best_gain:
+            best_gain, best_n, best_rung = gain, n, rung
+            best[:n] = walk[:n]
+        return best_rung
+
+    ladder = settings.ladder
     for done in range(settings.passes):
         if done > 0:
             if best_n == 0:
@@ -360,17 +434,22 @@ def respond(path: np.ndarray, n_poses: int, budget: int, time_budget: int, count
         if positive.size == 0:
             break
         scale = float(positive.mean()) / float(move_costs.max())
-        rungs = range(-1, settings.ladder) if best_rung is None else \
-            range(max(-1, best_rung - 1), min(settings.ladder, best_rung + 2))
-        for rung in rungs:
-            mu = 0.0 if rung < 0 else scale * 2.0 ** (rung - 2)
-            _walk_dp(start[0], start[1], start[2], steps, budget, time_budget, prize, x0, y0, blocked, others, home,
-                     successors, dx, dy, move_costs, turns, mu, turn_weight, parent, end_value, end_cost, end_turns)
-            gain, n = _best_end(start[0], start[1], x0, y0, budget, time_budget, parent, end_value, end_cost,
-                                end_turns, counts, base, qpow, pc, radius, dx, dy, walk, scratch)
-            if n > 0 and gain > best_gain:
-                best_gain, best_n, best_rung = gain, n, rung
-                best[:n] = walk[:n]
+        if best_rung is None:
+            # every `stride`-th rung, then on up or down the ladder from the best while it moves
+            tried = list(range(-1, ladder, settings.stride))
+            top = None
+            for rung in tried:
+                top = run(rung, scale, prize)
+            while top is not None:
+                around = [r for r in (top - 1, top + 1) if -1 <= r < ladder and r not in tried]
+                if not around:
+                    break
+                tried += around
+                for rung in around:
+                    top = run(rung, scale, prize)
+        else:
+            for rung in range(max(-1, best_rung - 1), min(ladder, best_rung + 2)):
+                run(rung, scale, prize)
     if best_n == 0 or best_gain <= old_gain + MIN_GAIN or not _walk_is_safe(
             best, best_n, start, budget, time_budget, blocked, others, allowed, dx, dy, move_costs, turns):
         for i in range(1, n_poses):

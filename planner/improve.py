@@ -12,10 +12,11 @@ given every other reading of the plan.
 First, in rounds until no UAV gains (`ResponseSettings.rounds`), each UAV's whole path is
 re-planned as its best response to every other reading of the plan (`planner.best_response`: a
 time-indexed programme over (step, cell, heading) from its airport pose home, the other UAVs'
-cells at each step forbidden, mu per unit of cost on a ladder, every candidate scored exactly);
-then the windows polish what it left, long windows by dynamic programming (`_dp_sweep`), then
-two moves, each solved by a depth-first search over every path under the OC (kernel
-`_improve_uav`):
+cells at each step forbidden, mu per unit of cost on a ladder, every candidate scored exactly; a
+UAV is asked again only when some path changed since its last response: else it would answer the
+same readings); then the windows polish what it left, long windows by dynamic programming
+(`_dp_sweep`), then two moves, each solved by a depth-first search over every path under the
+OC (kernel `_improve_uav`):
 
 - a **window** of L steps between two fixed poses of a path: every path of L steps from the
   first pose to the cell of the second whose heading allows the move after it. Times are kept,
@@ -51,7 +52,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from planner.best_response import ResponseSettings, read_footprint, respond
+from planner.best_response import ResponseSettings, backtrace, read_footprint, respond
 from planner.config import njit
 from planner.motion import HEADING_DX, HEADING_DY, MoveCosts, OrientationConstraint
 from planner.plan import Plan, Stage, TargetOutcome, TrajectoryPoint, UavPlan
@@ -295,17 +296,7 @@ def _dp_window(path: np.ndarray, a: int, steps: int, penalty: float, turn_weight
             bh_end = h
     if bh_end < 0:
         return False
-    i = ex - x0
-    j = ey - y0
-    h = bh_end
-    for t in range(steps, 0, -1):
-        out[t - 1, 0] = x0 + i
-        out[t - 1, 1] = y0 + j
-        out[t - 1, 2] = h
-        p = parent[t, i, j, h]
-        i -= dx[h]
-        j -= dy[h]
-        h = p
+    backtrace(parent, steps, ex - x0, ey - y0, bh_end, x0, y0, dx, dy, out)
     return True
 
 
@@ -586,9 +577,15 @@ def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, rese
 
     response = settings.response or ResponseSettings(rounds=0)
     rungs: list[int | None] = [None] * len(plan.uavs)
+    # a UAV's response depends only on the other paths and its own: when no path changed since
+    # its last one, it would find the same walk again (`changes` counts the paths changed)
+    changes = 0
+    answered = [-1] * len(plan.uavs)
     for _ in range(response.rounds):
         gained = 0.0
         for i, u in enumerate(plan.uavs):
+            if answered[i] == changes:
+                continue
             b = budgets[i]
             gain, n, rungs[i] = respond(paths[i], int(lengths[i]), b.units, b.time_units, counts, base, qpow,
                                         sensor.pc, sensor.footprint_radius, _others(paths, lengths, i), blocked,
@@ -596,6 +593,8 @@ def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, rese
                                         b.turns, response, rungs[i])
             lengths[i] = n
             gained += gain
+            changes += 1 if gain > 0.0 else 0
+            answered[i] = changes
         if gained <= MIN_GAIN:
             break
     for _ in range(settings.rounds):

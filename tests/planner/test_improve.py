@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+import planner.best_response as best_response
+import planner.improve as improve
 from planner.best_response import ResponseSettings, _walk_dp, read_footprint, respond
 from planner.dtscs import ClosedSearch, MissionConfig
 from planner.energy import Airframe, EnergyProfile
@@ -212,6 +214,81 @@ def test_the_walk_programme_finds_the_best_additive_closed_walk_at_every_step(se
             assert end_cost[t, int(np.argmax(end_value[t]))] == t
 
 
+def _pushed_walk_dp(sx, sy, sh, steps, budget, time_budget, prize, x0, y0, blocked, others, home, successors,
+                    move_costs, turns, mu, turn_weight):
+    """Reference: the programme pushing every live state to each successor (in order of cell and
+    heading, the first best kept), as `_walk_dp` did before it pulled; its parents and ends."""
+    bw, bh = prize.shape
+    value = np.full((steps + 1, bw, bh, 8), -np.inf)
+    cost = np.zeros((steps + 1, bw, bh, 8), dtype=np.int64)
+    turned = np.zeros((steps + 1, bw, bh, 8), dtype=np.int64)
+    parent = np.zeros((steps + 1, bw, bh, 8), dtype=np.int8)
+    value[0, sx - x0, sy - y0, sh] = 0.0
+    for t in range(steps):
+        held = {tuple(others[u, t + 1]) for u in range(others.shape[0])} if t + 1 < others.shape[1] else set()
+        for i, j, h in itertools.product(range(bw), range(bh), range(8)):
+            v = value[t, i, j, h]
+            if v == -np.inf:
+                continue
+            for g in successors[h]:
+                if g < 0:
+                    break
+                qi, qj = i + int(HEADING_DX[g]), j + int(HEADING_DY[g])
+                if not (0 <= qi < bw and 0 <= qj < bh) or (x0 + qi, y0 + qj) in held or blocked[x0 + qi, y0 + qj]:
+                    continue
+                c = cost[t, i, j, h] + move_costs[g]
+                turn = turns[(g - h) & 7] if t >= 1 else 0
+                back = home[g, x0 + qi, y0 + qj]
+                if c + back > budget or c + turned[t, i, j, h] + turn + back > time_budget:
+                    continue
+                w = v + prize[qi, qj] - mu * (move_costs[g] + turn_weight * turn)
+                if w > value[t + 1, qi, qj, g]:
+                    value[t + 1, qi, qj, g] = w
+                    cost[t + 1, qi, qj, g] = c
+                    turned[t + 1, qi, qj, g] = turned[t, i, j, h] + turn
+                    parent[t + 1, qi, qj, g] = h
+    si, sj = sx - x0, sy - y0
+    return parent, value[:, si, sj, :], cost[:, si, sj, :], turned[:, si, sj, :], np.isfinite(value)
+
+
+@pytest.mark.parametrize("seed, oc, mu, timed", [(0, OC3, 0.0, False), (1, OC8, 0.3, True), (2, OC3, 0.05, True),
+                                                 (4, OC4, 0.2, False), (5, OC3, 0.0, True)])
+def test_the_walk_programme_pulling_keeps_what_pushing_finds_bit_for_bit(seed, oc, mu, timed):
+    """`_walk_dp` pulls each state from its predecessors: the same values, costs, turn charges and
+    parents as pushing every state to its successors (`_pushed_walk_dp`), with diagonals dearer,
+    turns priced and a time budget that binds, another UAV's cells held, in a box off the grid's
+    corner."""
+    n = 9
+    blocked, base, _ = _case(seed, n)
+    blocked[4, 4] = False
+    costs = cell_lengths()
+    turns = TURNS if timed else np.zeros(8, dtype=np.int64)
+    steps = 16
+    budget = 13 * costs.straight
+    time_budget = budget + (2 * int(TURNS.max()) if timed else 0)
+    start = (4, 4, 2)
+    x0, y0 = 1, 2
+    prize = np.round(base[x0:, y0:] * 4) / 4  # ties, which the order of the predecessors breaks
+    others = np.full((1, steps + 1, 2), -1, dtype=np.int64)
+    others[0, 3:6] = [(5, 5), (6, 5), (6, 6)]
+    home = return_table(blocked, start[:2], oc, costs)
+    shape = (steps + 1, *prize.shape, 8)
+    parent = np.zeros(shape, dtype=np.int8)
+    end_value = np.empty((steps + 1, 8))
+    end_cost = np.zeros((steps + 1, 8), dtype=np.int64)
+    end_turns = np.zeros((steps + 1, 8), dtype=np.int64)
+    _walk_dp(*start, steps, budget, time_budget, prize, x0, y0, blocked, others, home, oc.successors, HEADING_DX,
+             HEADING_DY, costs.by_heading, turns, mu, 1.0 if timed else 0.0, parent, end_value, end_cost, end_turns)
+    want_parent, want_value, want_cost, want_turns, live = _pushed_walk_dp(
+        *start, steps, budget, time_budget, prize, x0, y0, blocked, others, home, oc.successors, costs.by_heading,
+        turns, mu, 1.0 if timed else 0.0)
+    assert np.isfinite(want_value[1:]).any()
+    assert np.array_equal(parent[live], want_parent[live])
+    assert np.array_equal(end_value[1:], want_value[1:])
+    ends = np.isfinite(want_value)
+    assert np.array_equal(end_cost[ends], want_cost[ends]) and np.array_equal(end_turns[ends], want_turns[ends])
+
+
 def _pocket(others=None):
     """One UAV at (1, 7) heading east under 3OC, 40 steps of range, a loop of 8 moves near its
     airport as its path; nothing to find but three cells far east, (10..12, 7)."""
@@ -270,6 +347,53 @@ def test_a_best_response_that_finds_nothing_better_leaves_the_path_and_counts():
                          np.array(OC3.allowed), home, HEADING_DX, HEADING_DY, STEPS.by_heading,
                          np.zeros(8, dtype=np.int64), ResponseSettings())
     assert (gain, n) == (0.0, 9) and np.array_equal(path, old) and np.array_equal(counts, before)
+
+
+@pytest.mark.parametrize("stride, ran", [(1, list(range(-1, 9))), (2, [-1, 1, 3, 5, 7, 6, 8]),
+                                         (3, [-1, 2, 5, 8, 7])])
+def test_a_first_response_climbs_the_ladder_from_its_best_stride(monkeypatch, stride, ran):
+    """`ResponseSettings.stride`: a first response runs every stride-th rung of mu's ladder, then
+    the rungs beside the best while the best moves (here every walk's score rises with its rung:
+    the climb ends on the top rung); 1, the default, runs the whole ladder."""
+    path, counts, base, blocked, others, home = _pocket()
+    scale = PC / 1.0  # the mean positive prize over the dearest move: three cells of PC, moves of 1
+    rungs = []
+
+    def walk_dp(*args):
+        mu = args[17]
+        rungs.append(-1 if mu == 0 else int(round(np.log2(mu / scale))) + 2)
+
+    def best_end(*args):
+        args[-2][0] = (2, 7, 2)
+        return float(rungs[-1] + 10), 1
+
+    monkeypatch.setattr(best_response, "_walk_dp", walk_dp)
+    monkeypatch.setattr(best_response, "_best_end", best_end)
+    gain, n, rung = respond(path, 9, 40, 40, counts, base, QPOW, PC, 0, others, blocked, OC3.successors,
+                            np.array(OC3.allowed), home, HEADING_DX, HEADING_DY, STEPS.by_heading,
+                            np.zeros(8, dtype=np.int64), ResponseSettings(passes=1, stride=stride))
+    assert rungs == ran and rung == 8 and (gain, n) == (0.0, 9)  # a walk of one pose is not home: not taken
+
+
+def test_a_uav_is_asked_again_only_when_a_path_changed_since_its_last_response(monkeypatch):
+    """Three UAVs; the second one's response changes its path in the first round, the others'
+    do not: in the second round only the first UAV is asked again (the second answered the
+    others' paths as they are, the third answered after the change), nothing changes, and the
+    rounds end. Every sweep over all three would ask six times."""
+    scenario = random_scenario(5, n_uavs=3, range_steps=30, oc=OC3, costs=cell_lengths())
+    assert scenario is not None
+    before = _fly(scenario, MissionConfig(np_steps=3), 5).plan()
+    airports = [u.airport for u in before.uavs]
+    assert len(set(airports)) == 3
+    asked = []
+
+    def answer(path, n_poses, *args):
+        asked.append(airports.index((int(path[0, 0]), int(path[0, 1]))))
+        return (1.0 if len(asked) == 2 else 0.0), n_poses, None
+
+    monkeypatch.setattr(improve, "respond", answer)
+    improve_plan(before, scenario, OC3, 0, 5, ImproveSettings(rounds=0, response=ResponseSettings(rounds=5)))
+    assert asked == [0, 1, 2, 0]
 
 
 def _fly(scenario, config, seed=0):
