@@ -24,9 +24,6 @@ prizes for fewer diagonals (and corners), which leaves range for more steps: mu 
 ladder, 0 and then `scale * 2^(k - 2)` for k = 0 .. `ResponseSettings.ladder - 1` (`scale` the
 mean prize over the dearest move), and every step's best end at every rung is a candidate. A
 UAV's later responses run only the rung whose walk scored best and its two neighbours.
-`ResponseSettings.stride` > 1 makes a first response cheaper: every stride-th rung, then the
-rungs beside the best while the best moves (a climb; off by default: the scores are not unimodal
-in the rung, and a stride of 2 lost up to 1 % of E on some benchmark cases, docs/benchmarks.md).
 A UAV is asked again only when some path changed since its last response (`planner.improve`).
 
 **Reading a cell twice** adds less than the programme counts (it sums first readings): each
@@ -65,18 +62,16 @@ class ResponseSettings:
     """`rounds`: best-response sweeps over every UAV at most (fewer when none gains; 0: none);
     `passes`: runs of the programme per response (the first with first-reading prizes, each next
     with the prizes of cells the best walk re-read lowered); `ladder`: rungs of mu above 0
-    (module docstring); `stride`: a first response runs every stride-th rung, then climbs from
-    the best (1: the whole ladder); `states`: the most (step, cell, heading) states one programme
-    may have (above it the UAV is not re-planned whole)."""
+    (module docstring); `states`: the most (step, cell, heading) states one programme may have
+    (above it the UAV is not re-planned whole)."""
 
     rounds: int = 3
     passes: int = 2
     ladder: int = 9
-    stride: int = 1
     states: int = 60_000_000
 
     def __post_init__(self) -> None:
-        if self.rounds < 0 or self.passes < 1 or self.ladder < 0 or self.stride < 1 or self.states < 1:
+        if self.rounds < 0 or self.passes < 1 or self.ladder < 0 or self.states < 1:
             raise ValueError(f"bad best-response settings {self}")
 
 
@@ -407,9 +402,8 @@ def respond(path: np.ndarray, n_poses: int, budget: int, time_budget: int, count
     factor = np.ones(counts.shape)
     best_gain, best_n, best_rung = -1.0, 0, hint
 
-    def run(rung: int, scale: float, prize: np.ndarray) -> int | None:
-        """The programme at the rung's mu, its best walk kept when it scores best so far; the rung
-        of the best walk so far."""
+    def run(rung: int, scale: float, prize: np.ndarray) -> None:
+        """The programme at the rung's mu, its best walk kept when it scores best so far."""
         nonlocal best_gain, best_n, best_rung
         mu = 0.0 if rung < 0 else scale * 2.0 ** (rung - 2)
         _walk_dp(start[0], start[1], start[2], steps, budget, time_budget, prize, x0, y0, blocked, others, home,
@@ -419,7 +413,6 @@ def respond(path: np.ndarray, n_poses: int, budget: int, time_budget: int, count
         if n > 0 and gain > best_gain:
             best_gain, best_n, best_rung = gain, n, rung
             best[:n] = walk[:n]
-        return best_rung
 
     ladder = settings.ladder
     for done in range(settings.passes):
@@ -434,22 +427,9 @@ def respond(path: np.ndarray, n_poses: int, budget: int, time_budget: int, count
         if positive.size == 0:
             break
         scale = float(positive.mean()) / float(move_costs.max())
-        if best_rung is None:
-            # every `stride`-th rung, then on up or down the ladder from the best while it moves
-            tried = list(range(-1, ladder, settings.stride))
-            top = None
-            for rung in tried:
-                top = run(rung, scale, prize)
-            while top is not None:
-                around = [r for r in (top - 1, top + 1) if -1 <= r < ladder and r not in tried]
-                if not around:
-                    break
-                tried += around
-                for rung in around:
-                    top = run(rung, scale, prize)
-        else:
-            for rung in range(max(-1, best_rung - 1), min(ladder, best_rung + 2)):
-                run(rung, scale, prize)
+        rungs = range(-1, ladder) if best_rung is None else range(max(-1, best_rung - 1), min(ladder, best_rung + 2))
+        for rung in rungs:
+            run(rung, scale, prize)
     if best_n == 0 or best_gain <= old_gain + MIN_GAIN or not _walk_is_safe(
             best, best_n, start, budget, time_budget, blocked, others, allowed, dx, dy, move_costs, turns):
         for i in range(1, n_poses):

@@ -349,12 +349,9 @@ def test_a_best_response_that_finds_nothing_better_leaves_the_path_and_counts():
     assert (gain, n) == (0.0, 9) and np.array_equal(path, old) and np.array_equal(counts, before)
 
 
-@pytest.mark.parametrize("stride, ran", [(1, list(range(-1, 9))), (2, [-1, 1, 3, 5, 7, 6, 8]),
-                                         (3, [-1, 2, 5, 8, 7])])
-def test_a_first_response_climbs_the_ladder_from_its_best_stride(monkeypatch, stride, ran):
-    """`ResponseSettings.stride`: a first response runs every stride-th rung of mu's ladder, then
-    the rungs beside the best while the best moves (here every walk's score rises with its rung:
-    the climb ends on the top rung); 1, the default, runs the whole ladder."""
+def test_a_first_response_runs_the_whole_ladder_and_keeps_the_best_rung(monkeypatch):
+    """A first response runs every rung of mu's ladder (here every walk's score rises with its
+    rung) and says the best one's."""
     path, counts, base, blocked, others, home = _pocket()
     scale = PC / 1.0  # the mean positive prize over the dearest move: three cells of PC, moves of 1
     rungs = []
@@ -371,8 +368,9 @@ def test_a_first_response_climbs_the_ladder_from_its_best_stride(monkeypatch, st
     monkeypatch.setattr(best_response, "_best_end", best_end)
     gain, n, rung = respond(path, 9, 40, 40, counts, base, QPOW, PC, 0, others, blocked, OC3.successors,
                             np.array(OC3.allowed), home, HEADING_DX, HEADING_DY, STEPS.by_heading,
-                            np.zeros(8, dtype=np.int64), ResponseSettings(passes=1, stride=stride))
-    assert rungs == ran and rung == 8 and (gain, n) == (0.0, 9)  # a walk of one pose is not home: not taken
+                            np.zeros(8, dtype=np.int64), ResponseSettings(passes=1))
+    assert rungs == list(range(-1, 9)) and rung == 8
+    assert (gain, n) == (0.0, 9)  # a walk of one pose is not home: not taken
 
 
 def test_a_uav_is_asked_again_only_when_a_path_changed_since_its_last_response(monkeypatch):
