@@ -198,7 +198,8 @@ def build_area_search(area_file: str | Path, area: AreaOptions | None = None, se
     the file."""
     area, search = area or AreaOptions(), search or SearchOptions()
     source = read_area_file(area_file)
-    cell = _positive(area.cell_size_m or source.cell_size_m or DEFAULT_CELL_SIZE_M, "--cell-size")
+    given_cell = area.cell_size_m if area.cell_size_m is not None else source.cell_size_m
+    cell = _positive(given_cell if given_cell is not None else DEFAULT_CELL_SIZE_M, "--cell-size")
     speed = _positive(area.speed_m_s, "--speed")
     _positive(area.endurance_s, "--endurance")
     if area.range_m is not None:

@@ -147,6 +147,7 @@ def test_missing_file(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("option, value, match", [("--cell-size", "-5", "--cell-size must be a positive number"),
+                                                  ("--cell-size", "0", "--cell-size must be a positive number"),
                                                   ("--cell-size", "nan", "--cell-size must be a positive number"),
                                                   ("--speed", "0", "--speed must be a positive number"),
                                                   ("--margin", "-1", "margin must be >= 0")])
