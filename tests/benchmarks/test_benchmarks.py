@@ -36,6 +36,7 @@ SMOKE = {
     "bench_sim.py": "parser (simulated fleets in real time)",
     "bench_startup.py": "parser (fresh gcs processes)",
     "bench_success.py": "parser (five options over 100 paper seeds and the missions); its bound row on planner.bound",
+    "camera_cells.py": "run: `--smoke` (hiker at 50 m cells with a camera, judged by its swath on 25 m cells)",
     "bench_upload_sitl.py": "parser (ArduCopter and PX4 SITL)",
     "fly_approach.py": "parser (ArduPlane SITL)",
     "fly_autopilots.py": "parser (ArduPilot and PX4 SITL)",
@@ -133,3 +134,15 @@ def test_energy_tables_from_the_recorded_flights() -> None:
     for flight in json.loads((BENCHMARKS / "energy_sitl.json").read_text())["flights"]:
         assert flight["flight"] in module.table(flight)
         assert module.markdown(flight).count("\n|") == len(flight["phases"]) + 2   # the header, its rule, the phases
+
+
+def test_camera_cells_judges_a_plan_by_what_its_swath_sees(monkeypatch: pytest.MonkeyPatch, capsys) -> None:
+    run_main(load("camera_cells.py"), monkeypatch, "--smoke")
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| hiker")]
+    assert len(rows) == 1
+    cells = rows[0].strip("| ").split(" | ")
+    assert cells[1] == "50.00 (50)" and cells[2] == "0"  # a 41 m swath over 50 m cells: the cell below
+    share, least, greatest, km2 = (float(c) for c in cells[5:9])
+    assert least == share == greatest  # one seed
+    # three UAVs of 5.5 km under swaths of 41-58 m can see at most 0.83 km2, and see the likely ground first
+    assert 0.2 < km2 < 0.83 and share > 5 * km2 / 13.8  # 13.8 km2 of the area are searchable
