@@ -39,22 +39,32 @@ expected finds never fall.
 Cost: O(steps x cells x 8 x OC branching) per run over the box of cells the UAV can reach and come
 back from (`_walk_dp` pulls each state from its predecessors, its target's checks made once: half
 the CPU of pushing each state to its successors, the same plans bit for bit), and memory of one
-byte per (step, cell, heading) for the parents: a UAV whose programme
-exceeds `ResponseSettings.states` states is left to the windows (`missions/large.geojson`'s
-8 UAVs of 1150 steps over 400 x 400 cells)."""
+byte per (step, cell, heading) for the parents.
+
+**Tubes.** A UAV whose programme over its box would exceed `ResponseSettings.states` states
+(`missions/large.geojson`'s 8 UAVs of 1150 steps over 400 x 400 cells: 1.5 billion) runs it in a
+tube instead: the states of step t are only the side x side cells around the pose its current
+path holds at step t (past the path's end, its airport), side the widest odd number
+whose (steps + 1) x side^2 x 8 states fit `ResponseSettings.tube_states` (below `MIN_TUBE` cells
+the UAV is left to the windows). The new walk may stray side / 2 cells from where the old one was
+at each step: more than a window re-solves, less than the whole programme; the same prizes,
+ladder, passes and checks."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from planner.config import njit
 
-__all__ = ["ResponseSettings", "backtrace", "read_footprint", "respond"]
+__all__ = ["ResponseSettings", "backtrace", "in_tube", "read_footprint", "respond"]
 
 #: Gains below this (expected targets) are not worth a change (as `planner.improve.MIN_GAIN`).
 MIN_GAIN = 1e-9
+#: The narrowest tube (cells across) worth a programme: narrower ones are the windows' work.
+MIN_TUBE = 9
 
 
 @dataclass(frozen=True)
@@ -62,24 +72,26 @@ class ResponseSettings:
     """`rounds`: best-response sweeps over every UAV at most (fewer when none gains; 0: none);
     `passes`: runs of the programme per response (the first with first-reading prizes, each next
     with the prizes of cells the best walk re-read lowered); `ladder`: rungs of mu above 0
-    (module docstring); `states`: the most (step, cell, heading) states one programme may have
-    (above it the UAV is not re-planned whole)."""
+    (module docstring); `states`: the most (step, cell, heading) states one programme over the
+    UAV's box may have; above it the programme runs in a tube of at most `tube_states` states
+    (0: none, the UAV is left to the windows)."""
 
     rounds: int = 3
     passes: int = 2
     ladder: int = 9
     states: int = 60_000_000
+    tube_states: int = 5_000_000
 
     def __post_init__(self) -> None:
-        if self.rounds < 0 or self.passes < 1 or self.ladder < 0 or self.states < 1:
+        if self.rounds < 0 or self.passes < 1 or self.ladder < 0 or self.states < 1 or self.tube_states < 0:
             raise ValueError(f"bad best-response settings {self}")
 
 
 @njit
 def read_footprint(counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, x: int, y: int, radius: int,
           sign: int) -> float:
-    """Add (sign 1) or take back (sign -1) one reading of cell (x, y)'s footprint; the gain of the
-    reading (as it was when added)."""
+    """Add (sign 1) or take back (sign -1) one reading of cell (x, y)'s footprint, or neither
+    (sign 0); the gain of the reading (as it was when added, or would be)."""
     nx, ny = counts.shape
     gain = 0.0
     for cx in range(x - radius, x + radius + 1):
@@ -128,37 +140,41 @@ def _prizes(counts: np.ndarray, base: np.ndarray, qpow: np.ndarray, pc: float, r
 
 
 @njit
-def backtrace(parent: np.ndarray, steps: int, i: int, j: int, h: int, x0: int, y0: int, dx: np.ndarray,
-              dy: np.ndarray, out: np.ndarray) -> None:
+def backtrace(parent: np.ndarray, steps: int, x: int, y: int, h: int, ox: np.ndarray, oy: np.ndarray,
+              dx: np.ndarray, dy: np.ndarray, out: np.ndarray) -> None:
     """The walk of `steps` poses a programme's parents (`parent[t, i, j, h]`: the heading before
-    pose t, cells from (x0, y0)) lead back from pose (i, j, h) at step `steps`: rows x, y, heading
-    into `out[:steps]` (`_best_end` and `planner.improve._dp_window`)."""
+    pose t, cells from (ox[t], oy[t])) lead back from pose (x, y, h) at step `steps`: rows x, y,
+    heading into `out[:steps]` (`_best_end` and `planner.improve._dp_window`; a fixed box has
+    the same origin at every step)."""
     for t in range(steps, 0, -1):
-        out[t - 1, 0] = x0 + i
-        out[t - 1, 1] = y0 + j
+        out[t - 1, 0] = x
+        out[t - 1, 1] = y
         out[t - 1, 2] = h
-        p = parent[t, i, j, h]
-        i -= dx[h]
-        j -= dy[h]
+        p = parent[t, x - ox[t], y - oy[t], h]
+        x -= dx[h]
+        y -= dy[h]
         h = p
 
 
 @njit
 def _walk_dp(sx: int, sy: int, sh: int, steps: int, budget: int, time_budget: int, prize: np.ndarray, x0: int,
-             y0: int, blocked: np.ndarray, others: np.ndarray, home: np.ndarray, successors: np.ndarray,
-             dx: np.ndarray, dy: np.ndarray, move_costs: np.ndarray, turns: np.ndarray, mu: float,
-             turn_weight: float, parent: np.ndarray, end_value: np.ndarray, end_cost: np.ndarray,
+             y0: int, ox: np.ndarray, oy: np.ndarray, blocked: np.ndarray, others: np.ndarray, home: np.ndarray,
+             successors: np.ndarray, dx: np.ndarray, dy: np.ndarray, move_costs: np.ndarray, turns: np.ndarray,
+             mu: float, turn_weight: float, parent: np.ndarray, end_value: np.ndarray, end_cost: np.ndarray,
              end_turns: np.ndarray) -> None:
     """The programme (module docstring) at penalty `mu` per unit of cost (moves, and
-    `turn_weight` times each turn's charge), over the box of `prize` from (x0, y0). Writes the
-    parents (`parent[t, i, j, h]`: the heading before pose t) and, per step t and heading h, the
-    best walk's penalised value, cost and turn charges ending on the airport (sx, sy) there
-    (`end_value` -inf where none).
+    `turn_weight` times each turn's charge), over the box of `prize` from (x0, y0): the states of
+    step t are the `parent.shape[1]` x `parent.shape[2]` cells from (ox[t], oy[t]) (grid cells in
+    the box: the whole box at every step, or a tube). Writes the parents (`parent[t, i, j, h]`:
+    the heading before pose t) and, per step t and heading h, the best walk's penalised value,
+    cost and turn charges ending on the airport (sx, sy) there (`end_value` -inf where none).
 
     Each state pulls from its predecessors (the one cell a move g comes from, each heading h the
     OC lets turn into g, in increasing h; the first best kept): the plans of pushing every state
-    to its successors, bit for bit, with each target's checks made once and written once."""
+    to its successors, bit for bit, with each target's checks made once and written once. Only
+    the cells within one move of those reached at the step before are visited."""
     bw, bh = prize.shape
+    tw, th = parent.shape[1], parent.shape[2]
     width = successors.shape[1]
     preds = np.full((8, 8), -1, dtype=np.int64)
     npred = 0
@@ -173,19 +189,11 @@ def _walk_dp(sx: int, sy: int, sh: int, steps: int, budget: int, time_budget: in
                     k += 1
                     break
         npred = max(npred, k)
-    # what the cost so far may be on entering (i, j) by move g, for the range and for the time
-    # (int32 as the costs: a cost near 2^31 never fits, and lower bounds clip to -2^31 + 1)
-    room = np.empty((bw, bh, 8), dtype=np.int32)
-    troom = np.empty((bw, bh, 8), dtype=np.int32)
     stop = np.zeros((bw, bh), dtype=np.int64)
     for i in range(bw):
         for j in range(bh):
             if blocked[x0 + i, y0 + j]:
                 stop[i, j] = 1
-            for g in range(8):
-                back = move_costs[g] + home[g, x0 + i, y0 + j]
-                room[i, j, g] = max(min(budget - back, 2**31 - 1), -2**31 + 1)
-                troom[i, j, g] = max(min(time_budget - back, 2**31 - 1), -2**31 + 1)
     # a move's penalty and turn charge by (g, h): none for the turn at the airport pose (step 0)
     pen = np.empty((2, 8, 8))
     turn = np.zeros((2, 8, 8), dtype=np.int64)
@@ -194,45 +202,51 @@ def _walk_dp(sx: int, sy: int, sh: int, steps: int, budget: int, time_budget: in
             pen[0, g, h] = mu * (move_costs[g] + turn_weight * 0)
             pen[1, g, h] = mu * (move_costs[g] + turn_weight * turns[(g - h) & 7])
             turn[1, g, h] = turns[(g - h) & 7]
-    value = np.full((2, bw, bh, 8), -np.inf)
-    cost = np.zeros((2, bw, bh, 8), dtype=np.int32)
-    turned = np.zeros((2, bw, bh, 8), dtype=np.int32)
+    value = np.full((2, tw, th, 8), -np.inf)
+    cost = np.zeros((2, tw, th, 8), dtype=np.int32)  # int32 as the costs: a cost near 2^31 never fits
+    turned = np.zeros((2, tw, th, 8), dtype=np.int32)
     end_value[:] = -np.inf
-    si = sx - x0
-    sj = sy - y0
-    value[0, si, sj, sh] = 0.0
-    i0, i1, j0, j1 = si, si, sj, sj
+    value[0, sx - ox[0], sy - oy[0], sh] = 0.0
+    # the cells reached at step t lie in [i0, i1] x [j0, j1] (grid cells); the states of step t
+    # outside it are stale
+    i0, i1, j0, j1 = sx, sx, sy, sy
     for t in range(steps):
         cur = t & 1
         nxt = 1 - cur
         late = 1 if t >= 1 else 0
-        r0 = max(0, i0 - 1)
-        r1 = min(bw - 1, i1 + 1)
-        c0 = max(0, j0 - 1)
-        c1 = min(bh - 1, j1 + 1)
+        ax = ox[t + 1]
+        ay = oy[t + 1]
+        r0 = max(ax, i0 - 1)
+        r1 = min(ax + tw - 1, i1 + 1)
+        c0 = max(ay, j0 - 1)
+        c1 = min(ay + th - 1, j1 + 1)
         if t + 1 < others.shape[1]:
             for u in range(others.shape[0]):
-                ox = others[u, t + 1, 0] - x0
-                oy = others[u, t + 1, 1] - y0
-                if others[u, t + 1, 0] >= 0 and 0 <= ox < bw and 0 <= oy < bh:
-                    stop[ox, oy] += 1
-        n0, n1, m0, m1 = bw, -1, bh, -1
-        for qi in range(r0, r1 + 1):
-            for qj in range(c0, c1 + 1):
-                if stop[qi, qj] > 0:
+                px = others[u, t + 1, 0] - x0
+                py = others[u, t + 1, 1] - y0
+                if others[u, t + 1, 0] >= 0 and 0 <= px < bw and 0 <= py < bh:
+                    stop[px, py] += 1
+        n0, n1, m0, m1 = ax + tw, -1, ay + th, -1
+        for qx in range(r0, r1 + 1):
+            for qy in range(c0, c1 + 1):
+                qi = qx - ax
+                qj = qy - ay
+                if stop[qx - x0, qy - y0] > 0:
                     for g in range(8):
                         value[nxt, qi, qj, g] = -np.inf
                     continue
-                p = prize[qi, qj]
+                p = prize[qx - x0, qy - y0]
                 hit = False
                 for g in range(8):
                     best = -np.inf
-                    i = qi - dx[g]
-                    j = qj - dy[g]
-                    # the states of step t outside the box [i0, i1] x [j0, j1] are stale
-                    if i0 <= i <= i1 and j0 <= j <= j1:
-                        room_g = room[qi, qj, g]
-                        troom_g = troom[qi, qj, g]
+                    px = qx - dx[g]
+                    py = qy - dy[g]
+                    if i0 <= px <= i1 and j0 <= py <= j1:
+                        i = px - ox[t]
+                        j = py - oy[t]
+                        back = move_costs[g] + home[g, qx, qy]
+                        room_g = budget - back
+                        troom_g = time_budget - back
                         bc = 0
                         bt = 0
                         bp = -1
@@ -255,27 +269,28 @@ def _walk_dp(sx: int, sy: int, sh: int, steps: int, budget: int, time_budget: in
                             hit = True
                     value[nxt, qi, qj, g] = best
                 if hit:
-                    n0 = min(n0, qi)
-                    n1 = max(n1, qi)
-                    m0 = min(m0, qj)
-                    m1 = max(m1, qj)
+                    n0 = min(n0, qx)
+                    n1 = max(n1, qx)
+                    m0 = min(m0, qy)
+                    m1 = max(m1, qy)
         if t + 1 < others.shape[1]:
             for u in range(others.shape[0]):
-                ox = others[u, t + 1, 0] - x0
-                oy = others[u, t + 1, 1] - y0
-                if others[u, t + 1, 0] >= 0 and 0 <= ox < bw and 0 <= oy < bh:
-                    stop[ox, oy] -= 1
-        for h in range(8):
-            end_value[t + 1, h] = value[nxt, si, sj, h]
-            end_cost[t + 1, h] = cost[nxt, si, sj, h]
-            end_turns[t + 1, h] = turned[nxt, si, sj, h]
+                px = others[u, t + 1, 0] - x0
+                py = others[u, t + 1, 1] - y0
+                if others[u, t + 1, 0] >= 0 and 0 <= px < bw and 0 <= py < bh:
+                    stop[px, py] -= 1
+        if r0 <= sx <= r1 and c0 <= sy <= c1:
+            for h in range(8):
+                end_value[t + 1, h] = value[nxt, sx - ax, sy - ay, h]
+                end_cost[t + 1, h] = cost[nxt, sx - ax, sy - ay, h]
+                end_turns[t + 1, h] = turned[nxt, sx - ax, sy - ay, h]
         if n1 < 0:
             break
         i0, i1, j0, j1 = n0, n1, m0, m1
 
 
 @njit
-def _best_end(sx: int, sy: int, x0: int, y0: int, budget: int, time_budget: int, parent: np.ndarray,
+def _best_end(sx: int, sy: int, ox: np.ndarray, oy: np.ndarray, budget: int, time_budget: int, parent: np.ndarray,
               end_value: np.ndarray, end_cost: np.ndarray, end_turns: np.ndarray, counts: np.ndarray,
               base: np.ndarray, qpow: np.ndarray, pc: float, radius: int, dx: np.ndarray, dy: np.ndarray,
               out: np.ndarray, scratch: np.ndarray) -> tuple[float, int]:
@@ -295,7 +310,7 @@ def _best_end(sx: int, sy: int, x0: int, y0: int, budget: int, time_budget: int,
                 pick = h
         if pick < 0:
             continue
-        backtrace(parent, t, sx - x0, sy - y0, pick, x0, y0, dx, dy, scratch)
+        backtrace(parent, t, sx, sy, pick, ox, oy, dx, dy, scratch)
         gain = _walk_gain(scratch, t, counts, base, qpow, pc, radius)
         if gain > best:
             best = gain
@@ -338,6 +353,41 @@ def _reach_box(start: tuple[int, int], home: np.ndarray, budget: int,
     return int(cx[0]), int(cy[0]), int(cx[-1]), int(cy[-1])
 
 
+def _programme(path: np.ndarray, budget: int, home: np.ndarray, move_costs: np.ndarray, settings: ResponseSettings
+               ) -> tuple[int, tuple[int, int, int, int] | None, int]:
+    """(steps, box, side) of a UAV's programme: its steps, the box it can reach and come home
+    from (None: none), and -1 when the programme over the box fits `settings.states`, else the
+    side of its tube (0: none fits)."""
+    cheapest = int(move_costs.min())
+    steps = min(budget // cheapest, path.shape[0] - 1)
+    box = _reach_box((int(path[0, 0]), int(path[0, 1])), home, budget, cheapest) if steps >= 1 else None
+    if box is None:
+        return steps, None, 0
+    x0, y0, x1, y1 = box
+    if (steps + 1) * (x1 - x0 + 1) * (y1 - y0 + 1) * 8 <= settings.states:
+        return steps, box, -1
+    side = math.isqrt(settings.tube_states // ((steps + 1) * 8))
+    side -= 1 - side % 2
+    return steps, box, side if side >= MIN_TUBE else 0
+
+
+def in_tube(path: np.ndarray, budget: int, home: np.ndarray, move_costs: np.ndarray,
+            settings: ResponseSettings) -> bool:
+    """Whether `respond` answers the UAV of `path` in a tube (module docstring)."""
+    return _programme(path, budget, home, move_costs, settings)[2] > 0
+
+
+def _tube_origins(path: np.ndarray, n_poses: int, steps: int, tw: int, th: int,
+                  box: tuple[int, int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Per step t, the first cell of the tw x th tube around the UAV's current pose at step t
+    (its last, the airport, past its end), kept inside `box`."""
+    x0, y0, x1, y1 = box
+    at = np.minimum(np.arange(steps + 1), n_poses - 1)
+    ox = np.clip(path[at, 0].astype(np.int64) - tw // 2, x0, x1 - tw + 1)
+    oy = np.clip(path[at, 1].astype(np.int64) - th // 2, y0, y1 - th + 1)
+    return ox, oy
+
+
 def _walk_is_safe(walk: np.ndarray, n: int, start: tuple[int, int, int], budget: int, time_budget: int,
                   blocked: np.ndarray, others: np.ndarray, allowed: np.ndarray, dx: np.ndarray, dy: np.ndarray,
                   move_costs: np.ndarray, turns: np.ndarray) -> bool:
@@ -377,19 +427,20 @@ def respond(path: np.ndarray, n_poses: int, budget: int, time_budget: int, count
     `home` its return table. `hint`: the rung of mu's ladder whose walk scored best last time
     (None: the whole ladder; else only it and its neighbours). Returns the gain (0.0 when
     unchanged), the number of poses, and the rung for the next call."""
-    cheapest = int(move_costs.min())
-    steps = min(budget // cheapest, path.shape[0] - 1)
+    steps, box, side = _programme(path, budget, home, move_costs, settings)
+    if box is None or side == 0:
+        return 0.0, n_poses, hint
     start = (int(path[0, 0]), int(path[0, 1]), int(path[0, 2]))
-    box = _reach_box(start[:2], home, budget, cheapest) if steps >= 1 else None
-    if box is None:
-        return 0.0, n_poses, hint
     x0, y0, x1, y1 = box
-    if (steps + 1) * (x1 - x0 + 1) * (y1 - y0 + 1) * 8 > settings.states:
-        return 0.0, n_poses, hint
+    tw, th = x1 - x0 + 1, y1 - y0 + 1
+    ox, oy = np.full(steps + 1, x0, dtype=np.int64), np.full(steps + 1, y0, dtype=np.int64)
+    if side > 0:
+        tw, th = min(side, tw), min(side, th)
+        ox, oy = _tube_origins(path, n_poses, steps, tw, th, box)
     old_gain = 0.0
     for i in range(n_poses - 1, 0, -1):
         old_gain += read_footprint(counts, base, qpow, pc, int(path[i, 0]), int(path[i, 1]), radius, -1)
-    parent = np.zeros((steps + 1, x1 - x0 + 1, y1 - y0 + 1, 8), dtype=np.int8)
+    parent = np.zeros((steps + 1, tw, th, 8), dtype=np.int8)
     end_value = np.empty((steps + 1, 8))
     end_cost = np.zeros((steps + 1, 8), dtype=np.int64)
     end_turns = np.zeros((steps + 1, 8), dtype=np.int64)
@@ -406,9 +457,9 @@ def respond(path: np.ndarray, n_poses: int, budget: int, time_budget: int, count
         """The programme at the rung's mu, its best walk kept when it scores best so far."""
         nonlocal best_gain, best_n, best_rung
         mu = 0.0 if rung < 0 else scale * 2.0 ** (rung - 2)
-        _walk_dp(start[0], start[1], start[2], steps, budget, time_budget, prize, x0, y0, blocked, others, home,
-                 successors, dx, dy, move_costs, turns, mu, turn_weight, parent, end_value, end_cost, end_turns)
-        gain, n = _best_end(start[0], start[1], x0, y0, budget, time_budget, parent, end_value, end_cost, end_turns,
+        _walk_dp(start[0], start[1], start[2], steps, budget, time_budget, prize, x0, y0, ox, oy, blocked, others,
+                 home, successors, dx, dy, move_costs, turns, mu, turn_weight, parent, end_value, end_cost, end_turns)
+        gain, n = _best_end(start[0], start[1], ox, oy, budget, time_budget, parent, end_value, end_cost, end_turns,
                             counts, base, qpow, pc, radius, dx, dy, walk, scratch)
         if n > 0 and gain > best_gain:
             best_gain, best_n, best_rung = gain, n, rung

@@ -1,7 +1,7 @@
 """Compile every numba kernel into its on-disk cache (`planner.config.CACHE`) before the first
 plan needs it: short closed searches of the paper scenario with every strategy and return
 planner, in the paper's unit steps and in metres with the horizon value and the improvement (what
-`gcs plan --area` flies), and a few evaluations of the bound's Lagrangian dual
+`gcs plan --area` flies, its best responses also in tubes), and a few evaluations of the bound's Lagrangian dual
 (`planner.bound.scenario_dual`) reach every kernel with the argument types a plan gives it. A fresh install's first plan
 then loads the kernels instead of spending some 25 s compiling them (`tools/setup` runs this).
 Kernels compiled before any planner source changed are dropped first (`drop_stale_kernels`).
@@ -15,6 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from planner.area_grid import AREA_MOVE_COSTS
+from planner.best_response import ResponseSettings
 from planner.bound import scenario_dual
 from planner.dtscs import ClosedSearch, MissionConfig
 from planner.horizon import HorizonValue
@@ -75,6 +76,8 @@ def precompile(seed: int = 0) -> None:
     searches = [(steps, MissionConfig(strategy=name)) for name in sorted(STRATEGIES)]
     searches += [(steps, MissionConfig(return_planner="st")),
                  (metres, MissionConfig(strategy="cpio", horizon=HorizonValue(), improve=ImproveSettings())),
+                 (metres, MissionConfig(strategy="cpio", horizon=HorizonValue(),  # the best responses in tubes
+                                        improve=ImproveSettings(response=ResponseSettings(states=1)))),
                  (metres, MissionConfig(strategy="cpio", horizon=HorizonValue(), return_planner="st"))]
     for scenario, config in searches:
         search = ClosedSearch(scenario, config, seed=seed)

@@ -203,7 +203,8 @@ def test_the_walk_programme_finds_the_best_additive_closed_walk_at_every_step(se
     end_value = np.empty((steps + 1, 8))
     end_cost = np.zeros((steps + 1, 8), dtype=np.int64)
     end_turns = np.zeros((steps + 1, 8), dtype=np.int64)
-    _walk_dp(*start, steps, steps, steps, prize, 0, 0, blocked, others, home, oc.successors, HEADING_DX, HEADING_DY,
+    _walk_dp(*start, steps, steps, steps, prize, 0, 0, np.zeros(steps + 1, dtype=np.int64),
+             np.zeros(steps + 1, dtype=np.int64), blocked, others, home, oc.successors, HEADING_DX, HEADING_DY,
              STEPS.by_heading, np.zeros(8, dtype=np.int64), 0.0, 0.0, parent, end_value, end_cost, end_turns)
     for t in range(1, steps + 1):
         walks = [w for w in _closed_walks(start, t, oc, blocked, start[:2])
@@ -215,9 +216,10 @@ def test_the_walk_programme_finds_the_best_additive_closed_walk_at_every_step(se
 
 
 def _pushed_walk_dp(sx, sy, sh, steps, budget, time_budget, prize, x0, y0, blocked, others, home, successors,
-                    move_costs, turns, mu, turn_weight):
+                    move_costs, turns, mu, turn_weight, tube=None):
     """Reference: the programme pushing every live state to each successor (in order of cell and
-    heading, the first best kept), as `_walk_dp` did before it pulled; its parents and ends."""
+    heading, the first best kept), as `_walk_dp` did before it pulled; its parents and ends.
+    `tube` (side, ox, oy): the states of step t only in the side x side cells from (ox[t], oy[t])."""
     bw, bh = prize.shape
     value = np.full((steps + 1, bw, bh, 8), -np.inf)
     cost = np.zeros((steps + 1, bw, bh, 8), dtype=np.int64)
@@ -236,6 +238,9 @@ def _pushed_walk_dp(sx, sy, sh, steps, budget, time_budget, prize, x0, y0, block
                 qi, qj = i + int(HEADING_DX[g]), j + int(HEADING_DY[g])
                 if not (0 <= qi < bw and 0 <= qj < bh) or (x0 + qi, y0 + qj) in held or blocked[x0 + qi, y0 + qj]:
                     continue
+                if tube is not None and not (0 <= x0 + qi - tube[1][t + 1] < tube[0]
+                                             and 0 <= y0 + qj - tube[2][t + 1] < tube[0]):
+                    continue
                 c = cost[t, i, j, h] + move_costs[g]
                 turn = turns[(g - h) & 7] if t >= 1 else 0
                 back = home[g, x0 + qi, y0 + qj]
@@ -251,13 +256,14 @@ def _pushed_walk_dp(sx, sy, sh, steps, budget, time_budget, prize, x0, y0, block
     return parent, value[:, si, sj, :], cost[:, si, sj, :], turned[:, si, sj, :], np.isfinite(value)
 
 
-@pytest.mark.parametrize("seed, oc, mu, timed", [(0, OC3, 0.0, False), (1, OC8, 0.3, True), (2, OC3, 0.05, True),
-                                                 (4, OC4, 0.2, False), (5, OC3, 0.0, True)])
-def test_the_walk_programme_pulling_keeps_what_pushing_finds_bit_for_bit(seed, oc, mu, timed):
+@pytest.mark.parametrize("seed, oc, mu, timed, tubed", [
+    (0, OC3, 0.0, False, False), (1, OC8, 0.3, True, False), (2, OC3, 0.05, True, False), (4, OC4, 0.2, False, False),
+    (5, OC3, 0.0, True, False), (0, OC3, 0.0, False, True), (1, OC8, 0.3, True, True), (4, OC4, 0.2, False, True)])
+def test_the_walk_programme_pulling_keeps_what_pushing_finds_bit_for_bit(seed, oc, mu, timed, tubed):
     """`_walk_dp` pulls each state from its predecessors: the same values, costs, turn charges and
     parents as pushing every state to its successors (`_pushed_walk_dp`), with diagonals dearer,
     turns priced and a time budget that binds, another UAV's cells held, in a box off the grid's
-    corner."""
+    corner; `tubed`, in a tube of 5 x 5 cells that moves a cell east and back."""
     n = 9
     blocked, base, _ = _case(seed, n)
     blocked[4, 4] = False
@@ -272,18 +278,31 @@ def test_the_walk_programme_pulling_keeps_what_pushing_finds_bit_for_bit(seed, o
     others = np.full((1, steps + 1, 2), -1, dtype=np.int64)
     others[0, 3:6] = [(5, 5), (6, 5), (6, 6)]
     home = return_table(blocked, start[:2], oc, costs)
-    shape = (steps + 1, *prize.shape, 8)
-    parent = np.zeros(shape, dtype=np.int8)
+    ox, oy = np.full(steps + 1, x0), np.full(steps + 1, y0)
+    side = None
+    if tubed:
+        side = 5
+        ox = start[0] - 2 + np.array([0, 0, 1, 1, 2, 2, 1, 1, 0, 0, 1, 1, 2, 2, 1, 1, 0])[: steps + 1]
+        oy = np.full(steps + 1, start[1] - 2)
+    parent = np.zeros((steps + 1, side or prize.shape[0], side or prize.shape[1], 8), dtype=np.int8)
     end_value = np.empty((steps + 1, 8))
     end_cost = np.zeros((steps + 1, 8), dtype=np.int64)
     end_turns = np.zeros((steps + 1, 8), dtype=np.int64)
-    _walk_dp(*start, steps, budget, time_budget, prize, x0, y0, blocked, others, home, oc.successors, HEADING_DX,
-             HEADING_DY, costs.by_heading, turns, mu, 1.0 if timed else 0.0, parent, end_value, end_cost, end_turns)
+    _walk_dp(*start, steps, budget, time_budget, prize, x0, y0, ox, oy, blocked, others, home, oc.successors,
+             HEADING_DX, HEADING_DY, costs.by_heading, turns, mu, 1.0 if timed else 0.0, parent, end_value, end_cost,
+             end_turns)
     want_parent, want_value, want_cost, want_turns, live = _pushed_walk_dp(
         *start, steps, budget, time_budget, prize, x0, y0, blocked, others, home, oc.successors, costs.by_heading,
-        turns, mu, 1.0 if timed else 0.0)
+        turns, mu, 1.0 if timed else 0.0, (side, ox, oy) if tubed else None)
     assert np.isfinite(want_value[1:]).any()
-    assert np.array_equal(parent[live], want_parent[live])
+    if tubed:
+        free = _pushed_walk_dp(*start, steps, budget, time_budget, prize, x0, y0, blocked, others, home,
+                               oc.successors, costs.by_heading, turns, mu, 1.0 if timed else 0.0)[4]
+        assert live.sum() < free.sum()  # the tube drops states
+        for t, i, j, h in zip(*np.nonzero(live)):
+            assert parent[t, x0 + i - ox[t], y0 + j - oy[t], h] == want_parent[t, i, j, h]
+    else:
+        assert np.array_equal(parent[live], want_parent[live])
     assert np.array_equal(end_value[1:], want_value[1:])
     ends = np.isfinite(want_value)
     assert np.array_equal(end_cost[ends], want_cost[ends]) and np.array_equal(end_turns[ends], want_turns[ends])
@@ -338,6 +357,26 @@ def test_the_best_response_flies_to_a_rich_far_pocket_and_home(held):
     assert np.array_equal(counts, expect)
 
 
+def test_a_uav_whose_programme_is_too_large_searches_a_tube_around_its_path():
+    """Over `ResponseSettings.states`, the programme runs in a tube of 9 x 9 cells around the
+    path's pose at each step: it reaches the pocket 2 cells past the loop, not one 7 cells past."""
+    path, counts, base, blocked, others, home = _pocket()
+    base[:] = 0.0
+    base[5:7, 7] = 1.0  # within 4 cells of the loop's (3, 8)
+    base[10, 7] = 5.0  # out of the tube
+    tube = ResponseSettings(states=1, tube_states=9 * 9 * 41 * 8)
+    gain, n, _ = respond(path, 9, 40, 40, counts, base, QPOW, PC, 0, others, blocked, OC3.successors,
+                         np.array(OC3.allowed), home, HEADING_DX, HEADING_DY, STEPS.by_heading,
+                         np.zeros(8, dtype=np.int64), tube)
+    cells = {(int(x), int(y)) for x, y, _ in path[:n]}
+    assert {(5, 7), (6, 7)} <= cells and (10, 7) not in cells and gain >= 2 * PC
+    assert path[n - 1, :2].tolist() == [1, 7] and n - 1 <= 40
+    narrow = ResponseSettings(states=1, tube_states=7 * 7 * 41 * 8)  # a 7-cell tube is the windows' work
+    path, counts, *_ = _pocket()
+    assert respond(path, 9, 40, 40, counts, base, QPOW, PC, 0, others, blocked, OC3.successors, np.array(OC3.allowed),
+                   home, HEADING_DX, HEADING_DY, STEPS.by_heading, np.zeros(8, dtype=np.int64), narrow)[:2] == (0.0, 9)
+
+
 def test_a_best_response_that_finds_nothing_better_leaves_the_path_and_counts():
     """Nothing left to find: no walk gains, and the path and the counts stay as they were."""
     path, counts, base, blocked, others, home = _pocket()
@@ -357,7 +396,7 @@ def test_a_first_response_runs_the_whole_ladder_and_keeps_the_best_rung(monkeypa
     rungs = []
 
     def walk_dp(*args):
-        mu = args[17]
+        mu = args[19]
         rungs.append(-1 if mu == 0 else int(round(np.log2(mu / scale))) + 2)
 
     def best_end(*args):
@@ -394,6 +433,26 @@ def test_a_uav_is_asked_again_only_when_a_path_changed_since_its_last_response(m
     assert asked == [0, 1, 2, 0]
 
 
+@pytest.mark.parametrize("tube_states", [0, 10**9])
+def test_long_windows_are_left_out_for_uavs_answered_in_a_tube(monkeypatch, tube_states):
+    """Every UAV's programme over its box is over `states`: with tubes, their answers replace the
+    long windows (`_dp_sweep` is not run); without (tube_states 0), the windows run as before."""
+    scenario = random_scenario(5, n_uavs=3, range_steps=30, oc=OC3, costs=cell_lengths())
+    before = _fly(scenario, MissionConfig(np_steps=3), 5).plan()
+    swept = []
+    sweep = improve._dp_sweep
+
+    def counted(path, *args):
+        swept.append(int(path[0, 0]))
+        return sweep(path, *args)
+
+    monkeypatch.setattr(improve, "_dp_sweep", counted)
+    after = improve_plan(before, scenario, OC3, 0, 5, ImproveSettings(
+        response=ResponseSettings(ladder=2, states=1, tube_states=tube_states)))
+    assert bool(swept) == (tube_states == 0)
+    assert after.success.expected >= before.success.expected - 1e-9
+
+
 def _fly(scenario, config, seed=0):
     search = ClosedSearch(scenario, config, seed)
     for _ in search.run():
@@ -403,10 +462,11 @@ def _fly(scenario, config, seed=0):
 
 @settings(max_examples=without_jit(12, 3), deadline=None)
 @given(seed=st.integers(0, 10_000), oc_index=st.integers(0, 2), metres=st.booleans(), radius=st.integers(0, 1),
-       reserve=st.integers(0, 2), mode=st.integers(0, 2))
+       reserve=st.integers(0, 2), mode=st.integers(0, 3))
 def test_improved_plans_are_safe_and_never_expect_less(seed, oc_index, metres, radius, reserve, mode):
     """`mode` 0: the windows alone; 1: the best responses (`planner.best_response`), then the
-    windows; 2: the best responses alone."""
+    windows; 2: the best responses alone; 3: the best responses in tubes of 11-14 cells across
+    (the programme over its box too large), then the windows."""
     oc = (OC3, OC4, OC8)[oc_index]
     costs = cell_lengths() if metres else STEPS
     scenario = random_scenario(seed, n_uavs=3, range_steps=without_jit(30, 16), oc=oc, costs=costs)
@@ -419,9 +479,10 @@ def test_improved_plans_are_safe_and_never_expect_less(seed, oc_index, metres, r
     except ValueError:
         return
     before = search.plan()
-    response = ResponseSettings(ladder=4) if mode else None
+    response = (None, ResponseSettings(ladder=4), ResponseSettings(ladder=4),
+                ResponseSettings(ladder=4, states=1, tube_states=11 * 11 * 8 * 31))[mode]
     after = improve_plan(before, scenario, oc, search.reserve, seed,
-                         ImproveSettings(dp_steps=8, dp_stride=3, response=response, rounds=2 if mode < 2 else 0))
+                         ImproveSettings(dp_steps=8, dp_stride=3, response=response, rounds=0 if mode == 2 else 2))
     assert_plan_safe(after, scenario, oc)
     for u in after.uavs:
         assert u.spent <= u.range_units - search.reserve
