@@ -28,6 +28,13 @@ def _whole_ecoregion(subject: str, climate: str, km: tuple[float, float, float, 
     return {(subject, terrain, climate): km for terrain in ("flat", "mountainous")}
 
 
+def _urban(subject: str, km: tuple[float, float, float, float]
+           ) -> dict[tuple[str, str, str], tuple[float, float, float, float]]:
+    """One row of the book's urban ecoregion (towns, in any climate), as the table's `urban`
+    terrain in both climates."""
+    return {(subject, "urban", climate): km for climate in ("temperate", "dry")}
+
+
 #: (subject, terrain, climate) -> km within which 25 / 50 / 75 / 95 % of subjects were found:
 #: Koester, Lost Person Behavior (dbS Productions, 2008), the ISRID "distance from the IPP"
 #: tables, whose kilometre column is given here. A row is here only when two independent sources
@@ -35,8 +42,8 @@ def _whole_ecoregion(subject: str, climate: str, km: tuple[float, float, float, 
 #: same table in IGT4SAR (github.com/dferguso/IGT4SAR, IPP_EuclideanDistance2.py at 18e222b6,
 #: "IPP Distances are provided by Robert Koester (dbs Productions - Lost Person Behavior)"), every
 #: radius within 0.15 km of miles x 1.609344 (the two columns' rounding). `n` in the comments is
-#: the cases behind a row. The book's urban ecoregion (one column, no terrain) has no place in
-#: this table's terrains and is not here. Sources per category: docs/areas.md#lost-person-priors.
+#: the cases behind a row. The book's urban ecoregion (one column, not split by terrain or
+#: climate) is the terrain `urban`. Sources per category: docs/areas.md#lost-person-priors.
 DISTANCE_KM: dict[tuple[str, str, str], tuple[float, float, float, float]] = {
     # Hiker: as SAREnv's `sarenv/utils/lost_person_behavior.py` tabulates it, and as the km
     # transcriptions and IGT4SAR's miles give it.
@@ -95,6 +102,16 @@ DISTANCE_KM: dict[tuple[str, str, str], tuple[float, float, float, float]] = {
     **_whole_ecoregion("gatherer", "dry", (1.6, 2.6, 5.8, 11.1)),  # n 14, dry
     **_whole_ecoregion("intellectual disability", "dry", (1.1, 4.0, 8.7, 62.6)),  # n 21, dry
     **_whole_ecoregion("runner", "temperate", (1.4, 2.6, 3.4, 5.8)),  # n 14, temperate
+    # The book's urban ecoregion: K2's kilometres (K1's too but for child 1-3, where K1 has the
+    # miles), D's for dementia, and M's miles agree (child 10-12's too, but it is not log-normal).
+    **_urban("autistic", (0.3, 1.0, 3.8, 8.0)),  # n 16
+    **_urban("child 1-3", (0.2, 0.5, 0.8, 1.1)),  # n 17
+    **_urban("child 4-6", (0.1, 0.5, 1.0, 3.4)),  # n 25
+    **_urban("child 7-9", (0.2, 0.5, 1.5, 5.2)),  # n 22
+    **_urban("dementia", (0.3, 1.1, 3.2, 12.6)),  # n 336
+    **_urban("despondent", (0.1, 0.5, 1.5, 13.1)),  # n 96
+    **_urban("intellectual disability", (0.3, 0.8, 3.7, 9.9)),  # n 44
+    **_urban("mental illness", (0.3, 0.6, 1.5, 12.5)),  # n 38
 }
 
 #: Share of subjects found on or near each kind of feature (Koester 2008's find locations, as

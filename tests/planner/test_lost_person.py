@@ -85,6 +85,12 @@ MILES = {
     ("intellectual disability", "mountainous", "dry"): (0.7, 2.5, 5.4, 38.9),
     ("runner", "flat", "temperate"): (0.9, 1.6, 2.1, 3.6),
     ("runner", "mountainous", "temperate"): (0.9, 1.6, 2.1, 3.6),
+    **{(subject, "urban", climate): miles for climate in ("temperate", "dry") for subject, miles in (
+        ("autistic", (0.2, 0.6, 2.4, 5.0)), ("child 1-3", (0.1, 0.3, 0.5, 0.7)),
+        ("child 4-6", (0.06, 0.3, 0.6, 2.1)), ("child 7-9", (0.1, 0.3, 0.9, 3.2)),
+        ("dementia", (0.2, 0.7, 2.0, 7.8)),
+        ("despondent", (0.06, 0.3, 0.9, 8.1)), ("intellectual disability", (0.2, 0.5, 2.3, 6.14)),
+        ("mental illness", (0.2, 0.4, 0.9, 7.7)))},
 }
 
 
@@ -103,8 +109,10 @@ def test_the_categories_a_search_manager_uses_are_there_in_the_words_an_area_fil
         assert subject in subjects()
     for subject, terrain, climate in DISTANCE_KM:
         assert subject == subject.strip().lower()  # the area file matches the lower-cased word
-        assert terrain in ("flat", "mountainous") and climate in ("temperate", "dry")
+        assert terrain in ("flat", "mountainous", "urban") and climate in ("temperate", "dry")
     assert terrains("atv") == ["mountainous"] and climates("gatherer", "flat") == ["dry"]
+    assert terrains("dementia") == ["flat", "mountainous", "urban"] and terrains("hiker") == ["flat", "mountainous"]
+    assert DISTANCE_KM[("child 4-6", "urban", "dry")] == DISTANCE_KM[("child 4-6", "urban", "temperate")]
     assert climates("hunter", "mountainous") == ["dry", "temperate"]
 
 
