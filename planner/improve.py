@@ -16,7 +16,7 @@ cells at each step forbidden, mu per unit of cost on a ladder, every candidate s
 UAV is asked again only when some path changed since its last response: else it would answer the
 same readings; a UAV whose programme is too large answers in a tube around its path); then the
 windows polish what it left, long windows by dynamic programming (`_dp_sweep`; not for a UAV
-answered in a tube, and a window whose unpenalised answer cannot beat the old one is not fitted
+whose path a tube changed, and a window whose unpenalised answer cannot beat the old one is not fitted
 to the range by bisection), then two moves, each solved by a depth-first search over every path under the
 OC (kernel `_improve_uav`):
 
@@ -585,10 +585,11 @@ def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, rese
             read_footprint(counts, base, qpow, sensor.pc, int(x), int(y), sensor.footprint_radius, 1)
 
     response = settings.response or ResponseSettings(rounds=0)
-    # the long windows after a tube's answer mostly bisect penalties for walks the range cannot
-    # pay for: they are left out for those UAVs (on missions/large.geojson +1.7 % for 16 s of CPU)
-    tubed = [response.rounds > 0 and in_tube(paths[i], budgets[i].units, tables[u.uav_id], by_heading, response)
-             for i, u in enumerate(plan.uavs)]
+    # the long windows after a tube's new path mostly bisect penalties for walks the range cannot
+    # pay for: they are left out for those UAVs (on missions/large.geojson +1.5 % for 15 s of CPU)
+    in_tubes = [response.rounds > 0 and in_tube(paths[i], budgets[i].units, tables[u.uav_id], by_heading, response)
+                for i, u in enumerate(plan.uavs)]
+    tubed = [False] * len(plan.uavs)
     rungs: list[int | None] = [None] * len(plan.uavs)
     # a UAV's response depends only on the other paths and its own: when no path changed since
     # its last one, it would find the same walk again (`changes` counts the paths changed)
@@ -607,6 +608,7 @@ def improve_plan(plan: Plan, scenario: Scenario, oc: OrientationConstraint, rese
             lengths[i] = n
             gained += gain
             changes += 1 if gain > 0.0 else 0
+            tubed[i] = tubed[i] or (in_tubes[i] and gain > 0.0)
             answered[i] = changes
         if gained <= MIN_GAIN:
             break

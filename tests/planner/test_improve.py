@@ -434,22 +434,34 @@ def test_a_uav_is_asked_again_only_when_a_path_changed_since_its_last_response(m
 
 
 @pytest.mark.parametrize("tube_states", [0, 10**9])
-def test_long_windows_are_left_out_for_uavs_answered_in_a_tube(monkeypatch, tube_states):
-    """Every UAV's programme over its box is over `states`: with tubes, their answers replace the
-    long windows (`_dp_sweep` is not run); without (tube_states 0), the windows run as before."""
+def test_long_windows_are_left_out_for_uavs_whose_path_a_tube_changed(monkeypatch, tube_states):
+    """Every UAV's programme over its box is over `states`: a UAV whose path a tube's answer
+    changed gets no long windows (`_dp_sweep`), the others do; without tubes (tube_states 0) every
+    UAV gets them, as before."""
     scenario = random_scenario(5, n_uavs=3, range_steps=30, oc=OC3, costs=cell_lengths())
     before = _fly(scenario, MissionConfig(np_steps=3), 5).plan()
-    swept = []
-    sweep = improve._dp_sweep
+    airports = [u.airport for u in before.uavs]
+    swept, changed = set(), set()
+    sweep, answer = improve._dp_sweep, improve.respond
 
-    def counted(path, *args):
-        swept.append(int(path[0, 0]))
+    def counted_sweep(path, *args):
+        swept.add(airports.index((int(path[0, 0]), int(path[0, 1]))))
         return sweep(path, *args)
 
-    monkeypatch.setattr(improve, "_dp_sweep", counted)
+    def counted_answer(path, *args):
+        gain, n, rung = answer(path, *args)
+        if gain > 0.0:
+            changed.add(airports.index((int(path[0, 0]), int(path[0, 1]))))
+        return gain, n, rung
+
+    monkeypatch.setattr(improve, "_dp_sweep", counted_sweep)
+    monkeypatch.setattr(improve, "respond", counted_answer)
     after = improve_plan(before, scenario, OC3, 0, 5, ImproveSettings(
         response=ResponseSettings(ladder=2, states=1, tube_states=tube_states)))
-    assert bool(swept) == (tube_states == 0)
+    if tube_states == 0:
+        assert changed == set() and swept == {0, 1, 2}
+    else:
+        assert changed and swept == {0, 1, 2} - changed
     assert after.success.expected >= before.success.expected - 1e-9
 
 
