@@ -211,6 +211,9 @@ def test_gcs_plan_plans_a_lost_person_of_a_category_other_than_a_hiker(run_gcs, 
     ({"subject": None}, "an ipp needs 'subject'"),
     ({"subject": "atv"}, "terrain 'flat' is not in the lost-person table (it holds: mountainous)"),
     ({"subject": "gatherer"}, "an ipp needs 'climate' (one of dry)"),  # flat gatherers: the dry table only
+    ({"terrain": "urban"}, "terrain 'urban' is not in the lost-person table (it holds: flat, mountainous)"),  # hiker
+    ({"subject": "dementia", "terrain": "urban", "climate": "polar"},
+     "climate 'polar' is not in the lost-person table (it holds: dry, temperate)"),
 ])
 def test_bad_ipps_are_one_line(run_gcs, area_doc, shapes, change, match):
     doc = _lost_person(area_doc, shapes)
