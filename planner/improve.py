@@ -16,9 +16,9 @@ cells at each step forbidden, mu per unit of cost on a ladder, every candidate s
 UAV is asked again only when some path changed since its last response: else it would answer the
 same readings; a UAV whose programme is too large answers in a tube around its path); then the
 windows polish what it left, long windows by dynamic programming (`_dp_sweep`; not for a UAV
-whose path a tube changed, and a window whose unpenalised answer cannot beat the old one is not fitted
-to the range by bisection), then two moves, each solved by a depth-first search over every path under the
-OC (kernel `_improve_uav`):
+whose path a tube changed, and a window whose unpenalised answer cannot beat the old one is not
+fitted to the range by bisection), then two moves, each solved by a depth-first search over
+every path under the OC (kernel `_improve_uav`):
 
 - a **window** of L steps between two fixed poses of a path: every path of L steps from the
   first pose to the cell of the second whose heading allows the move after it. Times are kept,
